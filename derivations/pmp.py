@@ -1,0 +1,306 @@
+"""Pontryagin's maximum principle derived from an OCP definition, for any vehicle and cost.
+
+Convention (project-wide): maximisation, H = p0 L + p . f + sum_j mu_j c_j with p0 = -1
+(normal) or 0 (abnormal), each obstacle constraint c_j = dist_j - R_j >= 0 adjoined
+directly with a multiplier density mu_j >= 0 and mu_j c_j = 0; p' = -dH/dx.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import sympy as sp
+
+from derivations.symbolic import (
+    circle_constraint,
+    costate,
+    derivative_symbol,
+    multiplier,
+    obstacle_symbols,
+)
+
+if TYPE_CHECKING:
+    from model.ocp import OCP
+
+
+@dataclass
+class ControlLaw:
+    """The maximum condition for one control, H being separable in the controls.
+
+    ``kind`` is "bang-singular" (H affine in u: u = upper if psi > 0, lower if psi < 0,
+    singular if psi = 0 on an interval) or "projection" (H strictly concave in u:
+    u = clip(stationary point, lower, upper)). ``switching`` is psi = dH/du.
+    """
+
+    control: sp.Symbol
+    lower: float
+    upper: float
+    kind: str
+    switching: sp.Expr
+    curvature: sp.Expr
+    stationary: sp.Expr | None = None
+
+    def choose(self, value: np.ndarray, tol: float = 0.0) -> np.ndarray:
+        """The maximiser given psi (bang-singular; NaN where |psi| <= tol) or the stationary point."""
+        value = np.asarray(value, dtype=float)
+        if self.kind == "projection":
+            return np.clip(value, self.lower, self.upper)
+        out = np.where(value > tol, self.upper, np.where(value < -tol, self.lower, np.nan))
+        return out.astype(float)
+
+
+@dataclass
+class SingularArc:
+    """Successive time derivatives of a switching function and the order of a singular arc.
+
+    ``coefficients[k-1]`` is d/du (d^k psi / dt^k), evaluated with the substitutions the
+    analysis was asked for; ``order`` is the first k where it is non-zero (None if none up to
+    the maximum asked), ``q = order / 2`` and ``kelley`` = (-1)^q * coefficient, which the
+    generalised Legendre-Clebsch condition requires to be <= 0 (maximisation).
+    """
+
+    control: sp.Symbol
+    derivatives: list[sp.Expr]
+    coefficients: list[sp.Expr]
+    order: int | None
+    kelley: sp.Expr | None
+
+    @property
+    def q(self) -> int | None:
+        return None if self.order is None or self.order % 2 else self.order // 2
+
+    def kelley_holds(self) -> bool | None:
+        """True/False when the Kelley expression has a definite sign, else None."""
+        if self.kelley is None:
+            return None
+        if self.kelley.is_nonpositive:
+            return True
+        if self.kelley.is_positive:
+            return False
+        return None
+
+
+@dataclass
+class PMPSystem:
+    """Hamiltonian, adjoint equations, maximum condition and boundary conditions of one OCP."""
+
+    name: str
+    abnormal: bool
+    p0: sp.Integer
+    states: list[sp.Symbol]
+    costates: list[sp.Symbol]
+    controls: list[sp.Symbol]
+    dynamics: list[sp.Expr]
+    lagrangian: sp.Expr
+    constraints: list[sp.Expr]
+    multipliers: list[sp.Symbol]
+    hamiltonian: sp.Expr
+    adjoint: list[sp.Expr]
+    laws: list[ControlLaw]
+    hessian: sp.Matrix
+    parameters: dict[sp.Symbol, float]
+    free_final_states: list[sp.Symbol]
+    free_final_time: bool
+    notes: list[str] = field(default_factory=list)
+
+    # -- look-ups -------------------------------------------------------------
+    def law(self, control: str | sp.Symbol) -> ControlLaw:
+        name = control if isinstance(control, str) else control.name
+        return next(law for law in self.laws if law.control.name == name)
+
+    def costate_of(self, state: str) -> sp.Symbol:
+        return self.costates[[s.name for s in self.states].index(state)]
+
+    def adjoint_of(self, state: str) -> sp.Expr:
+        """p_state' = -dH/d(state)."""
+        return self.adjoint[[s.name for s in self.states].index(state)]
+
+    @property
+    def time_functions(self) -> list[sp.Symbol]:
+        """Quantities whose time derivatives appear as new symbols (controls and multipliers)."""
+        return [*self.controls, *self.multipliers]
+
+    @property
+    def autonomous(self) -> bool:
+        t = sp.Symbol("t", real=True)
+        return t not in self.hamiltonian.free_symbols
+
+    # -- calculus along extremals --------------------------------------------
+    def time_derivative(self, expr: sp.Expr, order: int = 1) -> sp.Expr:
+        """d^order/dt^order of expr(x, p, u, mu, ...) along extremals (x' = f, p' = -H_x)."""
+        for _ in range(order):
+            total = sum(
+                (sp.diff(expr, s) * f for s, f in zip(self.states, self.dynamics, strict=True)),
+                sp.Integer(0),
+            )
+            total += sum(
+                (sp.diff(expr, p) * a for p, a in zip(self.costates, self.adjoint, strict=True)),
+                sp.Integer(0),
+            )
+            for base in self.time_functions:
+                for k in range(0, 8):
+                    s = derivative_symbol(base, k)
+                    if s in expr.free_symbols:
+                        total += sp.diff(expr, s) * derivative_symbol(base, k + 1)
+            expr = total
+        return expr
+
+    def poisson(self, f: sp.Expr, g: sp.Expr) -> sp.Expr:
+        """{f, g} = f_x g_p - f_p g_x; d/dt F(x, p) = {F, H} along extremals."""
+        pairs = zip(self.states, self.costates, strict=True)
+        return sum((sp.diff(f, x) * sp.diff(g, p) - sp.diff(f, p) * sp.diff(g, x) for x, p in pairs),
+                   sp.Integer(0))
+
+    def switching_derivatives(self, control: str, order: int) -> list[sp.Expr]:
+        """[psi, psi', ..., psi^(order)] for one control."""
+        out = [self.law(control).switching]
+        for _ in range(order):
+            out.append(self.time_derivative(out[-1]))
+        return out
+
+    def singular_arc(self, control: str, max_order: int = 4,
+                     on: dict[sp.Symbol, sp.Expr] | None = None) -> SingularArc:
+        """Order of a singular arc of ``control`` and its Kelley expression.
+
+        ``on`` substitutes the values that hold on the arc (e.g. a known extremal); without
+        it the coefficients are generic and may vanish on the singular surface.
+        """
+        u = self.law(control).control
+        subs = on or {}
+        derivs = self.switching_derivatives(control, max_order)
+        coeffs: list[sp.Expr] = []
+        order = None
+        for k in range(1, max_order + 1):
+            coef = sp.simplify(sp.diff(derivs[k], u).subs(subs))
+            coeffs.append(coef)
+            if coef != 0:
+                order = k
+                break
+        kelley = None
+        if order is not None and order % 2 == 0:
+            kelley = sp.simplify((-1) ** (order // 2) * coeffs[-1])
+        return SingularArc(u, derivs, coeffs, order, kelley)
+
+    def hamiltonian_rate(self) -> sp.Expr:
+        """dH/dt along extremals; reduces to sum H_u u' + sum c_j mu_j' for an autonomous problem."""
+        return sp.simplify(self.time_derivative(self.hamiltonian))
+
+    def maximised_hamiltonian(self) -> sp.Expr:
+        """H with every control at its unconstrained maximiser (interior arcs); affine controls stay."""
+        subs = {law.control: law.stationary for law in self.laws if law.stationary is not None}
+        return sp.simplify(self.hamiltonian.subs(subs))
+
+    def transversality(self) -> list[sp.Eq]:
+        """p_i(Tf) = 0 for every free final state, and H(Tf) = 0 if the final time is free."""
+        tf = sp.Symbol("T_f", positive=True)
+        out = [sp.Eq(sp.Function(p.name)(tf), 0) for p in self._free_costates()]
+        if self.free_final_time:
+            out.append(sp.Eq(sp.Function("H")(tf), 0))
+        return out
+
+    def _free_costates(self) -> list[sp.Symbol]:
+        return [self.costate_of(s.name) for s in self.free_final_states]
+
+    # -- renderings -------------------------------------------------------------
+    def to_text(self) -> str:
+        from derivations.render import pmp_text
+
+        return pmp_text(self)
+
+    def to_latex(self) -> str:
+        from derivations.render import pmp_latex
+
+        return pmp_latex(self)
+
+
+def derive(ocp: OCP, abnormal: bool = False, symbolic_obstacles: bool = True) -> PMPSystem:
+    """The PMP system of ``ocp`` (normal p0 = -1, or abnormal p0 = 0).
+
+    Parameters (e.g. the wheelbase d) stay symbolic; their values are in ``parameters``.
+    With ``symbolic_obstacles`` each obstacle is (x_obs, y_obs, R) symbols, valued likewise.
+    """
+    vehicle = ocp.vehicle
+    states = vehicle.state_symbols()
+    controls = vehicle.control_symbols()
+    dynamics = vehicle.rhs(numeric=False)
+    lagrangian = sp.nsimplify(sp.sympify(ocp.cost.lagrangian(vehicle)), rational=True)
+    parameters = {vehicle.parameter_symbols()[k]: v for k, v in vehicle.parameters().items()}
+    constraints, multipliers, obstacle_values = _obstacle_terms(ocp, symbolic_obstacles)
+    parameters.update(obstacle_values)
+    p0 = sp.Integer(0) if abnormal else sp.Integer(-1)
+    costates = [costate(s.name) for s in states]
+    ham = p0 * lagrangian + sum((p * f for p, f in zip(costates, dynamics, strict=True)), sp.Integer(0))
+    ham += sum((m * c for m, c in zip(multipliers, constraints, strict=True)), sp.Integer(0))
+    adjoint = [sp.simplify(-sp.diff(ham, s)) for s in states]
+    hessian = sp.hessian(ham, controls)
+    laws = [_control_law(ham, u, ocp.bounds[u.name], hessian, i) for i, u in enumerate(controls)]
+    free = [s for s in states if s.name not in ocp.final]
+    return PMPSystem(
+        name=ocp.name, abnormal=abnormal, p0=p0, states=states, costates=costates, controls=controls,
+        dynamics=dynamics, lagrangian=lagrangian, constraints=constraints, multipliers=multipliers,
+        hamiltonian=ham, adjoint=adjoint, laws=laws, hessian=hessian, parameters=parameters,
+        free_final_states=free, free_final_time=bool(ocp.cost.free_final_time),
+        notes=_notes(ocp),
+    )
+
+
+def _obstacle_terms(ocp: OCP, symbolic: bool) -> tuple[list[sp.Expr], list[sp.Symbol], dict]:
+    """Constraint expressions c_j >= 0, their multipliers and the obstacle parameter values."""
+    px, py = (sp.Symbol(n, real=True) for n in ocp.vehicle.position)
+    count = len(ocp.obstacles)
+    constraints, multipliers, values = [], [], {}
+    for j, ob in enumerate(ocp.obstacles):
+        multipliers.append(multiplier(j, count))
+        if symbolic:
+            xo, yo, radius = obstacle_symbols(j, count)
+            values.update({xo: ob.center[0], yo: ob.center[1], radius: ob.keep_out})
+            constraints.append(circle_constraint(px, py, xo, yo, radius))
+        else:
+            constraints.append(ob.constraint(px, py))
+    return constraints, multipliers, values
+
+
+def _control_law(ham: sp.Expr, u: sp.Symbol, bounds: tuple[float, float], hessian: sp.Matrix,
+                 index: int) -> ControlLaw:
+    """Classify the maximisation of H in u: affine (bang/singular) or strictly concave (projection)."""
+    coupling = [hessian[index, j] for j in range(hessian.shape[1]) if j != index]
+    if any(sp.simplify(c) != 0 for c in coupling):
+        raise NotImplementedError(f"H couples {u} with other controls; only separable H is handled")
+    psi = sp.diff(ham, u)
+    curvature = sp.simplify(hessian[index, index])
+    lo, hi = bounds
+    if curvature == 0:
+        return ControlLaw(u, lo, hi, "bang-singular", sp.simplify(psi), curvature)
+    if curvature.free_symbols or not curvature.is_negative:
+        raise NotImplementedError(f"d2H/d{u}2 = {curvature}: only affine or strictly concave H handled")
+    stationary = sp.solve(sp.Eq(psi, 0), u)
+    if len(stationary) != 1:
+        raise NotImplementedError(f"dH/d{u} = 0 has {len(stationary)} roots")
+    return ControlLaw(u, lo, hi, "projection", psi, curvature, sp.simplify(stationary[0]))
+
+
+def _notes(ocp: OCP) -> list[str]:
+    """Caveats of the derivation that a reader must know."""
+    notes = []
+    controls = set(ocp.vehicle.controls)
+    state_bounds = [k for k in ocp.bounds if k not in controls]
+    if state_bounds:
+        notes.append(
+            f"state bounds on {', '.join(sorted(state_bounds))} are not adjoined: the system "
+            "holds on arcs where they are inactive"
+        )
+    if ocp.obstacles:
+        notes.append("mu >= 0 and mu*c = 0 (complementarity); p may jump at junctions with c = 0")
+    return notes
+
+
+def render_pmp(ocp: OCP, fmt: str = "text", abnormal: bool = False) -> str:
+    """The PMP system of ``ocp`` as plain text (``fmt="text"``) or LaTeX (``fmt="latex"``)."""
+    system = derive(ocp, abnormal=abnormal)
+    if fmt == "text":
+        return system.to_text()
+    if fmt == "latex":
+        return system.to_latex()
+    raise ValueError(f"fmt must be 'text' or 'latex', got {fmt!r}")
