@@ -1,0 +1,91 @@
+"""Ipopt through cyipopt: run a CasadiNLP, map Ipopt's status to the contract's words."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from pyomo.contrib.pynumero.interfaces.cyipopt_interface import CyIpoptNLP
+
+from model.casadi_nlp import CasadiNLP
+
+STATUS_WORDS = {
+    0: "optimal",
+    1: "acceptable",
+    2: "infeasible",
+    3: "search_direction_too_small",
+    4: "diverging",
+    5: "user_stop",
+    6: "feasible_point_found",
+    -1: "iteration_limit",
+    -2: "restoration_failed",
+    -3: "step_computation_error",
+    -4: "time_limit",
+    -10: "too_few_degrees_of_freedom",
+    -11: "invalid_problem",
+    -12: "invalid_option",
+    -13: "invalid_number",
+}
+
+DEFAULT_OPTIONS = {"tol": 1e-8, "max_iter": 3000, "sb": "yes", "print_level": 0}
+
+
+@dataclass
+class IpoptResult:
+    """What one Ipopt run returned: status word, iterate, multipliers, counts."""
+
+    status: str
+    code: int
+    message: str
+    x: np.ndarray
+    mult_g: np.ndarray
+    mult_x_L: np.ndarray
+    mult_x_U: np.ndarray
+    objective: float
+    iterations: int
+    seconds: float
+    log: list[tuple[int, float, float, float]] = field(default_factory=list)
+
+
+def run_ipopt(
+    nlp: CasadiNLP,
+    options: dict | None = None,
+    x0: np.ndarray | None = None,
+    duals: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> IpoptResult:
+    """Solve ``nlp`` from ``x0`` (default: the model's values); ``duals`` warm-start (g, zL, zU)."""
+    log: list[tuple[int, float, float, float]] = []
+
+    def intermediate(_nlp, _problem, alg_mod, iter_count, obj, inf_pr, inf_du, mu, d_norm, reg, a_du, a_pr, ls):
+        log.append((int(iter_count), float(obj), float(inf_pr), float(inf_du)))
+        return True
+
+    problem = CyIpoptNLP(nlp, intermediate_callback=intermediate)
+    opts = {**DEFAULT_OPTIONS, **(options or {})}
+    if duals is not None:
+        opts.setdefault("warm_start_init_point", "yes")
+    for key, val in opts.items():
+        problem.add_option(key, val)
+    x0 = nlp.init_primals() if x0 is None else x0
+    start = time.perf_counter()
+    if duals is None:
+        x, info = problem.solve(x0)
+    else:
+        x, info = problem.solve(x0, lagrange=duals[0], zl=duals[1], zu=duals[2])
+    seconds = time.perf_counter() - start
+    code = int(info["status"])
+    msg = info["status_msg"]
+    return IpoptResult(
+        status=STATUS_WORDS.get(code, "solver_error"),
+        code=code,
+        message=msg.decode() if isinstance(msg, bytes) else str(msg),
+        x=np.asarray(x),
+        mult_g=np.asarray(info["mult_g"]),
+        mult_x_L=np.asarray(info["mult_x_L"]),
+        mult_x_U=np.asarray(info["mult_x_U"]),
+        objective=float(info["obj_val"]),
+        iterations=log[-1][0] if log else 0,
+        seconds=seconds,
+        log=log,
+    )

@@ -1,0 +1,155 @@
+"""The Pyomo.dae model of an OCP, generated from its SymPy definition.
+
+Time is normalised, tau = t / Tf in [0, 1]; each state X has a DerivativeVar
+dX/dtau tied to Tf * f(X, U) at every node, and ``dae.trapezoid`` adds
+X_{k+1} = X_k + h/2 (f_k + f_{k+1}) (h = Tf / N). Controls live at the nodes.
+The energy objective is the paper's eq. (32); the time objective is Tf.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pyomo.environ as pyo
+import sympy as sp
+from pyomo.dae import ContinuousSet, DerivativeVar
+
+import model.trapezoid  # noqa: F401  (registers dae.trapezoid)
+from model.ocp import OCP
+from model.vehicles import sym
+
+_FUNCS = {sp.sin: pyo.sin, sp.cos: pyo.cos, sp.tan: pyo.tan, sp.atan: pyo.atan,
+          sp.exp: pyo.exp, sp.log: pyo.log, sp.asin: pyo.asin, sp.acos: pyo.acos}
+
+
+def sympy_to_pyomo(expr: sp.Expr, env: dict[sp.Symbol, object]):
+    """Translate a SymPy expression into a Pyomo one, symbols looked up in ``env``."""
+    if expr.is_Symbol:
+        return env[expr]
+    if expr.is_Integer:
+        return int(expr)
+    if expr.is_Number:
+        return float(expr)
+    args = [sympy_to_pyomo(a, env) for a in expr.args]
+    if expr.is_Add:
+        return sum(args[1:], args[0])
+    if expr.is_Mul:
+        out = args[0]
+        for a in args[1:]:
+            out = out * a
+        return out
+    if expr.is_Pow:
+        base, exp = args
+        return pyo.sqrt(base) if expr.exp == sp.Rational(1, 2) else base**exp
+    if expr.func in _FUNCS:
+        return _FUNCS[expr.func](args[0])
+    raise NotImplementedError(f"cannot translate {expr.func} to Pyomo")
+
+
+def build_model(ocp: OCP, intervals: int, passing: str | None = None) -> pyo.ConcreteModel:
+    """The discretised Pyomo model of ``ocp`` on ``intervals`` uniform trapezoid steps."""
+    v = ocp.vehicle
+    m = pyo.ConcreteModel(name=ocp.name)
+    m.tau = ContinuousSet(bounds=(0, 1))
+    for name in v.states + v.controls:
+        m.add_component(name, pyo.Var(m.tau, bounds=ocp.bounds.get(name, (None, None))))
+    for name in v.states:
+        m.add_component(f"d{name}", DerivativeVar(m.component(name), wrt=m.tau))
+    _add_final_time(m, ocp)
+    _add_dynamics(m, ocp)
+    _add_boundary_conditions(m, ocp)
+    pyo.TransformationFactory("dae.trapezoid").apply_to(m, wrt=m.tau, nfe=intervals)
+    m.nodes = list(m.tau)
+    _add_obstacles(m, ocp)
+    if passing in ("ccw", "cw") and ocp.obstacles:
+        _add_pass_direction(m, ocp, passing)
+    _add_objective(m, ocp)
+    return m
+
+
+def _add_final_time(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    if ocp.cost.free_final_time:
+        m.tf = pyo.Var(bounds=(1e-3, None), initialize=ocp.final_time or 1.0)
+    else:
+        m.tf = pyo.Param(mutable=True, initialize=ocp.final_time)
+
+
+def _add_dynamics(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    v = ocp.vehicle
+    params = {sym(k): val for k, val in v.parameters().items()}
+    rhs = v.rhs(numeric=False)
+
+    def env(t):
+        table = {sym(n): m.component(n)[t] for n in v.states + v.controls}
+        table.update(params)
+        return table
+
+    for name, f in zip(v.states, rhs, strict=True):
+        def rule(_m, t, f=f, name=name):
+            return m.component(f"d{name}")[t] == m.tf * sympy_to_pyomo(f, env(t))
+
+        m.add_component(f"ode_{name}", pyo.Constraint(m.tau, rule=rule))
+
+
+def _add_boundary_conditions(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    for where, values, t in (("initial", ocp.initial, 0), ("final", ocp.final, 1)):
+        for name, val in values.items():
+            par = pyo.Param(mutable=True, initialize=float(val))
+            m.add_component(f"{where}_{name}_value", par)
+            m.add_component(f"{where}_{name}", pyo.Constraint(expr=m.component(name)[t] == par))
+
+
+def _add_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    """dist^2 >= R^2 at every node (smooth); centre and R are mutable Params."""
+    px, py = ocp.vehicle.position
+    X, Y = m.component(px), m.component(py)
+    m.obstacle_set = pyo.RangeSet(0, len(ocp.obstacles) - 1) if ocp.obstacles else pyo.Set(initialize=[])
+    m.obstacle_cx = pyo.Param(m.obstacle_set, mutable=True, initialize=lambda _m, i: ocp.obstacles[i].center[0])
+    m.obstacle_cy = pyo.Param(m.obstacle_set, mutable=True, initialize=lambda _m, i: ocp.obstacles[i].center[1])
+    m.obstacle_R = pyo.Param(m.obstacle_set, mutable=True, initialize=lambda _m, i: ocp.obstacles[i].keep_out)
+
+    def rule(_m, i, t):
+        return (X[t] - m.obstacle_cx[i]) ** 2 + (Y[t] - m.obstacle_cy[i]) ** 2 >= m.obstacle_R[i] ** 2
+
+    m.obstacle = pyo.Constraint(m.obstacle_set, m.tau, rule=rule)
+
+
+def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
+    """Signed angle swept around the first obstacle: sum of atan(cross/dot) per step."""
+    px, py = ocp.vehicle.position
+    X, Y = m.component(px), m.component(py)
+    cx, cy = ocp.obstacles[0].center
+    nodes = m.nodes
+    sweep = 0
+    for a, b in zip(nodes[:-1], nodes[1:], strict=True):
+        ax, ay, bx, by = X[a] - cx, Y[a] - cy, X[b] - cx, Y[b] - cy
+        sweep = sweep + pyo.atan((ax * by - ay * bx) / (ax * bx + ay * by))
+    m.pass_direction = pyo.Constraint(expr=(sweep >= 0) if passing == "ccw" else (sweep <= 0))
+
+
+def _add_objective(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    if ocp.cost.free_final_time:
+        m.objective = pyo.Objective(expr=m.tf, sense=pyo.minimize)
+        return
+    v = ocp.vehicle
+    L = ocp.cost.lagrangian(v)
+    nodes = m.nodes
+    n = len(nodes) - 1
+
+    def running(t):
+        return sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
+
+    values = [running(t) for t in nodes]
+    total = sum(values[1:-1]) + (values[0] + values[-1]) / 2
+    m.objective = pyo.Objective(expr=m.tf / n * total, sense=pyo.minimize)
+
+
+def grid(m: pyo.ConcreteModel) -> list[float]:
+    """Node times in seconds, t_k = k Tf / N."""
+    n = len(m.nodes) - 1
+    tf = float(pyo.value(m.tf))
+    return [k * tf / n for k in range(n + 1)]
+
+
+def assert_finite(values) -> bool:
+    return all(math.isfinite(float(x)) for x in values)

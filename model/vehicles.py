@@ -1,0 +1,93 @@
+"""Vehicle models: state and control names plus SymPy dynamics, written once.
+
+A new vehicle is one small subclass; the Pyomo transcription, the validator and
+the Pontryagin engine all read ``states``, ``controls`` and ``dynamics()``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+
+def sym(name: str) -> sp.Symbol:
+    """The project's one way of naming a real SymPy symbol."""
+    return sp.Symbol(name, real=True)
+
+
+class Vehicle:
+    """Base class: subclasses set ``states``, ``controls`` and ``dynamics``."""
+
+    model: str = ""
+    states: tuple[str, ...] = ()
+    controls: tuple[str, ...] = ()
+    position: tuple[str, str] = ("x", "y")
+
+    def parameters(self) -> dict[str, float]:
+        """Numeric values of the model's parameters, keyed by symbol name."""
+        return {}
+
+    def dynamics(self) -> dict[str, sp.Expr]:
+        """State derivatives as SymPy expressions of state, control, parameter symbols."""
+        raise NotImplementedError
+
+    # -- derived helpers ---------------------------------------------------
+    def state_symbols(self) -> list[sp.Symbol]:
+        return [sym(s) for s in self.states]
+
+    def control_symbols(self) -> list[sp.Symbol]:
+        return [sym(c) for c in self.controls]
+
+    def parameter_symbols(self) -> dict[str, sp.Symbol]:
+        return {k: sym(k) for k in self.parameters()}
+
+    def rhs(self, numeric: bool = True) -> list[sp.Expr]:
+        """Dynamics in state order; with ``numeric`` the parameters are substituted."""
+        f = self.dynamics()
+        exprs = [f[s] for s in self.states]
+        if numeric:
+            subs = {sym(k): v for k, v in self.parameters().items()}
+            exprs = [sp.sympify(e).subs(subs) for e in exprs]
+        return exprs
+
+
+@dataclass
+class Truck(Vehicle):
+    """The seed paper's car-like truck, system (1); ``wheelbase`` is d in metres."""
+
+    wheelbase: float = 0.1
+    model = "truck"
+    states = ("x", "y", "theta", "phi")
+    controls = ("u1", "u2")
+
+    def parameters(self) -> dict[str, float]:
+        return {"d": float(self.wheelbase)}
+
+    def dynamics(self) -> dict[str, sp.Expr]:
+        x, y, theta, phi = self.state_symbols()
+        u1, u2 = self.control_symbols()
+        d = sym("d")
+        return {
+            "x": u1 * sp.cos(theta),
+            "y": u1 * sp.sin(theta),
+            "theta": u1 * sp.tan(phi) / d,
+            "phi": u2,
+        }
+
+
+@dataclass
+class Unicycle(Vehicle):
+    """Unicycle (Dubins-like without a speed floor): speed u1 and turn rate u2."""
+
+    model = "unicycle"
+    states = ("x", "y", "theta")
+    controls = ("u1", "u2")
+
+    def dynamics(self) -> dict[str, sp.Expr]:
+        x, y, theta = self.state_symbols()
+        u1, u2 = self.control_symbols()
+        return {"x": u1 * sp.cos(theta), "y": u1 * sp.sin(theta), "theta": u2}
+
+
+VEHICLES: dict[str, type[Vehicle]] = {"truck": Truck, "unicycle": Unicycle}
