@@ -1,0 +1,91 @@
+"""The ``roundabout`` command: solve a scenario file, or print its Pontryagin system.
+
+Exit codes of ``roundabout solve``: 0 solved and validated; 1 the solver ran and
+failed (DIR/summary.json says how); 2 invalid input (one line on stderr, nothing
+written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from model.errors import InputError
+
+EPILOG = """examples:
+  roundabout solve workflows/scenarios/s2-case1.toml --out results/s2-case1
+  roundabout solve my.toml --out out/ --intervals 400 --verbose
+  roundabout derive workflows/scenarios/s1.toml --latex
+
+scenario files: see docs/scenario-format.md (TOML, SI units, radians).
+exit codes: 0 solved and validated, 1 solver failed (summary.json says why),
+            2 invalid input (one line on stderr, nothing written)."""
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="roundabout",
+        description="Optimal trajectories of truck-type vehicles around roundabouts.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    s = sub.add_parser("solve", help="solve a scenario; write DIR/summary.json and DIR/trajectory.csv")
+    s.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    s.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    s.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals")
+    s.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log")
+    d = sub.add_parser("derive", help="print the Pontryagin system of a scenario's problem")
+    d.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    d.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
+    c = sub.add_parser("check", help="validate a scenario file only (exit 0 or 2)")
+    c.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    from model.scenario import load_scenario
+
+    try:
+        scenario = load_scenario(args.scenario)
+        if getattr(args, "intervals", None) is not None and args.intervals < 1:
+            raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
+    except InputError as err:
+        print(f"roundabout: invalid input: {err}", file=sys.stderr)
+        return 2
+    if args.command == "check":
+        print(f"{args.scenario}: ok")
+        return 0
+    if args.command == "derive":
+        return _derive(scenario, args.latex)
+    return _solve(scenario, args)
+
+
+def _solve(scenario, args) -> int:
+    intervals = args.intervals or scenario.intervals
+    sol = scenario.ocp.solve(intervals=intervals, verbose=args.verbose)
+    sol.write(args.out)
+    line = (
+        f"{scenario.ocp.name}: {sol.status}, objective {sol.objective:.10g}, Tf {sol.final_time:.6g} s, "
+        f"energy {sol.energy:.6g}, {sol.iterations} iterations, {sol.solve_seconds:.2f} s"
+    )
+    if sol.ok:
+        print(line)
+        return 0
+    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
+    reason = sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
+    print(f"{line}\nroundabout: FAILED ({reason}); see {args.out / 'summary.json'}", file=sys.stderr)
+    return 1
+
+
+def _derive(scenario, latex: bool) -> int:
+    from derivations.pmp import render_pmp
+
+    print(render_pmp(scenario.ocp, fmt="latex" if latex else "text"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,126 @@
+"""Solve an OCP: build, guess, Ipopt, costates, independent validation."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pandas as pd
+import pyomo.environ as pyo
+import sympy as sp
+
+from model.casadi_nlp import CasadiNLP
+from model.costates import costates, hamiltonian, obstacle_multiplier
+from model.guess import guess_final_time, initial_guess
+from model.ipopt import run_ipopt
+from model.ocp import OCP
+from model.solution import Solution, trapezoid_energy
+from model.transcription import build_model, grid
+from model.validation import validate
+from model.vehicles import sym
+
+
+def passes_to_try(ocp: OCP) -> list[str]:
+    """'auto' with an obstacle tries both directions; without one there is no pass."""
+    if not ocp.obstacles:
+        return ["none"]
+    return ["ccw", "cw"] if ocp.passing == "auto" else [ocp.passing]
+
+
+def solve_ocp(ocp: OCP, intervals: int = 100, verbose: bool = False, options: dict | None = None) -> Solution:
+    """Solve every pass direction asked for and keep the best validated solution."""
+    start = time.perf_counter()
+    best: Solution | None = None
+    attempts = []
+    for passing in passes_to_try(ocp):
+        sol = solve_pass(ocp, intervals, passing, verbose=verbose, options=options)
+        attempts.append({"pass": passing, "status": sol.status, "valid": sol.ok, "objective": sol.objective})
+        if best is None or _better(sol, best):
+            best = sol
+    best.attempts = attempts
+    best.solve_seconds = time.perf_counter() - start
+    return best
+
+
+def _better(a: Solution, b: Solution) -> bool:
+    if a.ok != b.ok:
+        return a.ok
+    return a.objective is not None and (b.objective is None or a.objective < b.objective)
+
+
+def solve_pass(
+    ocp: OCP, intervals: int, passing: str, verbose: bool = False, options: dict | None = None
+) -> Solution:
+    """One Ipopt solve with the guess and the constraint of one pass direction."""
+    t0 = time.perf_counter()
+    m = build_model(ocp, intervals, passing)
+    tf_guess = guess_final_time(ocp, passing)
+    load_values(m, initial_guess(ocp, passing, intervals, tf_guess))
+    if ocp.cost.free_final_time:
+        m.tf.set_value(tf_guess)
+    t1 = time.perf_counter()
+    nlp = CasadiNLP(m)
+    t2 = time.perf_counter()
+    opts = {"print_level": 5} if verbose else {}
+    res = run_ipopt(nlp, {**opts, **(options or {})})
+    nlp.load_primals(res.x)
+    nlp.load_duals(res.mult_g)
+    traj = trajectory(m, ocp)
+    tf = float(pyo.value(m.tf))
+    base = ["t", *ocp.vehicle.states, *ocp.vehicle.controls]
+    sol = Solution(
+        ocp=ocp,
+        intervals=intervals,
+        status=res.status,
+        objective=float(pyo.value(m.objective)),
+        final_time=tf,
+        energy=trapezoid_energy(traj["t"].to_numpy(), [traj[c] for c in ocp.vehicle.controls]),
+        iterations=res.iterations,
+        solve_seconds=res.seconds,
+        trajectory=traj,
+        passing=passing,
+        validation=validate(ocp, traj[base], tf, passing),
+        solver_message=res.message,
+        timings={"model_build": t1 - t0, "derivative_setup": t2 - t1, "ipopt": res.seconds},
+    )
+    if sol.status == "optimal" and not sol.validation["passed"]:
+        sol.status = "validation_failed"
+    sol.model, sol.nlp, sol.ipopt = m, nlp, res
+    return sol
+
+
+def load_values(m: pyo.ConcreteModel, values: dict[str, np.ndarray]) -> None:
+    """Set node values of the named Vars (a guess or a previous solution)."""
+    for name, vals in values.items():
+        var = m.component(name)
+        for t, val in zip(m.nodes, vals, strict=True):
+            var[t].set_value(float(val), skip_validation=True)
+
+
+def trajectory(m: pyo.ConcreteModel, ocp: OCP) -> pd.DataFrame:
+    """Nodes as a DataFrame: t, states, controls, then costates, mu, H, switching functions."""
+    v = ocp.vehicle
+    cols: dict[str, np.ndarray] = {"t": np.array(grid(m))}
+    for name in v.states + v.controls:
+        var = m.component(name)
+        cols[name] = np.array([pyo.value(var[t]) for t in m.nodes], dtype=float)
+    cols.update(costates(m, ocp))
+    px, py = v.position
+    cols["mu"] = obstacle_multiplier(m, ocp, (cols[px], cols[py]))
+    cols["H"] = hamiltonian(ocp, cols)
+    cols.update(switching_functions(ocp, cols))
+    return pd.DataFrame(cols)
+
+
+def switching_functions(ocp: OCP, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """psi_<u> = d(p.f)/du: the switching function (time) or unconstrained maximiser (energy)."""
+    v = ocp.vehicle
+    params = {sym(k): val for k, val in v.parameters().items()}
+    pf = sum(sym(f"p_{s}") * f.subs(params) for s, f in zip(v.states, v.rhs(numeric=False), strict=True))
+    names = list(v.states) + list(v.controls) + [f"p_{s}" for s in v.states]
+    out = {}
+    for c in v.controls:
+        fn = sp.lambdify([sym(n) for n in names], sp.diff(pf, sym(c)), "numpy")
+        val = fn(*[values[n] for n in names])
+        out[f"psi_{c}"] = np.broadcast_to(val, values["t"].shape).astype(float)
+    return out
