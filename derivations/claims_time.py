@@ -229,7 +229,8 @@ def prop1_case2_chain(sys_: PMPSystem) -> Claim:
                  "Prop. 1 Case 2 (with ψ2 = p_φ): p_θ = 0, p_x sinθ - p_y cosθ = 0, φ = 0, u2 = 0",
                  decide(ok),
                  rf"$\dot\psi_2 = {sp.latex(dpsi2)}$ ⇒ $p_\theta = 0$; "
-                 rf"then $\dot p_\theta = u_1(p_x\sin\theta - p_y\cos\theta)$ ⇒ $p = \rho(\cos\theta, \sin\theta)$; H = 0 gives ρ = {h_val}; "
+                 rf"then $\dot p_\theta = u_1(p_x\sin\theta - p_y\cos\theta)$ "
+                 rf"⇒ $p = \rho(\cos\theta, \sin\theta)$; H = 0 gives ρ = {h_val}; "
                  rf"then $\frac{{d}}{{dt}}(p_x\sin\theta - p_y\cos\theta) = {sp.latex(dg)} = 0$ "
                  "⇒ φ = 0, u2 = 0")
 
