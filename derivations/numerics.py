@@ -1,0 +1,134 @@
+"""Numerical confirmation: do a solver's controls and costates satisfy the derived PMP conditions?
+
+The trajectory is a DataFrame with columns t, the states, the controls, the costates
+p_<state> (maximisation convention), mu (or mu1, mu2, ... for several obstacles; missing
+means 0) and optionally H, as returned by ``OCP.solve(...).trajectory``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+import sympy as sp
+
+from derivations.pmp import PMPSystem, derive
+
+if TYPE_CHECKING:
+    from model.ocp import OCP
+
+
+@dataclass
+class Confirmation:
+    """Per-node evaluations (``nodes``) and their summary (``summary``: name -> number)."""
+
+    summary: dict[str, float]
+    nodes: pd.DataFrame
+
+    def agrees(self, control_tol: float = 1e-3, h_tol: float = 1e-3) -> bool:
+        """Controls match the maximum condition and H is constant (and 0 if Tf is free)."""
+        ctrl = [v for k, v in self.summary.items() if k.startswith("max |u - argmax|")]
+        h_ok = self.summary["H spread"] <= h_tol and self.summary.get("max |H| (free Tf)", 0.0) <= h_tol
+        return all(v <= control_tol for v in ctrl) and h_ok
+
+    def to_text(self) -> str:
+        return "\n".join(f"{k}: {v:.3g}" for k, v in self.summary.items())
+
+
+def _columns(system: PMPSystem, frame: pd.DataFrame) -> dict[sp.Symbol, np.ndarray]:
+    """Node values of every symbol the system uses; missing multipliers are taken as 0."""
+    n = len(frame)
+    values: dict[sp.Symbol, np.ndarray] = {}
+    for s in [*system.states, *system.controls, *system.costates]:
+        if s.name not in frame:
+            raise KeyError(f"trajectory lacks column {s.name!r}")
+        values[s] = frame[s.name].to_numpy(dtype=float)
+    for m in system.multipliers:
+        values[m] = frame[m.name].to_numpy(dtype=float) if m.name in frame else np.zeros(n)
+    return values
+
+
+def _evaluate(system: PMPSystem, expr: sp.Expr, values: dict[sp.Symbol, np.ndarray]) -> np.ndarray:
+    expr = sp.sympify(expr).subs(system.parameters)
+    symbols = list(values)
+    f = sp.lambdify(symbols, expr, "numpy")
+    n = len(next(iter(values.values())))
+    return np.broadcast_to(np.asarray(f(*values.values()), dtype=float), (n,)).copy()
+
+
+def confirm(trajectory: pd.DataFrame, ocp: OCP, singular_tol: float = 1e-6) -> Confirmation:
+    """Evaluate the derived maximiser, H, the adjoint equations and complementarity along
+    ``trajectory``. For bang-singular controls, nodes with |psi| <= singular_tol are singular
+    and excluded from the control residual (counted in the summary)."""
+    system = derive(ocp)
+    values = _columns(system, trajectory)
+    nodes = pd.DataFrame({"t": trajectory["t"].to_numpy(dtype=float)})
+    summary: dict[str, float] = {}
+    for law in system.laws:
+        summary.update(_control_check(system, law, values, nodes, singular_tol))
+    ham = _evaluate(system, system.hamiltonian, values)
+    nodes["H_derived"] = ham
+    summary["H spread"] = float(np.ptp(ham))
+    if system.free_final_time:
+        summary["max |H| (free Tf)"] = float(np.max(np.abs(ham)))
+    if "H" in trajectory:
+        summary["max |H - H column|"] = float(np.max(np.abs(ham - trajectory["H"].to_numpy(float))))
+    summary["max adjoint residual"] = _adjoint_residual(system, values, nodes["t"].to_numpy())
+    for m, c in zip(system.multipliers, system.constraints, strict=True):
+        cv = _evaluate(system, c, values)
+        summary[f"min {m}"] = float(np.min(values[m]))
+        summary[f"max |{m}*c|"] = float(np.max(np.abs(values[m] * cv)))
+        summary[f"min c ({m})"] = float(np.min(cv))
+    return Confirmation(summary, nodes)
+
+
+def _control_check(system: PMPSystem, law, values, nodes: pd.DataFrame, tol: float) -> dict[str, float]:
+    """Compare u with the maximiser: clip(stationary point) or the bang value from psi."""
+    u = values[law.control]
+    name = law.control.name
+    if law.kind == "projection":
+        tilde = _evaluate(system, law.stationary, values)
+        predicted = law.choose(tilde)
+        nodes[f"{name}_tilde"] = tilde
+        saturated = np.mean(np.isclose(np.abs(predicted - (law.lower + law.upper) / 2),
+                                       (law.upper - law.lower) / 2))
+        extra = {f"fraction {name} saturated": float(saturated)}
+    else:
+        psi = _evaluate(system, law.switching, values)
+        predicted = law.choose(psi, tol)
+        nodes[f"psi_{name}"] = psi
+        extra = {f"fraction {name} singular": float(np.mean(np.isnan(predicted)))}
+    nodes[f"{name}_argmax"] = predicted
+    gap = np.abs(u - predicted)
+    worst = float(np.nanmax(gap)) if np.any(~np.isnan(gap)) else 0.0
+    return {f"max |u - argmax| {name}": worst, **extra}
+
+
+def _adjoint_residual(system: PMPSystem, values, t: np.ndarray) -> float:
+    """max over intervals of |(p_{k+1} - p_k)/h - (a_k + a_{k+1})/2| (trapezoid), a = -H_x."""
+    if len(t) < 2:
+        return 0.0
+    h = np.diff(t)
+    worst = 0.0
+    for p, a in zip(system.costates, system.adjoint, strict=True):
+        rate = _evaluate(system, a, values)
+        gap = np.diff(values[p]) / h - (rate[:-1] + rate[1:]) / 2
+        worst = max(worst, float(np.max(np.abs(gap))))
+    return worst
+
+
+def straight_drive(ocp: OCP, speed: float, nodes: int = 21) -> pd.DataFrame:
+    """A synthetic exact extremal of the energy (or time) problem without active obstacles:
+    driving straight along x at constant ``speed``, p_x = speed (energy) or 1/speed (time)."""
+    tf = ocp.final_time
+    t = np.linspace(0.0, tf, nodes)
+    time_cost = bool(ocp.cost.free_final_time)
+    px = 1.0 / speed if time_cost else speed
+    h = 0.0 if time_cost else speed**2 / 2
+    zeros = np.zeros_like(t)
+    frame = {"t": t, "x": speed * t, "y": zeros, "theta": zeros, "phi": zeros, "u1": zeros + speed,
+             "u2": zeros, "p_x": zeros + px, "p_y": zeros, "p_theta": zeros, "p_phi": zeros,
+             "mu": zeros, "H": zeros + h}
+    return pd.DataFrame(frame)
