@@ -65,7 +65,7 @@ def _first_derivatives_text(system: PMPSystem) -> list[str]:
     out = []
     for law in system.laws:
         if law.kind == "bang-singular":
-            d1 = sp.expand(system.time_derivative(law.switching))
+            d1 = sp.simplify(system.time_derivative(law.switching))
             out.append(f"  d/dt psi_{law.control} = {sp.sstr(d1)}")
     return out
 
