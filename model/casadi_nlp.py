@@ -17,9 +17,20 @@ from pyomo.core.expr.numvalue import native_numeric_types
 from scipy.sparse import coo_matrix
 
 _UNARY = {
-    "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos,
-    "atan": ca.atan, "exp": ca.exp, "log": ca.log, "sqrt": ca.sqrt, "abs": ca.fabs,
-    "sinh": ca.sinh, "cosh": ca.cosh, "tanh": ca.tanh, "log10": ca.log10,
+    "sin": ca.sin,
+    "cos": ca.cos,
+    "tan": ca.tan,
+    "asin": ca.asin,
+    "acos": ca.acos,
+    "atan": ca.atan,
+    "exp": ca.exp,
+    "log": ca.log,
+    "sqrt": ca.sqrt,
+    "abs": ca.fabs,
+    "sinh": ca.sinh,
+    "cosh": ca.cosh,
+    "tanh": ca.tanh,
+    "log10": ca.log10,
 }
 
 
@@ -83,8 +94,9 @@ class CasadiNLP(NLP):
     def _build_functions(self) -> None:
         n, m = len(self.variables), len(self.constraints)
         x, p = ca.SX.sym("x", n), ca.SX.sym("p", len(self.params))
-        walk = PyomoToSX({id(v): i for i, v in enumerate(self.variables)}, x,
-                         {id(q): i for i, q in enumerate(self.params)}, p)
+        walk = PyomoToSX(
+            {id(v): i for i, v in enumerate(self.variables)}, x, {id(q): i for i, q in enumerate(self.params)}, p
+        )
         g_exprs, self._gl, self._gu = [], np.empty(m), np.empty(m)
         for i, con in enumerate(self.constraints):
             lo, body, hi = con.to_bounded_expression(evaluate_bounds=True)

@@ -89,8 +89,7 @@ class OCP:
                 if px in pt and py in pt and ob.clearance(pt[px], pt[py]) < 0:
                     raise InputError(
                         f"{where}.{px}",
-                        f"({pt[px]}, {pt[py]}) lies inside obstacles[{i}] "
-                        f"(radius + safety = {ob.keep_out})",
+                        f"({pt[px]}, {pt[py]}) lies inside obstacles[{i}] (radius + safety = {ob.keep_out})",
                     )
 
     def _check_time(self) -> None:

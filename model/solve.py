@@ -48,9 +48,7 @@ def _better(a: Solution, b: Solution) -> bool:
     return a.objective is not None and (b.objective is None or a.objective < b.objective)
 
 
-def solve_pass(
-    ocp: OCP, intervals: int, passing: str, verbose: bool = False, options: dict | None = None
-) -> Solution:
+def solve_pass(ocp: OCP, intervals: int, passing: str, verbose: bool = False, options: dict | None = None) -> Solution:
     """One Ipopt solve with the guess and the constraint of one pass direction."""
     t0 = time.perf_counter()
     m = build_model(ocp, intervals, passing)

@@ -8,8 +8,6 @@ The energy objective is the paper's eq. (32); the time objective is Tf.
 
 from __future__ import annotations
 
-import math
-
 import pyomo.environ as pyo
 import sympy as sp
 from pyomo.dae import ContinuousSet, DerivativeVar
@@ -18,8 +16,16 @@ import model.trapezoid  # noqa: F401  (registers dae.trapezoid)
 from model.ocp import OCP
 from model.vehicles import sym
 
-_FUNCS = {sp.sin: pyo.sin, sp.cos: pyo.cos, sp.tan: pyo.tan, sp.atan: pyo.atan,
-          sp.exp: pyo.exp, sp.log: pyo.log, sp.asin: pyo.asin, sp.acos: pyo.acos}
+_FUNCS = {
+    sp.sin: pyo.sin,
+    sp.cos: pyo.cos,
+    sp.tan: pyo.tan,
+    sp.atan: pyo.atan,
+    sp.exp: pyo.exp,
+    sp.log: pyo.log,
+    sp.asin: pyo.asin,
+    sp.acos: pyo.acos,
+}
 
 
 def sympy_to_pyomo(expr: sp.Expr, env: dict[sp.Symbol, object]):
@@ -85,6 +91,7 @@ def _add_dynamics(m: pyo.ConcreteModel, ocp: OCP) -> None:
         return table
 
     for name, f in zip(v.states, rhs, strict=True):
+
         def rule(_m, t, f=f, name=name):
             return m.component(f"d{name}")[t] == m.tf * sympy_to_pyomo(f, env(t))
 
@@ -149,7 +156,3 @@ def grid(m: pyo.ConcreteModel) -> list[float]:
     n = len(m.nodes) - 1
     tf = float(pyo.value(m.tf))
     return [k * tf / n for k in range(n + 1)]
-
-
-def assert_finite(values) -> bool:
-    return all(math.isfinite(float(x)) for x in values)

@@ -73,31 +73,34 @@ def test_every_claim_has_a_computed_verdict(claims):
         assert c.statement and c.evidence and c.section
 
 
-@pytest.mark.parametrize("claim_id, status", [
-    ("eq1.dynamics", HOLDS),
-    ("eq1.theta_arctan", "holds after correction"),
-    ("eq2.front", HOLDS),
-    ("eq6.p_phi", HOLDS),
-    ("eq6.p_x", "holds after correction"),
-    ("eq6.mu_sign", "holds after correction"),
-    ("prop1.case2.psi2", "holds after correction"),
-    ("prop1.case2.no_singular_arc", FAILS),
-    ("prop1.case3", FAILS),
-    ("prop1.case4", HOLDS),
-    ("prop1.statement", FAILS),
-    ("prop2.case2.px_eq_py", "holds after correction"),
-    ("prop2.eq15", HOLDS),
-    ("prop2.psi1_ddot", "holds after correction"),
-    ("prop3.psi1_zero", "holds after correction"),
-    ("prop3.cond2", HOLDS),
-    ("prop3.cond3", FAILS),
-    ("prop3.statement", FAILS),
-    ("hyp1.singular", FAILS),
-    ("sec44.norm", "holds after correction"),
-    ("sec5.energy_bound.s2c1", FAILS),
-    ("sec5.start_goal_outside", "holds after correction"),
-    ("sec5.J_CTf", "holds after correction"),
-])
+@pytest.mark.parametrize(
+    "claim_id, status",
+    [
+        ("eq1.dynamics", HOLDS),
+        ("eq1.theta_arctan", "holds after correction"),
+        ("eq2.front", HOLDS),
+        ("eq6.p_phi", HOLDS),
+        ("eq6.p_x", "holds after correction"),
+        ("eq6.mu_sign", "holds after correction"),
+        ("prop1.case2.psi2", "holds after correction"),
+        ("prop1.case2.no_singular_arc", FAILS),
+        ("prop1.case3", FAILS),
+        ("prop1.case4", HOLDS),
+        ("prop1.statement", FAILS),
+        ("prop2.case2.px_eq_py", "holds after correction"),
+        ("prop2.eq15", HOLDS),
+        ("prop2.psi1_ddot", "holds after correction"),
+        ("prop3.psi1_zero", "holds after correction"),
+        ("prop3.cond2", HOLDS),
+        ("prop3.cond3", FAILS),
+        ("prop3.statement", FAILS),
+        ("hyp1.singular", FAILS),
+        ("sec44.norm", "holds after correction"),
+        ("sec5.energy_bound.s2c1", FAILS),
+        ("sec5.start_goal_outside", "holds after correction"),
+        ("sec5.J_CTf", "holds after correction"),
+    ],
+)
 def test_specific_verdicts(claims, claim_id, status):
     assert claims[claim_id].status == status, claims[claim_id].evidence
 
@@ -116,9 +119,15 @@ def test_wrong_claims_are_reported_as_failing():
 
 
 def test_unicycle_goes_through_the_engine():
-    ocp = OCP(vehicle=Unicycle(), cost=Time(), bounds={"u1": (-1, 1), "u2": (-1, 1)},
-              initial={"x": 0, "y": 0, "theta": 0}, final={"x": 1, "y": 1},
-              obstacles=[Circle((0.5, 0.0), 0.1)], final_time=2.0)
+    ocp = OCP(
+        vehicle=Unicycle(),
+        cost=Time(),
+        bounds={"u1": (-1, 1), "u2": (-1, 1)},
+        initial={"x": 0, "y": 0, "theta": 0},
+        final={"x": 1, "y": 1},
+        obstacles=[Circle((0.5, 0.0), 0.1)],
+        final_time=2.0,
+    )
     system = derive(ocp)
     assert compare(system.adjoint_of("theta"), u1 * (px * sp.sin(theta) - py * sp.cos(theta))).equal
     assert compare(system.law("u2").switching, pth).equal
@@ -127,9 +136,15 @@ def test_unicycle_goes_through_the_engine():
 
 
 def _open_road_energy() -> OCP:
-    return OCP(vehicle=Truck(0.1), cost=Energy(), final_time=2.0, bounds={"u1": (-1, 1), "u2": (-0.35, 0.35)},
-               initial={"x": 0, "y": 0, "theta": 0, "phi": 0}, final={"x": 1, "y": 0, "theta": 0},
-               obstacles=[Circle((0.5, 2.0), 0.2, 0.05)])
+    return OCP(
+        vehicle=Truck(0.1),
+        cost=Energy(),
+        final_time=2.0,
+        bounds={"u1": (-1, 1), "u2": (-0.35, 0.35)},
+        initial={"x": 0, "y": 0, "theta": 0, "phi": 0},
+        final={"x": 1, "y": 0, "theta": 0},
+        obstacles=[Circle((0.5, 2.0), 0.2, 0.05)],
+    )
 
 
 def test_confirmation_on_exact_extremal_and_on_a_corrupted_one():
@@ -143,8 +158,14 @@ def test_confirmation_on_exact_extremal_and_on_a_corrupted_one():
 
 
 def test_confirmation_time_optimal_singular_nodes():
-    ocp = OCP(vehicle=Truck(0.1), cost=Time(), final_time=1.0, bounds={"u1": (-1, 1), "u2": (-0.35, 0.35)},
-              initial={"x": 0, "y": 0, "theta": 0, "phi": 0}, final={"x": 1, "y": 0, "theta": 0})
+    ocp = OCP(
+        vehicle=Truck(0.1),
+        cost=Time(),
+        final_time=1.0,
+        bounds={"u1": (-1, 1), "u2": (-0.35, 0.35)},
+        initial={"x": 0, "y": 0, "theta": 0, "phi": 0},
+        final={"x": 1, "y": 0, "theta": 0},
+    )
     res = confirm(straight_drive(ocp, 1.0), ocp)
     assert res.agrees() and res.summary["fraction u2 singular"] == 1.0
     assert np.isnan(res.nodes["u2_argmax"]).all()

@@ -1,0 +1,71 @@
+"""The CasADi-backed pynumero NLP: derivatives against finite differences, duals' sign."""
+
+import numpy as np
+import pytest
+
+from model.casadi_nlp import CasadiNLP
+from model.transcription import build_model
+from tests.conftest import paper_energy_problem, straight_time
+
+
+@pytest.fixture(scope="module", params=["energy", "time"])
+def nlp(request):
+    ocp = paper_energy_problem() if request.param == "energy" else straight_time()
+    return CasadiNLP(build_model(ocp, intervals=6, passing="ccw" if request.param == "energy" else None))
+
+
+def _fd(fun, x, eps=1e-6):
+    cols = []
+    for i in range(len(x)):
+        e = np.zeros_like(x)
+        e[i] = eps
+        cols.append((fun(x + e) - fun(x - e)) / (2 * eps))
+    return np.array(cols).T
+
+
+def test_gradient_and_jacobian_match_finite_differences(nlp):
+    rng = np.random.default_rng(1)
+    x = rng.uniform(0.1, 0.9, nlp.n_primals())
+
+    def obj(z):
+        nlp.set_primals(z)
+        return np.atleast_1d(nlp.evaluate_objective())
+
+    def cons(z):
+        nlp.set_primals(z)
+        return nlp.evaluate_constraints()
+
+    nlp.set_primals(x)
+    grad = nlp.evaluate_grad_objective()
+    jac = nlp.evaluate_jacobian().toarray()
+    np.testing.assert_allclose(grad, _fd(obj, x)[0], atol=1e-7)
+    np.testing.assert_allclose(jac, _fd(cons, x), atol=1e-6)
+
+
+def test_hessian_of_lagrangian_matches_finite_differences(nlp):
+    rng = np.random.default_rng(2)
+    x = rng.uniform(0.1, 0.9, nlp.n_primals())
+    y = rng.normal(size=nlp.n_constraints())
+    sigma = 0.7
+
+    def grad_lag(z):
+        nlp.set_primals(z)
+        return sigma * nlp.evaluate_grad_objective() + nlp.evaluate_jacobian().toarray().T @ y
+
+    nlp.set_primals(x)
+    nlp.set_duals(y)
+    nlp.set_obj_factor(sigma)
+    lower = nlp.evaluate_hessian_lag().toarray()
+    assert np.all(np.triu(lower, 1) == 0)  # Ipopt wants the lower triangle only
+    full = lower + np.tril(lower, -1).T
+    np.testing.assert_allclose(full, _fd(grad_lag, x), atol=1e-5)
+
+
+def test_jacobian_out_argument_is_filled_in_place(nlp):
+    nlp.set_primals(np.full(nlp.n_primals(), 0.3))
+    jac = nlp.evaluate_jacobian()
+    data_id = id(jac.data)
+    nlp.set_primals(np.full(nlp.n_primals(), 0.6))
+    again = nlp.evaluate_jacobian(out=jac)
+    assert again is jac and id(jac.data) == data_id
+    np.testing.assert_allclose(jac.toarray(), nlp.evaluate_jacobian().toarray())

@@ -1,0 +1,79 @@
+"""The roundabout command: the contract's exit codes, outputs and bad inputs."""
+
+import json
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+from model.scenario import load_scenario
+from tests.conftest import EXAMPLE, ROOT
+
+
+def run(*args, cwd=None):
+    return subprocess.run(
+        [sys.executable, "-m", "model.cli", *map(str, args)], capture_output=True, text=True, cwd=cwd or ROOT
+    )
+
+
+def test_help_lists_commands_and_exit_codes():
+    out = run("--help").stdout
+    for word in ("solve", "derive", "exit codes"):
+        assert word in out
+
+
+def test_cli_and_python_api_agree(tmp_path):
+    res = run("solve", EXAMPLE, "--out", tmp_path / "out")
+    assert res.returncode == 0, res.stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    traj = pd.read_csv(tmp_path / "out" / "trajectory.csv")
+    sc = load_scenario(EXAMPLE)
+    sol = sc.ocp.solve(intervals=sc.intervals)
+    assert summary["status"] == sol.status == "optimal"
+    assert summary["objective"] == pytest.approx(sol.objective, rel=1e-9)
+    assert summary["energy"] == pytest.approx(sol.energy, rel=1e-9)
+    assert len(traj) == summary["intervals"] + 1 == 101
+    assert (traj[["x", "y"]].to_numpy() - sol.trajectory[["x", "y"]].to_numpy()).max() < 1e-8
+
+
+def test_solver_failure_exits_1_with_summary(tmp_path):
+    bad = tmp_path / "short.toml"
+    bad.write_text(
+        EXAMPLE.read_text().replace("final_time = 4.5", "final_time = 2.0").replace("intervals = 100", "intervals = 30")
+    )
+    res = run("solve", bad, "--out", tmp_path / "out")
+    assert res.returncode == 1
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["status"] != "optimal"
+
+
+BAD = {
+    "malformed": ("[vehicle\nmodel = 'truck'", "malformed TOML"),
+    "unknown_model": (('model = "truck"', 'model = "tricycle"'), "vehicle.model"),
+    "negative_wheelbase": (("wheelbase = 0.1", "wheelbase = -0.1"), "vehicle.wheelbase"),
+    "reversed_bounds": (("u1 = [-1.0, 1.0]", "u1 = [1.0, -1.0]"), "bounds.u1"),
+    "missing_initial": (("phi = 0.0\n\n[final]", "\n[final]"), "initial.phi"),
+    "energy_without_tf": (("final_time = 4.5\n", ""), "problem.final_time"),
+    "start_inside": (("center = [0.5, 0.03]", "center = [0.1, 0.03]"), "initial.x"),
+    "misspelled_key": (("safety = 0.05", "saftey = 0.05"), "obstacles[0].saftey"),
+    "unknown_top": (("[problem]", "[problme]"), "problme"),
+    "wrong_type": (("radius = 0.2", 'radius = "big"'), "obstacles[0].radius"),
+    "bad_pass": (("intervals = 100", 'intervals = 100\npass = "left"'), "problem.pass"),
+    "too_far": (("final_time = 4.5", "final_time = 0.5"), "problem.final_time"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input_exits_2_with_one_line_and_writes_nothing(case, tmp_path):
+    change, key = BAD[case]
+    text = change if isinstance(change, str) else EXAMPLE.read_text().replace(*change)
+    assert text != EXAMPLE.read_text()
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    res = run("solve", path, "--out", out)
+    assert res.returncode == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and key in lines[0], res.stderr
+    assert "Traceback" not in res.stderr
+    assert not out.exists()

@@ -1,0 +1,99 @@
+"""Solving: the paper's scenarios, analytic cases, costate signs, failures."""
+
+import json
+
+import numpy as np
+import pytest
+
+from model import InputError
+from model.scenario import load_scenario
+from model.validation import validate
+from tests.conftest import SCENARIOS, paper_energy_problem, straight_energy, straight_time
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
+def test_paper_scenario_solves_and_validates(path):
+    sc = load_scenario(path)
+    sol = sc.ocp.solve(intervals=sc.intervals)
+    assert sol.status == "optimal", sol.solver_message
+    assert sol.validation["passed"], sol.validation["checks"]
+    assert len(sol.trajectory) == sc.intervals + 1
+    # the energy can never exceed what the control bounds allow
+    (a, b), (c, d) = sc.ocp.bounds["u1"], sc.ocp.bounds["u2"]
+    assert 0 < sol.energy <= 0.5 * (max(a * a, b * b) + max(c * c, d * d)) * sol.final_time
+
+
+def test_time_optimal_straight_drive_takes_length_over_top_speed():
+    sol = straight_time(length=1.0).solve(intervals=50)
+    assert sol.ok
+    assert sol.final_time == pytest.approx(1.0 / 1.0, rel=1e-6)
+    assert np.allclose(sol.trajectory["u1"], 1.0, atol=1e-6)
+    # free final time: H = 0 along the extremal, p_x = 1 / u1max
+    assert np.allclose(sol.trajectory["H"], 0.0, atol=1e-6)
+    assert np.allclose(sol.trajectory["p_x"], 1.0, atol=1e-6)
+
+
+def test_energy_straight_drive_costate_sign_and_scale():
+    """u1 = L/Tf is optimal, and the maximum condition u1 = p_x cos(theta) fixes p_x = L/Tf > 0."""
+    sol = straight_energy(length=1.0, tf=2.0).solve(intervals=40)
+    assert sol.ok
+    tr = sol.trajectory
+    assert np.allclose(tr["u1"], 0.5, atol=1e-7)
+    assert np.allclose(tr["p_x"], 0.5, atol=1e-7)
+    assert sol.energy == pytest.approx(0.5 * 0.5**2 * 2.0, rel=1e-9)
+    assert np.allclose(tr["H"], 0.5 * 0.5**2, atol=1e-7)  # H = -L + p.f = u1^2/2
+
+
+def test_costates_satisfy_the_maximum_condition_with_an_obstacle(example_solution):
+    tr = example_solution.trajectory
+    assert example_solution.ok
+    # energy problem: u = projection of the unconstrained maximiser psi onto the box
+    # (up to Ipopt's barrier: bound multipliers ~ mu / gap near a bound)
+    assert np.max(np.abs(np.clip(tr["psi_u1"], -1, 1) - tr["u1"])) < 1e-4
+    assert np.max(np.abs(np.clip(tr["psi_u2"], -0.35, 0.35) - tr["u2"])) < 1e-4
+    assert (tr["mu"] >= 0).all()
+    h = tr["H"].to_numpy()[1:-1]  # end nodes carry half-step costates
+    dev = np.abs(h - np.median(h)) / np.median(h)  # autonomous: H constant up to O(h),
+    assert np.percentile(dev, 90) < 0.03 and dev.max() < 0.15  # spiking at the touch point
+
+
+def test_validation_rejects_a_perturbed_solution(example_solution):
+    tr = example_solution.trajectory[["t", "x", "y", "theta", "phi", "u1", "u2"]].copy()
+    tr.loc[50, "y"] += 1e-3
+    report = validate(example_solution.ocp, tr, example_solution.final_time, "ccw")
+    assert not report["passed"] and not report["checks"]["defects"]["passed"]
+
+
+def test_infeasible_final_time_is_reported_as_failure():
+    sol = paper_energy_problem(tf=2.0).solve(intervals=40)
+    assert sol.status != "optimal" and not sol.ok
+
+
+def test_energy_without_final_time_is_an_input_error():
+    with pytest.raises(InputError, match="final_time"):
+        straight_energy().__class__(
+            vehicle=straight_energy().vehicle,
+            bounds=straight_energy().bounds,
+            initial=straight_energy().initial,
+            final_time=None,
+        )
+
+
+def test_summary_is_full_precision_json(example_solution, tmp_path):
+    example_solution.write(tmp_path)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    for key in (
+        "status",
+        "objective",
+        "final_time",
+        "energy",
+        "intervals",
+        "iterations",
+        "solve_seconds",
+        "min_clearance",
+    ):
+        assert key in summary
+    header = (tmp_path / "trajectory.csv").read_text().splitlines()[0]
+    assert header.startswith("t,x,y,theta,phi,u1,u2,")
+    row = (tmp_path / "trajectory.csv").read_text().splitlines()[30].split(",")
+    assert max(len(v.replace("-", "").replace(".", "").lstrip("0")) for v in row) >= 12
