@@ -127,7 +127,11 @@ class OCP:
 
     # -- the two things one does with a problem ------------------------------
     def solve(self, intervals: int = 100, **options: Any) -> Solution:
-        """Transcribe with the trapezoid rule on ``intervals`` steps and solve with Ipopt."""
+        """Transcribe with the trapezoid rule on ``intervals`` steps and solve with Ipopt.
+
+        Options: ``verbose`` (Ipopt log), ``options`` (Ipopt options), ``guess`` (a
+        trajectory DataFrame to start from, e.g. a previous solution's).
+        """
         from model.solve import solve_ocp
 
         return solve_ocp(self, intervals=intervals, **options)

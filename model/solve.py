@@ -27,13 +27,23 @@ def passes_to_try(ocp: OCP) -> list[str]:
     return ["ccw", "cw"] if ocp.passing == "auto" else [ocp.passing]
 
 
-def solve_ocp(ocp: OCP, intervals: int = 100, verbose: bool = False, options: dict | None = None) -> Solution:
-    """Solve every pass direction asked for and keep the best validated solution."""
+def solve_ocp(
+    ocp: OCP,
+    intervals: int = 100,
+    verbose: bool = False,
+    options: dict | None = None,
+    guess: pd.DataFrame | None = None,
+) -> Solution:
+    """Solve every pass direction asked for and keep the best validated solution.
+
+    ``guess``: a trajectory (t, states, controls; e.g. ``other.trajectory``) to start
+    from instead of the geometric guess; it is resampled onto the new grid.
+    """
     start = time.perf_counter()
     best: Solution | None = None
     attempts = []
     for passing in passes_to_try(ocp):
-        sol = solve_pass(ocp, intervals, passing, verbose=verbose, options=options)
+        sol = solve_pass(ocp, intervals, passing, verbose=verbose, options=options, guess=guess)
         attempts.append({"pass": passing, "status": sol.status, "valid": sol.ok, "objective": sol.objective})
         if best is None or _better(sol, best):
             best = sol
@@ -48,12 +58,23 @@ def _better(a: Solution, b: Solution) -> bool:
     return a.objective is not None and (b.objective is None or a.objective < b.objective)
 
 
-def solve_pass(ocp: OCP, intervals: int, passing: str, verbose: bool = False, options: dict | None = None) -> Solution:
+def solve_pass(
+    ocp: OCP,
+    intervals: int,
+    passing: str,
+    verbose: bool = False,
+    options: dict | None = None,
+    guess: pd.DataFrame | None = None,
+) -> Solution:
     """One Ipopt solve with the guess and the constraint of one pass direction."""
     t0 = time.perf_counter()
     m = build_model(ocp, intervals, passing)
-    tf_guess = guess_final_time(ocp, passing)
-    load_values(m, initial_guess(ocp, passing, intervals, tf_guess))
+    if guess is not None:
+        tf_guess = float(ocp.final_time if not ocp.cost.free_final_time else guess["t"].iloc[-1])
+        load_values(m, resample(ocp, guess, intervals))
+    else:
+        tf_guess = guess_final_time(ocp, passing)
+        load_values(m, initial_guess(ocp, passing, intervals, tf_guess))
     if ocp.cost.free_final_time:
         m.tf.set_value(tf_guess)
     t1 = time.perf_counter()
@@ -93,6 +114,14 @@ def load_values(m: pyo.ConcreteModel, values: dict[str, np.ndarray]) -> None:
         var = m.component(name)
         for t, val in zip(m.nodes, vals, strict=True):
             var[t].set_value(float(val), skip_validation=True)
+
+
+def resample(ocp: OCP, traj: pd.DataFrame, intervals: int) -> dict[str, np.ndarray]:
+    """A trajectory's states and controls on a uniform grid of ``intervals`` steps (normalised time)."""
+    s_old = traj["t"].to_numpy() / traj["t"].iloc[-1]
+    s_new = np.linspace(0.0, 1.0, intervals + 1)
+    names = ocp.vehicle.states + ocp.vehicle.controls
+    return {n: np.interp(s_new, s_old, traj[n].to_numpy()) for n in names}
 
 
 def trajectory(m: pyo.ConcreteModel, ocp: OCP) -> pd.DataFrame:
