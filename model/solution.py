@@ -33,6 +33,7 @@ class Solution:
     solver_message: str = ""
     attempts: list[dict] = field(default_factory=list)
     timings: dict = field(default_factory=dict)
+    certificate: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -62,6 +63,7 @@ class Solution:
             "solver_message": self.solver_message,
             "attempts": self.attempts,
             "timings": self.timings,
+            "certificate": self.certificate,
         }
 
     def write(self, out: str | Path) -> None:

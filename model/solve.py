@@ -105,7 +105,18 @@ def solve_pass(
     if sol.status == "optimal" and not sol.validation["passed"]:
         sol.status = "validation_failed"
     sol.model, sol.nlp, sol.ipopt = m, nlp, res
+    sol.certificate = _certificate(sol)
     return sol
+
+
+def _certificate(sol: Solution) -> dict:
+    """The PMP certificate (a diagnostic): an error in it never fails a solve."""
+    from model.certificate import certify
+
+    try:
+        return certify(sol)
+    except Exception as exc:  # noqa: BLE001
+        return {"passed": None, "error": f"{type(exc).__name__}: {exc}"}
 
 
 def load_values(m: pyo.ConcreteModel, values: dict[str, np.ndarray]) -> None:
