@@ -1,0 +1,102 @@
+"""The scenario table: our final time, energy, iterations, solve time and validation beside the
+seed paper's printed Tf and E, with the reason for each difference (CSV and Markdown)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import pandas as pd
+from results_io import Result, comment_block, fmt, load_claims, load_result
+
+from derivations.claims_numbers import PRINTED_RESULTS
+
+PRINTED = {key: {"label": label, "final_time": tf, "energy": e} for key, label, tf, e, _ in PRINTED_RESULTS}
+
+
+def tf_reason(result: Result, printed_tf: float | None, notes: list[str]) -> str:
+    """Why our Tf differs from the printed one: the scenario file's note on Tf, or 'as printed'."""
+    tf = result.summary.get("final_time")
+    if printed_tf is None:
+        return "no printed value"
+    if tf is not None and abs(tf - printed_tf) <= 1e-9 * max(1.0, abs(tf)):
+        return "as printed"
+    tf_notes = [n for n in notes if n.startswith("Tf") or "final time" in n.split(":")[0]]
+    return "; ".join(tf_notes) or "the scenario file gives no reason"
+
+
+def energy_reason(key: str | None, claims: dict[str, dict]) -> str:
+    """The derivation claim that explains the printed energy (sec5.energy_bound.<key>)."""
+    claim = claims.get(f"sec5.energy_bound.{key}")
+    if claim is None:
+        return "no derivation claim for this scenario"
+    return f"[{claim['id']}: {claim['verdict']}] {claim['evidence']}"
+
+
+def row(result: Result, scenario_file: Path, key: str | None, claims: dict[str, dict]) -> dict:
+    s, printed = result.summary, PRINTED.get(key or "", {})
+    failed = [k for k, c in (s.get("validation") or {}).items() if not c.get("passed")]
+    notes = comment_block(scenario_file)
+    return {
+        "scenario": result.name,
+        "title": s.get("title", ""),
+        "status": result.status_text,
+        "solver_status": s.get("status"),
+        "solved": result.solved,
+        "final_time": s.get("final_time") if result.solved else None,
+        "energy": s.get("energy") if result.solved else None,
+        "printed_final_time": printed.get("final_time"),
+        "printed_energy": printed.get("energy"),
+        "iterations": s.get("iterations"),
+        "solve_seconds": s.get("solve_seconds"),
+        "min_clearance": s.get("min_clearance") if result.solved else None,
+        "validation": "passed" if s.get("valid") else "failed: " + (", ".join(failed) or s.get("status", "error")),
+        "paper_key": key,
+        "final_time_reason": tf_reason(result, printed.get("final_time"), notes),
+        "energy_reason": energy_reason(key, claims),
+    }
+
+
+def build(results: list[Result], files: list[Path], keys: dict[str, str], claims: dict[str, dict]) -> pd.DataFrame:
+    return pd.DataFrame([row(r, f, keys.get(r.name), claims) for r, f in zip(results, files, strict=True)])
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """The table and, below it, the reason for each difference from the printed values."""
+    lines = [
+        "| scenario | status | Tf (s) | printed Tf (s) | E | printed E | iterations | solve time (s) | validation |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
+    ]
+    for r in table.to_dict("records"):
+        iterations = "–" if r["iterations"] is None else r["iterations"]
+        lines.append(
+            f"| `{r['scenario']}` | {r['status']} | {fmt(r['final_time'])} | {fmt(r['printed_final_time'])} "
+            f"| {fmt(r['energy'])} | {fmt(r['printed_energy'])} | {iterations} "
+            f"| {fmt(r['solve_seconds'], 2)} | {r['validation']} |"
+        )
+    lines += ["", "Differences from the printed values:", ""]
+    for r in table.to_dict("records"):
+        tf, energy = r["final_time_reason"].rstrip("."), r["energy_reason"].rstrip(".")
+        lines.append(f"- `{r['scenario']}`: Tf: {tf}. E: {energy}.")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--results", nargs="+", type=Path, required=True, help="solve folders")
+    ap.add_argument("--scenarios", nargs="+", type=Path, required=True, help="scenario files, same order")
+    ap.add_argument("--claims", type=Path, required=True)
+    ap.add_argument("--paper-keys", default="{}", help="JSON: scenario -> printed-result key")
+    ap.add_argument("--csv", type=Path, required=True)
+    ap.add_argument("--md", type=Path, required=True)
+    args = ap.parse_args(argv)
+    results = [load_result(d, name=f.stem) for d, f in zip(args.results, args.scenarios, strict=True)]
+    table = build(results, args.scenarios, json.loads(args.paper_keys), load_claims(args.claims))
+    args.csv.parent.mkdir(parents=True, exist_ok=True)
+    table.to_csv(args.csv, index=False, float_format="%.12g")
+    args.md.write_text(markdown(table))
+
+
+if __name__ == "__main__":
+    main()
