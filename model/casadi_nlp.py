@@ -97,12 +97,12 @@ class CasadiNLP(NLP):
         walk = PyomoToSX(
             {id(v): i for i, v in enumerate(self.variables)}, x, {id(q): i for i, q in enumerate(self.params)}, p
         )
-        g_exprs, self._gl, self._gu = [], np.empty(m), np.empty(m)
-        for i, con in enumerate(self.constraints):
-            lo, body, hi = con.to_bounded_expression(evaluate_bounds=True)
+        g_exprs, self._bound_exprs = [], []
+        for con in self.constraints:
+            lo, body, hi = con.to_bounded_expression(evaluate_bounds=False)
             g_exprs.append(walk(body))
-            self._gl[i] = -np.inf if lo is None else lo
-            self._gu[i] = np.inf if hi is None else hi
+            self._bound_exprs.append((lo, hi))
+        self._evaluate_bounds()
         g = ca.vertcat(*[ca.SX(e) for e in g_exprs]) if g_exprs else ca.SX(0, 1)
         f = self._sense * ca.SX(walk(self.objective.expr))
         sigma, lam = ca.SX.sym("sigma"), ca.SX.sym("lam", m)
@@ -175,8 +175,14 @@ class CasadiNLP(NLP):
         return float(self._sigma[0])
 
     def refresh_parameters(self) -> None:
-        """Re-read mutable Param values (after the user changed them)."""
+        """Re-read mutable Param values and the constraint bounds that use them."""
         self._p[:] = [float(pyo.value(q)) for q in self.params]
+        self._evaluate_bounds()
+
+    def _evaluate_bounds(self) -> None:
+        """Constraint bounds may be Param expressions: evaluate them now."""
+        self._gl = np.array([-np.inf if lo is None else pyo.value(lo) for lo, _ in self._bound_exprs], dtype=float)
+        self._gu = np.array([np.inf if hi is None else pyo.value(hi) for _, hi in self._bound_exprs], dtype=float)
 
     def get_obj_scaling(self):
         return None

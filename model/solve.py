@@ -12,7 +12,7 @@ import sympy as sp
 from model.casadi_nlp import CasadiNLP
 from model.costates import costates, hamiltonian, obstacle_multiplier
 from model.guess import guess_final_time, initial_guess
-from model.ipopt import run_ipopt
+from model.ipopt import IpoptResult, run_ipopt
 from model.ocp import OCP
 from model.solution import Solution, trapezoid_energy
 from model.transcription import build_model, grid
@@ -82,6 +82,11 @@ def solve_pass(
     t2 = time.perf_counter()
     opts = {"print_level": 5} if verbose else {}
     res = run_ipopt(nlp, {**opts, **(options or {})})
+    return finish(ocp, m, nlp, res, passing, {"model_build": t1 - t0, "derivative_setup": t2 - t1})
+
+
+def finish(ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, passing: str, timings: dict) -> Solution:
+    """Load Ipopt's answer into the model and make a validated, certified Solution."""
     nlp.load_primals(res.x)
     nlp.load_duals(res.mult_g)
     traj = trajectory(m, ocp)
@@ -89,7 +94,7 @@ def solve_pass(
     base = ["t", *ocp.vehicle.states, *ocp.vehicle.controls]
     sol = Solution(
         ocp=ocp,
-        intervals=intervals,
+        intervals=len(m.nodes) - 1,
         status=res.status,
         objective=float(pyo.value(m.objective)),
         final_time=tf,
@@ -100,7 +105,7 @@ def solve_pass(
         passing=passing,
         validation=validate(ocp, traj[base], tf, passing),
         solver_message=res.message,
-        timings={"model_build": t1 - t0, "derivative_setup": t2 - t1, "ipopt": res.seconds},
+        timings={**timings, "ipopt": res.seconds},
     )
     if sol.status == "optimal" and not sol.validation["passed"]:
         sol.status = "validation_failed"

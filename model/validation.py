@@ -111,7 +111,7 @@ def _reintegration_drift(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray) 
         u = np.array([np.interp(tt, t, row) for row in U])
         return f(x, u)
 
-    sol = solve_ivp(rhs, (t[0], t[-1]), X[:, 0], t_eval=t, rtol=1e-10, atol=1e-12, method="DOP853")
+    sol = solve_ivp(rhs, (t[0], t[-1]), X[:, 0], t_eval=t, rtol=1e-8, atol=1e-10, method="DOP853")
     if not sol.success or sol.y.shape != X.shape:
         return {"success": False, "message": sol.message}
     err = np.abs(sol.y - X)

@@ -1,0 +1,86 @@
+"""Benchmark: this project's Pyomo -> CasADi -> cyipopt route against CasADi Opti.
+
+Usage: python benchmarks/bench_solve.py [--sizes 100 400 1600 3200] [--scenario FILE]
+
+Both solve the same trapezoid transcription from the same guess to the same tolerance,
+one after the other in this process; the table reports build, derivative setup, Ipopt
+and total wall times, iterations, objectives and the ratio total(project)/total(Opti).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.opti_peer import solve_with_opti  # noqa: E402
+from model.scenario import load_scenario  # noqa: E402
+from model.solve import solve_pass  # noqa: E402
+
+
+def project(ocp, n: int, passing: str) -> dict:
+    t0 = time.perf_counter()
+    sol = solve_pass(ocp, n, passing)
+    total = time.perf_counter() - t0
+    t = sol.timings
+    return {
+        "build": t["model_build"],
+        "setup": t["derivative_setup"],
+        "ipopt": t["ipopt"],
+        "total": t["model_build"] + t["derivative_setup"] + t["ipopt"],
+        "total_with_post": total,
+        "iterations": sol.iterations,
+        "objective": sol.objective,
+        "status": sol.status,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sizes", type=int, nargs="+", default=[100, 400, 1600, 3200])
+    ap.add_argument("--scenario", default=str(ROOT / "examples" / "format-example.toml"))
+    ap.add_argument("--pass", dest="passing", default="ccw")
+    ap.add_argument("--repeat", type=int, default=1, help="best of R runs of each")
+    ap.add_argument("--json", help="also write the rows here")
+    args = ap.parse_args(argv)
+    ocp = load_scenario(args.scenario).ocp
+    rows = []
+    print(f"# {platform.node()} {platform.processor() or platform.machine()}, python {platform.python_version()}")
+    print(f"# scenario {Path(args.scenario).name}, pass {args.passing}, best of {args.repeat}")
+    head = (
+        "| N | build s | setup s | Ipopt s | total s | iters | Opti build s | Opti solve s | Opti total s "
+        "| Opti iters | ratio | objective rel. diff |"
+    )
+    print(head)
+    print("|" + "---|" * 12)
+    for n in args.sizes:
+        ours = min((project(ocp, n, args.passing) for _ in range(args.repeat)), key=lambda r: r["total"])
+        peer = min((solve_with_opti(ocp, n, args.passing) for _ in range(args.repeat)), key=lambda r: r["total"])
+        ratio = ours["total"] / peer["total"]
+        diff = abs(ours["objective"] - peer["objective"]) / max(abs(peer["objective"]), 1e-12)
+        rows.append({"N": n, "project": ours, "opti": peer, "ratio": ratio, "objective_rel_diff": diff})
+        print(
+            f"| {n} | {ours['build']:.3f} | {ours['setup']:.3f} | {ours['ipopt']:.3f} | {ours['total']:.3f} | "
+            f"{ours['iterations']} | {peer['build']:.3f} | {peer['solve']:.3f} | {peer['total']:.3f} | "
+            f"{peer['iterations']} | {ratio:.2f} | {diff:.1e} |",
+            flush=True,
+        )
+    if len(rows) > 1:
+        sizes = np.log([r["N"] for r in rows])
+        slope = np.polyfit(sizes, np.log([r["project"]["total"] for r in rows]), 1)[0]
+        print(f"# cost exponent (log-log slope of total vs N): {slope:.2f}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
