@@ -34,8 +34,13 @@ class Energy(Cost):
 
 @dataclass
 class Time(Cost):
-    """J = Tf = integral of 1 dt, with a free final time."""
+    """J = Tf = integral of 1 dt, with a free final time.
 
+    ``rate_penalty`` eps > 0 adds eps * sum_k (u_{k+1} - u_k)^2 / h to the discrete
+    objective (a small regularisation against chattering); 0 is the plain problem.
+    """
+
+    rate_penalty: float = 0.0
     objective = "time"
     free_final_time = True
 

@@ -136,7 +136,7 @@ def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
 
 def _add_objective(m: pyo.ConcreteModel, ocp: OCP) -> None:
     if ocp.cost.free_final_time:
-        m.objective = pyo.Objective(expr=m.tf, sense=pyo.minimize)
+        m.objective = pyo.Objective(expr=m.tf + _rate_penalty(m, ocp), sense=pyo.minimize)
         return
     v = ocp.vehicle
     L = ocp.cost.lagrangian(v)
@@ -149,6 +149,21 @@ def _add_objective(m: pyo.ConcreteModel, ocp: OCP) -> None:
     values = [running(t) for t in nodes]
     total = sum(values[1:-1]) + (values[0] + values[-1]) / 2
     m.objective = pyo.Objective(expr=m.tf / n * total, sense=pyo.minimize)
+
+
+def _rate_penalty(m: pyo.ConcreteModel, ocp: OCP):
+    """eps * sum_k |u_{k+1} - u_k|^2 / h over all controls (h = Tf / N); 0 if eps = 0."""
+    eps = float(getattr(ocp.cost, "rate_penalty", 0.0) or 0.0)
+    if eps == 0.0:
+        return 0
+    nodes = m.nodes
+    n = len(nodes) - 1
+    jumps = sum(
+        (m.component(c)[b] - m.component(c)[a]) ** 2
+        for c in ocp.vehicle.controls
+        for a, b in zip(nodes[:-1], nodes[1:], strict=True)
+    )
+    return eps * n / m.tf * jumps
 
 
 def grid(m: pyo.ConcreteModel) -> list[float]:
