@@ -78,32 +78,35 @@ def _switch_time(t: np.ndarray, psi: np.ndarray | None, a: int, b: int) -> float
 
 
 def chattering(
-    traj: pd.DataFrame, control: str, bounds: tuple[float, float], window: int = 12, changes: int = 4
+    traj: pd.DataFrame, control: str, bounds: tuple[float, float], window: int = 12, changes: int = 4, jump: float = 0.2
 ) -> list[dict]:
-    """Windows of ``window`` nodes in which the label of ``control`` changes >= ``changes`` times."""
-    lab = labels(traj[control].to_numpy(), *bounds)
-    flips = np.abs(np.diff(lab)) > 0
+    """Spans where ``control`` reverses direction >= ``changes`` times within ``window`` nodes.
+
+    A reversal is a node where the increments before and after have opposite signs and both
+    exceed ``jump`` times the control's range: bang-bang switching every few nodes.
+    """
+    u = traj[control].to_numpy()
     t = traj["t"].to_numpy()
-    hits = []
-    for k in range(max(1, len(flips) - window + 1)):
-        count = int(np.sum(flips[k : k + window]))
-        if count >= changes:
-            hits.append((k, min(k + window, len(t) - 1), count))
-    return _merge(hits, t)
-
-
-def _merge(hits: list[tuple[int, int, int]], t: np.ndarray) -> list[dict]:
-    out: list[dict] = []
-    for a, b, count in hits:
-        if out and a <= out[-1]["_b"]:
-            out[-1]["_b"] = b
-            out[-1]["t1"] = float(t[b])
-            out[-1]["max_changes"] = max(out[-1]["max_changes"], count)
-        else:
-            out.append({"t0": float(t[a]), "t1": float(t[b]), "_b": b, "max_changes": count})
-    for w in out:
-        w.pop("_b")
-    return out
+    du = np.diff(u)
+    big = np.abs(du) > jump * (bounds[1] - bounds[0])
+    events = np.flatnonzero((du[:-1] * du[1:] < 0) & big[:-1] & big[1:]) + 1
+    spans: list[list[int]] = []
+    for k in range(len(events) - changes + 1):
+        first, last = events[k], events[k + changes - 1]
+        if last - first <= window:
+            if spans and first <= spans[-1][1]:
+                spans[-1][1] = max(spans[-1][1], last)
+            else:
+                spans.append([first, last])
+    n = len(t) - 1
+    return [
+        {
+            "t0": float(t[max(a - 1, 0)]),
+            "t1": float(t[min(b + 1, n)]),
+            "reversals": int(np.sum((events >= a) & (events <= b))),
+        }
+        for a, b in spans
+    ]
 
 
 def straight_arcs(traj: pd.DataFrame, tol: float = 1e-3, min_nodes: int = 3) -> list[dict]:

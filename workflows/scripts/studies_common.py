@@ -1,0 +1,83 @@
+"""Helpers shared by the studies scripts: results I/O, Markdown tables, figures."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from model.scenario import load_scenario  # noqa: E402
+
+
+def scenario(name: str):
+    """The OCP of workflows/scenarios/<name>.toml."""
+    return load_scenario(ROOT / "workflows" / "scenarios" / f"{name}.toml").ocp
+
+
+def solved(results: Path, name: str) -> SimpleNamespace | None:
+    """A pipeline solve (results/scenarios/<name>) as .ocp/.trajectory/.summary; None if failed."""
+    folder = results / "scenarios" / name
+    summary = json.loads((folder / "summary.json").read_text())
+    if summary.get("status") != "optimal" or not summary.get("valid"):
+        return None
+    traj = pd.read_csv(folder / "trajectory.csv")
+    return SimpleNamespace(ocp=scenario(name), trajectory=traj, summary=summary, ok=True)
+
+
+def fmt(x, digits: int = 4) -> str:
+    """A number for a table: significant digits, '-' for missing."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if isinstance(x, int):
+        return str(x)
+    if isinstance(x, float):
+        return f"{x:.{digits}g}"
+    return str(x)
+
+
+def table(rows: list[dict], columns: dict[str, str], digits: int = 4) -> str:
+    """A Markdown table of ``rows``; ``columns`` maps keys to headers."""
+    head = "| " + " | ".join(columns.values()) + " |"
+    rule = "| " + " | ".join("---" for _ in columns) + " |"
+    body = ["| " + " | ".join(fmt(r.get(k), digits) for k in columns) + " |" for r in rows]
+    return "\n".join([head, rule, *body])
+
+
+def write_json(path: Path, data) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=2, default=_default) + "\n")
+
+
+def _default(obj):
+    if hasattr(obj, "item"):
+        return obj.item()
+    raise TypeError(type(obj))
+
+
+def save(fig, stem: Path) -> None:
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    for ext in ("png", "pdf"):
+        fig.savefig(stem.with_suffix(f".{ext}"), dpi=130, bbox_inches="tight")
+    plt.close(fig)
+
+
+def write_text(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text.rstrip() + "\n")
+
+
+__all__ = ["plt", "scenario", "solved", "table", "fmt", "write_json", "save", "write_text"]
