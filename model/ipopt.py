@@ -6,7 +6,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from pyomo.contrib.pynumero.interfaces.cyipopt_interface import CyIpoptNLP
+from pyomo.contrib.pynumero.interfaces.cyipopt_interface import CyIpoptNLP, cyipopt_available
 
 from model.casadi_nlp import CasadiNLP
 
@@ -55,6 +55,8 @@ def run_ipopt(
     duals: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> IpoptResult:
     """Solve ``nlp`` from ``x0`` (default: the model's values); ``duals`` warm-start (g, zL, zU)."""
+    if not cyipopt_available:
+        raise RuntimeError("cyipopt is not installed: run `python tools/install_solver.py`")
     log: list[tuple[int, float, float, float]] = []
 
     def intermediate(_nlp, _problem, alg_mod, iter_count, obj, inf_pr, inf_du, mu, d_norm, reg, a_du, a_pr, ls):
