@@ -19,7 +19,7 @@ for _rule_file in sorted(Path(workflow.basedir, "workflows", "rules").glob("*.sm
 rule all:
     default_target: True
     input:
-        # "results/paper/paper.html",
+        "results/paper/paper.html",
         "results/tables/scenarios.csv",
         "results/tables/scenarios.md",
         PAPER_SECTIONS,

@@ -18,8 +18,10 @@ def repo_path(path: str) -> Path:
     return p if p.is_absolute() else ROOT / p
 
 
-SCENARIO_FILES = {Path(f).stem: f for f in sorted(glob(str(repo_path(config["scenarios"]))))}
+_globs = [config["scenarios"]] if isinstance(config["scenarios"], str) else list(config["scenarios"])
+SCENARIO_FILES = {Path(f).stem: f for g in _globs for f in sorted(glob(str(repo_path(g))))}
 SCENARIOS = sorted(SCENARIO_FILES)
+PAPER_SCENARIOS = [s for s in config.get("paper_keys", {}) if s in SCENARIO_FILES]
 MODEL_CODE = sorted(glob(str(ROOT / "model" / "*.py")))
 DERIVATION_CODE = sorted(glob(str(ROOT / "derivations" / "*.py")))
 FORMATS = list(config.get("figure_formats", ["pdf", "png"]))
@@ -31,9 +33,9 @@ def scenario_file(wildcards) -> str:
 
 
 def chosen(key: str) -> list[str]:
-    """Scenarios named by a config entry ("all" or a list), in config order, that exist."""
+    """Scenarios named by a config entry ("all", "paper" or a list), in config order, that exist."""
     value = config.get(key, "all")
-    names = SCENARIOS if value == "all" else list(value)
+    names = {"all": SCENARIOS, "paper": PAPER_SCENARIOS}[value] if isinstance(value, str) else list(value)
     return [s for s in names if s in SCENARIO_FILES]
 
 

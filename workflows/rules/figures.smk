@@ -47,7 +47,7 @@ for _kind, _stem, _key in (("phase-rate", "phase-rate", "phase_rate"), ("paths",
             " --order {SCENARIOS} --out {params.stem} --formats {FORMATS}"
 
 
-FIGURES = expand("results/figures/{scenario}/{name}.png", scenario=SCENARIOS, name=["solution", "costates"]) + [
+FIGURES = expand("results/figures/{scenario}/{name}.png", scenario=PAPER_SCENARIOS, name=["solution", "costates"]) + [
     "results/figures/phase-rate.png",
     "results/figures/paths.png",
 ]

@@ -44,6 +44,7 @@ def row(result: Result, scenario_file: Path, key: str | None, claims: dict[str, 
         "status": result.status_text,
         "solver_status": s.get("status"),
         "solved": result.solved,
+        "objective": s.get("objective_name"),
         "final_time": s.get("final_time") if result.solved else None,
         "energy": s.get("energy") if result.solved else None,
         "printed_final_time": printed.get("final_time"),
@@ -62,21 +63,30 @@ def build(results: list[Result], files: list[Path], keys: dict[str, str], claims
     return pd.DataFrame([row(r, f, keys.get(r.name), claims) for r, f in zip(results, files, strict=True)])
 
 
+def seconds(value: float | None) -> str:
+    return "–" if value is None or value != value else f"{value:.2f}"
+
+
 def markdown(table: pd.DataFrame) -> str:
     """The table and, below it, the reason for each difference from the printed values."""
     lines = [
-        "| scenario | status | Tf (s) | printed Tf (s) | E | printed E | iterations | solve time (s) | validation |",
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
+        "| scenario | objective | status | Tf (s) | printed Tf (s) | E | printed E | iterations | solve time (s) "
+        "| validation |",
+        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
     ]
     for r in table.to_dict("records"):
         iterations = "–" if r["iterations"] is None else r["iterations"]
         lines.append(
-            f"| `{r['scenario']}` | {r['status']} | {fmt(r['final_time'])} | {fmt(r['printed_final_time'])} "
+            f"| `{r['scenario']}` | {r['objective'] or '–'} | {r['status']} | {fmt(r['final_time'])} "
+            f"| {fmt(r['printed_final_time'])} "
             f"| {fmt(r['energy'])} | {fmt(r['printed_energy'])} | {iterations} "
-            f"| {fmt(r['solve_seconds'], 2)} | {r['validation']} |"
+            f"| {seconds(r['solve_seconds'])} | {r['validation']} |"
         )
-    lines += ["", "Differences from the printed values:", ""]
+    lines += ["", "E is the energy ½∫(u1² + u2²) dt of the solution, whatever its objective.", "",
+              "Differences from the printed values:", ""]
     for r in table.to_dict("records"):
+        if not isinstance(r["paper_key"], str):
+            continue
         tf, energy = r["final_time_reason"].rstrip("."), r["energy_reason"].rstrip(".")
         lines.append(f"- `{r['scenario']}`: Tf: {tf}. E: {energy}.")
     return "\n".join(lines) + "\n"

@@ -1,0 +1,196 @@
+"""Render the paper's section templates (paper/sections/*.md) into Markdown fragments filled from results.
+
+A template holds Markdown with placeholders ``{{ name args... }}``; every number comes from a
+results file through one of them (an unknown placeholder is an error):
+
+- ``{{ value SCENARIO KEY [FORMAT] }}``: a key of results/scenarios/SCENARIO/summary.json
+- ``{{ count SCENARIOS|SOLVED|CLAIMS|HOLDS|FAILS|CORRECTED }}``: counts over the results
+- ``{{ claim ID }}``: a derivation claim's id and verdict
+- ``{{ scenario_table }}``, ``{{ reproduction_notes }}``, ``{{ scenario_sections }}``,
+  ``{{ comparison_figures }}``, ``{{ derivation_report }}``: generated blocks
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from results_io import Result, comment_block, fmt, load_claims, load_result
+
+PLACEHOLDER = re.compile(r"\{\{\s*([a-z_]+)((?:\s+[^\s}]+)*)\s*\}\}")
+
+
+@dataclass
+class Context:
+    """Everything a template may refer to."""
+
+    results: dict[str, Result]
+    scenario_files: dict[str, Path]
+    paper: list[str]
+    claims: dict[str, dict]
+    table_md: str
+    report_md: str
+    figures: Path
+
+    def figure(self, path: str, caption: str) -> str:
+        return f"![{caption}]({self.figures / path})"
+
+
+def value(ctx: Context, scenario: str, key: str, spec: str = ".4g") -> str:
+    summary = ctx.results[scenario].summary
+    if key not in summary:
+        raise KeyError(f"{scenario}/summary.json has no key {key!r}")
+    return format(summary[key], spec) if isinstance(summary[key], int | float) else str(summary[key])
+
+
+def count(ctx: Context, what: str) -> str:
+    verdicts = [c["verdict"] for c in ctx.claims.values()]
+    counts = {
+        "SCENARIOS": len(ctx.results),
+        "SOLVED": sum(r.solved for r in ctx.results.values()),
+        "CLAIMS": len(verdicts),
+        "HOLDS": sum(v == "holds" for v in verdicts),
+        "FAILS": sum(v == "fails" for v in verdicts),
+        "CORRECTED": sum(v.startswith("holds after correction") for v in verdicts),
+    }
+    return str(counts[what])
+
+
+def claim(ctx: Context, claim_id: str) -> str:
+    """A claim id with its verdict's first word(s), e.g. "`hyp1.singular` (fails)"."""
+    verdict = ctx.claims[claim_id]["verdict"].split(":")[0]
+    return f"`{claim_id}` ({verdict})"
+
+
+def reproduction_notes(ctx: Context) -> str:
+    """The paper scenarios' assumption bullets: those shared by every file once, then each file's own."""
+    notes = {name: comment_block(ctx.scenario_files[name]) for name in ctx.paper}
+    shared = [n for n in next(iter(notes.values()), []) if all(n in v for v in notes.values())]
+    lines = ["Shared by every scenario file:", ""] + [f"- {n}" for n in shared] + [""]
+    for name, bullets in notes.items():
+        own = [n for n in bullets if n not in shared]
+        title = ctx.results[name].summary.get("title") or name
+        lines += [f"Scenario `{name}` ({title}):", ""] + [f"- {n}" for n in own or ["no further assumption"]] + [""]
+    return "\n".join(lines)
+
+
+def scenario_paragraph(r: Result) -> str:
+    s = r.summary
+    if not r.solved:
+        reason = s.get("failure") or s.get("solver_message") or ""
+        return (f"**The solve failed** ({r.status_text}). {reason} "
+                "The figures below show no solution: a failed solve is never plotted.")
+    return (
+        f"Solved and validated: $T_f = {fmt(s['final_time'])}$ s, $E = {fmt(s['energy'])}$, "
+        f"{s['iterations']} Ipopt iterations in {fmt(s['solve_seconds'], 2)} s on N = {s['intervals']} intervals. "
+        f"The path passes the obstacle {s.get('pass')} (swept angle {fmt(s.get('swept_angle'), 3)} rad); "
+        f"its smallest clearance beyond the safety distance is {fmt(s.get('min_clearance'), 3)} m at the nodes "
+        f"and {fmt(s.get('min_clearance_dense'), 3)} m between them."
+    )
+
+
+def scenario_sections(ctx: Context) -> str:
+    blocks = []
+    for name in ctx.paper:
+        r = ctx.results[name]
+        title = r.summary.get("title") or name
+        blocks += [
+            f"### {title}",
+            "",
+            scenario_paragraph(r),
+            "",
+            ctx.figure(f"{name}/solution.png", f"`{name}`: (a) controls with their bounds dashed, (b) states, "
+                       "(c) path with the obstacle, its safety circle and the start and goal poses, "
+                       "(d) cumulative energy (the paper's Figures 4-7)."),
+            "",
+            ctx.figure(f"{name}/costates.png", f"`{name}`: costate estimates from the NLP multipliers, the "
+                       "switching functions beside the controls they select, the Hamiltonian and the obstacle "
+                       "multiplier."),
+            "",
+        ]
+    return "\n".join(blocks + [other_scenarios(ctx)])
+
+
+def other_scenarios(ctx: Context) -> str:
+    """The solved scenario files that are not the paper's, linked to their figures."""
+    others = [n for n in ctx.results if n not in ctx.paper]
+    if not others:
+        return ""
+    lines = ["### Further scenario files", "",
+             "Also solved (rows in the table above); their figures are beside this paper's folder:", ""]
+    for name in others:
+        r = ctx.results[name]
+        links = ", ".join(f"[{k}](../figures/{name}/{k}.png)" for k in ("solution", "costates"))
+        lines.append(f"- `{name}`: {r.summary.get('title') or name}; {r.status_text}; figures: {links}")
+    return "\n".join(lines) + "\n"
+
+
+def comparison_figures(ctx: Context) -> str:
+    return "\n\n".join([
+        ctx.figure("phase-rate.png", "Phase of the control vector and its rate (the paper's Figure 8, "
+                   "Hypothesis 1), by finite differences on the nodes; symmetric-log scale."),
+        ctx.figure("paths.png", "Paths of the compared scenarios around the same obstacle (the paper's Figure 9)."),
+    ])
+
+
+def derivation_report(ctx: Context) -> str:
+    """report.md with its title dropped and every heading one level deeper (it sits under a section)."""
+    lines = ctx.report_md.splitlines()
+    if lines and lines[0].startswith("# "):
+        lines = lines[1:]
+    return "\n".join("#" + ln if re.match(r"#{1,5} ", ln) else ln for ln in lines)
+
+
+BLOCKS: dict[str, Callable[[Context], str]] = {
+    "scenario_table": lambda ctx: ctx.table_md,
+    "reproduction_notes": reproduction_notes,
+    "scenario_sections": scenario_sections,
+    "comparison_figures": comparison_figures,
+    "derivation_report": derivation_report,
+}
+
+
+def render(template: str, ctx: Context) -> str:
+    def fill(match: re.Match) -> str:
+        name, args = match.group(1), match.group(2).split()
+        if name == "value":
+            return value(ctx, *args)
+        if name == "count":
+            return count(ctx, *args)
+        if name == "claim":
+            return claim(ctx, *args)
+        if name in BLOCKS and not args:
+            return BLOCKS[name](ctx)
+        raise KeyError(f"unknown placeholder {match.group(0)!r}")
+
+    return PLACEHOLDER.sub(fill, template)
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--templates", nargs="+", type=Path, required=True)
+    ap.add_argument("--out", type=Path, required=True, help="folder for the fragments")
+    ap.add_argument("--scenarios", nargs="+", type=Path, required=True, help="scenario files")
+    ap.add_argument("--paper-scenarios", nargs="*", default=[], help="the seed paper's scenarios, in order")
+    ap.add_argument("--results", type=Path, default=Path("results"))
+    args = ap.parse_args(argv)
+    res = args.results
+    ctx = Context(
+        results={f.stem: load_result(res / "scenarios" / f.stem, name=f.stem) for f in args.scenarios},
+        scenario_files={f.stem: f for f in args.scenarios},
+        paper=[n for n in args.paper_scenarios if n in {f.stem for f in args.scenarios}],
+        claims=load_claims(res / "derivations" / "claims.json"),
+        table_md=(res / "tables" / "scenarios.md").read_text(),
+        report_md=(res / "derivations" / "report.md").read_text(),
+        figures=res / "figures",
+    )
+    args.out.mkdir(parents=True, exist_ok=True)
+    for template in args.templates:
+        (args.out / template.name).write_text(render(template.read_text(), ctx))
+
+
+if __name__ == "__main__":
+    main()
