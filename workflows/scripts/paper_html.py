@@ -41,8 +41,13 @@ def protect_math(text: str) -> tuple[str, list[tuple[str, bool]]]:
 
 
 def mathml(tex: str, display: bool) -> str:
+    """MathML for one formula; ``aligned`` becomes an ``array{rl}`` (latex2mathml lacks it)."""
+    tex = re.sub(r"\\begin\{(aligned|align\*?)\}", r"\\begin{array}{rl}", tex.strip())
+    tex = re.sub(r"\\end\{(aligned|align\*?)\}", r"\\end{array}", tex)
     try:
-        return latex_to_mathml(tex.strip(), display="block" if display else "inline")
+        if display:
+            return f'<div class="display-math">{latex_to_mathml(tex, display="block")}</div>'
+        return latex_to_mathml(tex, display="inline")
     except Exception as err:  # noqa: BLE001 - any converter failure shows the source instead
         print(f"paper_html: math not converted ({err}): {tex[:80]}", file=sys.stderr)
         return f'<code class="math-error">{html.escape(tex)}</code>'
