@@ -86,6 +86,22 @@ def shoot(ocp: OCP, p0_guess: np.ndarray) -> ShootingResult:
     )
 
 
+def example_problem() -> OCP:
+    """Obstacle-free energy problem with unsaturated controls: (0,0,0,0) -> (1, 0.3, 0.5), phi(Tf) free."""
+    from model.costs import Energy
+    from model.vehicles import Truck
+
+    return OCP(
+        vehicle=Truck(wheelbase=0.1),
+        cost=Energy(),
+        final_time=2.0,
+        bounds={"u1": (-1.0, 1.0), "u2": (-0.35, 0.35), "phi": (-0.6, 0.6)},
+        initial={"x": 0.0, "y": 0.0, "theta": 0.0, "phi": 0.0},
+        final={"x": 1.0, "y": 0.3, "theta": 0.5},
+        name="indirect",
+    )
+
+
 def richardson(values: list[float], order: float = 2.0) -> float:
     """Extrapolate the last two of values on grids halving h, for an error of O(h^order)."""
     a, b = values[-2], values[-1]
