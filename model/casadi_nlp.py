@@ -1,10 +1,17 @@
 """A pynumero ``NLP`` for a Pyomo model, with exact derivatives from CasADi SX.
 
-Pyomo's own cyipopt route needs the ASL library, which cannot be built here; this
-class walks the model's active constraints and objective into CasADi SX once,
-generates sparse Jacobian and Lagrangian-Hessian functions, and serves them to
-pynumero's ``CyIpoptNLP`` through persistent buffers. Mutable Params become CasADi
-parameters, so their values may change between solves without a rebuild.
+Pyomo's own cyipopt route needs the ASL library, which cannot be built here. This
+class translates the model's active constraints and objective into CasADi SX (one
+template per indexed Constraint, see ``model.pyomo_sx``), generates sparse Jacobian
+and Lagrangian-Hessian functions, and serves them to pynumero's ``CyIpoptNLP``
+through persistent buffers. Mutable Params are CasADi parameters, so their values
+may change between solves without a rebuild.
+
+Presolve: an equality row with exactly one constant coefficient, on an unbounded
+variable, that defines it from other variables (dX[t] == Tf f(X[t], U[t]) in a
+pyomo.dae model) is used to eliminate that variable. Ipopt sees the reduced NLP (the
+same one CasADi Opti builds for the trapezoid rule); the eliminated values and the
+multipliers of the defining rows are recovered for Pyomo afterwards.
 """
 
 from __future__ import annotations
@@ -13,69 +20,17 @@ import casadi as ca
 import numpy as np
 import pyomo.environ as pyo
 from pyomo.contrib.pynumero.interfaces.nlp import NLP
-from pyomo.core.expr.numvalue import native_numeric_types
 from scipy.sparse import coo_matrix
 
-_UNARY = {
-    "sin": ca.sin,
-    "cos": ca.cos,
-    "tan": ca.tan,
-    "asin": ca.asin,
-    "acos": ca.acos,
-    "atan": ca.atan,
-    "exp": ca.exp,
-    "log": ca.log,
-    "sqrt": ca.sqrt,
-    "abs": ca.fabs,
-    "sinh": ca.sinh,
-    "cosh": ca.cosh,
-    "tanh": ca.tanh,
-    "log10": ca.log10,
-}
-
-
-class PyomoToSX:
-    """Translate Pyomo expressions to SX over given variable and parameter symbols."""
-
-    def __init__(self, var_index: dict[int, int], x: ca.SX, param_index: dict[int, int], p: ca.SX):
-        self.var_index, self.x = var_index, x
-        self.param_index, self.p = param_index, p
-        self._memo: dict[int, tuple[object, ca.SX]] = {}  # keeps nodes alive: ids stay unique
-
-    def __call__(self, node) -> ca.SX | float:
-        if type(node) in native_numeric_types:
-            return node
-        key = id(node)
-        if key in self._memo:
-            return self._memo[key][1]
-        out = self._convert(node)
-        if node.is_expression_type():
-            self._memo[key] = (node, out)
-        return out
-
-    def _convert(self, node) -> ca.SX | float:
-        if node.is_expression_type():
-            args = [self(a) for a in node.args]
-            name = getattr(node, "getname", lambda: "")()
-            if name in _UNARY and len(args) == 1:
-                return _UNARY[name](args[0])
-            return node._apply_operation(args)
-        if node.is_variable_type():
-            if node.fixed:
-                return float(node.value)
-            return self.x[self.var_index[id(node)]]
-        if node.is_parameter_type() and id(node) in self.param_index:
-            return self.p[self.param_index[id(node)]]
-        return float(pyo.value(node))
+from model.pyomo_sx import PyomoToSX, apply_templates, component_rows
 
 
 class CasadiNLP(NLP):
-    """pynumero NLP of a Pyomo model (one active minimising objective) via CasADi."""
+    """pynumero NLP of a Pyomo model (one active objective) via CasADi, presolved."""
 
-    def __init__(self, model: pyo.Block):
+    def __init__(self, model: pyo.Block, presolve: bool = True, templates: bool = True):
         self.model = model
         self.variables = [v for v in model.component_data_objects(pyo.Var, descend_into=True) if not v.fixed]
-        self.constraints = list(model.component_data_objects(pyo.Constraint, active=True, descend_into=True))
         self.params = [
             q for q in model.component_data_objects(pyo.Param, descend_into=True) if q.parent_component().mutable
         ]
@@ -84,27 +39,109 @@ class CasadiNLP(NLP):
             raise ValueError(f"expected one active objective, found {len(objectives)}")
         self.objective = objectives[0]
         self._sense = 1.0 if self.objective.sense == pyo.minimize else -1.0
-        self._build_functions()
+        x_full, p, g_full, f = self._translate(templates)
+        self._reduce(x_full, p, g_full, f, presolve)
         self._x = self.init_primals()
         self._y = np.zeros(self.n_constraints())
         self._sigma = np.ones(1)
         self._p = np.array([float(pyo.value(q)) for q in self.params])
+        self._evaluate_bounds()
 
     # -- construction ---------------------------------------------------------
-    def _build_functions(self) -> None:
-        n, m = len(self.variables), len(self.constraints)
-        x, p = ca.SX.sym("x", n), ca.SX.sym("p", len(self.params))
-        walk = PyomoToSX(
-            {id(v): i for i, v in enumerate(self.variables)}, x, {id(q): i for i, q in enumerate(self.params)}, p
-        )
-        g_exprs, self._bound_exprs = [], []
-        for con in self.constraints:
-            lo, body, hi = con.to_bounded_expression(evaluate_bounds=False)
-            g_exprs.append(walk(body))
-            self._bound_exprs.append((lo, hi))
-        self._evaluate_bounds()
-        g = ca.vertcat(*[ca.SX(e) for e in g_exprs]) if g_exprs else ca.SX(0, 1)
+    def _translate(self, templates: bool):
+        """SX of every active constraint body (component by component) and of the objective."""
+        x = ca.SX.sym("x", len(self.variables))
+        p = ca.SX.sym("p", len(self.params))
+        walk = PyomoToSX({id(v): i for i, v in enumerate(self.variables)}, x,
+                         {id(q): i for i, q in enumerate(self.params)}, p)  # fmt: skip
+        self.constraints, self._bound_exprs, pieces, extra = [], [], [], []
+        for comp in self.model.component_objects(pyo.Constraint, active=True, descend_into=True):
+            datas = [d for d in comp.values() if d.active]
+            tmpl = None
+            if templates and comp.is_indexed() and len(datas) == len(comp) > 2:
+                tmpl = component_rows(comp, walk, extra)
+            if tmpl is None:
+                tmpl = (None, [walk(d.to_bounded_expression(evaluate_bounds=False)[1]) for d in datas])
+            pieces.append((tmpl, datas))
+            self.constraints += datas
+            self._bound_exprs += [d.to_bounded_expression(evaluate_bounds=False)[::2] for d in datas]
+        pool = ca.vertcat(x, p, ca.DM(extra)) if extra else ca.vertcat(x, p)
+        rows = []
+        for (index, body), datas in pieces:
+            if index is None:
+                rows.append(ca.vertcat(*[ca.SX(b) for b in body]) if body else ca.SX(0, 1))
+            else:
+                rows.append(self._checked(apply_templates(pool, [(index, body)]), datas, walk, x, p))
+        g = ca.vertcat(*rows) if rows else ca.SX(0, 1)
         f = self._sense * ca.SX(walk(self.objective.expr))
+        return x, p, g, f
+
+    @staticmethod
+    def _checked(rows: ca.SX, datas: list, walk: PyomoToSX, x: ca.SX, p: ca.SX) -> ca.SX:
+        """Compare template rows with direct walks at three indices; on mismatch, walk all."""
+        picks = sorted({0, len(datas) // 2, len(datas) - 1})
+        direct = ca.vertcat(*[ca.SX(walk(datas[i].to_bounded_expression(evaluate_bounds=False)[1])) for i in picks])
+        check = ca.Function("check", [x, p], [rows[picks] - direct, direct])
+        rng = np.random.default_rng(0)
+        diff, ref = check(rng.uniform(0.1, 0.9, x.numel()), rng.uniform(0.1, 0.9, p.numel()))
+        if np.max(np.abs(np.array(diff))) <= 1e-10 * (1 + np.max(np.abs(np.array(ref)))):
+            return rows
+        return ca.vertcat(*[ca.SX(walk(d.to_bounded_expression(evaluate_bounds=False)[1])) for d in datas])
+
+    def _reduce(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX, presolve: bool) -> None:
+        """Eliminate defined variables (if ``presolve``) and build the derivative functions."""
+        self._full = (x, p, g, f)
+        keep_rows, keep_cols, elim_cols, defs = self._definitions(x, g) if presolve else (None, None, [], None)
+        if elim_cols:
+            xr = x[keep_cols]
+            gr = ca.substitute(g[keep_rows], x[elim_cols], defs)
+            fr = ca.substitute(f, x[elim_cols], defs)
+            self._expand = ca.Function("expand", [xr, p], [defs])
+        else:
+            keep_rows, keep_cols = list(range(g.numel())), list(range(x.numel()))
+            xr, gr, fr = x, g, f
+        self._rows, self._cols, self._elim = np.array(keep_rows), np.array(keep_cols), np.array(elim_cols)
+        self._def_rows = np.setdiff1d(np.arange(g.numel()), self._rows)
+        self._make_functions(xr, p, gr, fr)
+
+    def _definitions(self, x: ca.SX, g: ca.SX):
+        """Rows 0 = c x_i + rest(x) that define an unbounded x_i from other variables.
+
+        A row qualifies if c is its only constant coefficient, its bounds are the
+        number 0 on both sides, and no other eliminated variable appears in it.
+        """
+        jac = ca.jacobian(g, x)
+        rows, cols = jac.sparsity().get_triplet()
+        const: dict[int, list[tuple[int, float]]] = {}
+        count = np.bincount(rows, minlength=g.numel())
+        for r, c, e in zip(rows, cols, jac.nonzeros(), strict=True):
+            if e.is_constant():
+                const.setdefault(r, []).append((c, float(e)))
+        lbx, ubx = self._var_bounds()
+        chosen: dict[int, tuple[int, float]] = {}
+        used: set[int] = set()
+        for r, entries in const.items():
+            (c, coef), bounds = entries[0], self._bound_exprs[r]
+            if len(entries) != 1 or count[r] < 2 or coef == 0 or c in used or bounds != (0, 0):
+                continue
+            if np.isfinite(lbx[c]) or np.isfinite(ubx[c]):
+                continue
+            chosen[r] = (c, coef)
+            used.add(c)
+        chosen = _without_chains(chosen, rows, cols)
+        if not chosen:
+            return None, None, [], None
+        def_rows = sorted(chosen)
+        elim = [chosen[r][0] for r in def_rows]
+        coefs = ca.DM([chosen[r][1] for r in def_rows])
+        rest = ca.substitute(g[def_rows], x[elim], ca.DM.zeros(len(elim)))  # each row holds only its own
+        defs = -rest / coefs
+        keep_rows = [r for r in range(g.numel()) if r not in chosen]
+        keep_cols = [c for c in range(x.numel()) if c not in set(elim)]
+        return keep_rows, keep_cols, elim, defs
+
+    def _make_functions(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX) -> None:
+        m, n = g.numel(), x.numel()
         sigma, lam = ca.SX.sym("sigma"), ca.SX.sym("lam", m)
         jac = ca.jacobian(g, x)
         hess = ca.tril(ca.hessian(sigma * f + ca.dot(lam, g), x)[0])
@@ -121,10 +158,10 @@ class CasadiNLP(NLP):
 
     # -- sizes and bounds -------------------------------------------------------
     def n_primals(self) -> int:
-        return len(self.variables)
+        return len(self._cols)
 
     def n_constraints(self) -> int:
-        return len(self.constraints)
+        return len(self._rows)
 
     def nnz_jacobian(self) -> int:
         return len(self._jac_rc[0])
@@ -132,21 +169,26 @@ class CasadiNLP(NLP):
     def nnz_hessian_lag(self) -> int:
         return len(self._hess_rc[0])
 
+    def _var_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lb = np.array([-np.inf if v.lb is None else v.lb for v in self.variables], dtype=float)
+        ub = np.array([np.inf if v.ub is None else v.ub for v in self.variables], dtype=float)
+        return lb, ub
+
     def primals_lb(self) -> np.ndarray:
-        return np.array([-np.inf if v.lb is None else v.lb for v in self.variables], dtype=float)
+        return self._var_bounds()[0][self._cols]
 
     def primals_ub(self) -> np.ndarray:
-        return np.array([np.inf if v.ub is None else v.ub for v in self.variables], dtype=float)
+        return self._var_bounds()[1][self._cols]
 
     def constraints_lb(self) -> np.ndarray:
-        return self._gl.copy()
+        return self._gl[self._rows]
 
     def constraints_ub(self) -> np.ndarray:
-        return self._gu.copy()
+        return self._gu[self._rows]
 
     def init_primals(self) -> np.ndarray:
-        vals = [v.value for v in self.variables]
-        return np.array([0.0 if a is None else a for a in vals], dtype=float)
+        vals = np.array([0.0 if v.value is None else v.value for v in self.variables], dtype=float)
+        return vals[self._cols]
 
     def init_duals(self) -> np.ndarray:
         return np.zeros(self.n_constraints())
@@ -154,6 +196,15 @@ class CasadiNLP(NLP):
     def create_new_vector(self, vector_type: str) -> np.ndarray:
         size = self.n_primals() if vector_type.startswith("primal") else self.n_constraints()
         return np.zeros(size)
+
+    def _bounds_now(self) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.array([-np.inf if a is None else pyo.value(a) for a, _ in self._bound_exprs], dtype=float)
+        hi = np.array([np.inf if b is None else pyo.value(b) for _, b in self._bound_exprs], dtype=float)
+        return lo, hi
+
+    def _evaluate_bounds(self) -> None:
+        """Constraint bounds may be Param expressions: evaluate them now."""
+        self._gl, self._gu = self._bounds_now()
 
     # -- state -------------------------------------------------------------------
     def set_primals(self, primals: np.ndarray) -> None:
@@ -178,11 +229,6 @@ class CasadiNLP(NLP):
         """Re-read mutable Param values and the constraint bounds that use them."""
         self._p[:] = [float(pyo.value(q)) for q in self.params]
         self._evaluate_bounds()
-
-    def _evaluate_bounds(self) -> None:
-        """Constraint bounds may be Param expressions: evaluate them now."""
-        self._gl = np.array([-np.inf if lo is None else pyo.value(lo) for lo, _ in self._bound_exprs], dtype=float)
-        self._gu = np.array([np.inf if hi is None else pyo.value(hi) for _, hi in self._bound_exprs], dtype=float)
 
     def get_obj_scaling(self):
         return None
@@ -224,12 +270,36 @@ class CasadiNLP(NLP):
         self.status = (status_code, status_message)
 
     # -- back into Pyomo -------------------------------------------------------------
+    def full_primals(self, x: np.ndarray) -> np.ndarray:
+        """All model variables' values from a reduced primal vector."""
+        full = np.empty(len(self.variables))
+        full[self._cols] = x
+        if len(self._elim):
+            full[self._elim] = np.array(self._expand(x, self._p)).ravel()
+        return full
+
     def load_primals(self, x: np.ndarray) -> None:
-        """Write primal values into the Pyomo variables."""
-        for v, val in zip(self.variables, x, strict=True):
+        """Write primal values (reduced vector) into the Pyomo variables."""
+        for v, val in zip(self.variables, self.full_primals(x), strict=True):
             v.set_value(float(val), skip_validation=True)
 
-    def load_duals(self, mult_g: np.ndarray) -> None:
+    def full_duals(self, x: np.ndarray, mult_g: np.ndarray) -> np.ndarray:
+        """Multipliers of all rows; defining rows from stationarity in the eliminated variables."""
+        lam = np.zeros(len(self.constraints))
+        lam[self._rows] = mult_g
+        if len(self._elim):
+            if not hasattr(self, "_kkt"):
+                xf, p, g, f = self._full
+                self._kkt = ca.Function("kkt", [xf, p], [ca.gradient(f, xf), ca.jacobian(g, xf)])
+            grad, jac = self._kkt(self.full_primals(x), self._p)
+            J = jac.sparse().tocsr()
+            cols = self._elim
+            rest = np.array(grad).ravel()[cols] + J[self._rows][:, cols].T @ mult_g
+            coef = np.asarray(J[self._def_rows, cols]).ravel()
+            lam[self._def_rows] = -rest / coef
+        return lam
+
+    def load_duals(self, mult_g: np.ndarray, x: np.ndarray | None = None) -> None:
         """Store constraint duals in ``model.dual`` with Pyomo's sign convention.
 
         Ipopt's Lagrangian is f + mult_g . g; Pyomo (AMPL) reports -mult_g for a
@@ -237,8 +307,24 @@ class CasadiNLP(NLP):
         """
         if not hasattr(self.model, "dual"):
             self.model.dual = pyo.Suffix(direction=pyo.Suffix.IMPORT)
-        for con, lam in zip(self.constraints, mult_g, strict=True):
-            self.model.dual[con] = -self._sense * float(lam)
+        lam = self.full_duals(self._x if x is None else x, mult_g)
+        for con, val in zip(self.constraints, lam, strict=True):
+            self.model.dual[con] = -self._sense * float(val)
+
+
+def _without_chains(chosen: dict[int, tuple[int, float]], rows: list, cols: list) -> dict[int, tuple[int, float]]:
+    """Drop definitions whose row uses another eliminated variable, until none does."""
+    row_cols: dict[int, set[int]] = {}
+    for r, c in zip(rows, cols, strict=True):
+        if r in chosen:
+            row_cols.setdefault(r, set()).add(c)
+    while True:
+        elim = {c for c, _ in chosen.values()}
+        bad = [r for r, (c, _) in chosen.items() if (row_cols[r] & elim) - {c}]
+        if not bad:
+            return chosen
+        for r in bad:
+            chosen.pop(r)
 
 
 class _Buffered:

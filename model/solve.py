@@ -88,7 +88,7 @@ def solve_pass(
 def finish(ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, passing: str, timings: dict) -> Solution:
     """Load Ipopt's answer into the model and make a validated, certified Solution."""
     nlp.load_primals(res.x)
-    nlp.load_duals(res.mult_g)
+    nlp.load_duals(res.mult_g, res.x)
     traj = trajectory(m, ocp)
     tf = float(pyo.value(m.tf))
     base = ["t", *ocp.vehicle.states, *ocp.vehicle.controls]

@@ -69,3 +69,30 @@ def test_jacobian_out_argument_is_filled_in_place(nlp):
     again = nlp.evaluate_jacobian(out=jac)
     assert again is jac and id(jac.data) == data_id
     np.testing.assert_allclose(jac.toarray(), nlp.evaluate_jacobian().toarray())
+
+
+def test_presolve_keeps_solution_and_recovers_multipliers():
+    """Eliminating dX = Tf f changes nothing Pyomo sees: same primal values and duals."""
+    import pyomo.environ as pyo
+
+    from model.guess import initial_guess
+    from model.ipopt import run_ipopt
+    from model.solve import load_values
+
+    ocp = paper_energy_problem()
+    duals, values = [], []
+    for presolve in (False, True):
+        m = build_model(ocp, intervals=30, passing="ccw")
+        load_values(m, initial_guess(ocp, "ccw", 30, 4.5))
+        nlp = CasadiNLP(m, presolve=presolve)
+        res = run_ipopt(nlp, {"tol": 1e-10})
+        assert res.status == "optimal"
+        nlp.load_primals(res.x)
+        nlp.load_duals(res.mult_g, res.x)
+        duals.append(np.array([m.dual[c] for c in nlp.constraints]))
+        values.append(np.array([v.value for v in nlp.variables]))
+        if presolve:
+            assert nlp.n_primals() < len(nlp.variables) and len(nlp._elim) == 4 * 31
+            assert all(abs(pyo.value(c.body)) < 1e-8 for c in m.ode_x.values())
+    np.testing.assert_allclose(values[1], values[0], atol=1e-6)
+    np.testing.assert_allclose(duals[1], duals[0], atol=1e-5)

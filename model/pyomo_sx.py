@@ -1,0 +1,164 @@
+"""Pyomo expressions to CasADi SX: one node walk per expression, or one per template.
+
+A collocation model repeats one constraint template per node. ``component_rows``
+asks Pyomo for the template of an indexed Constraint (``templatize_constraint``),
+translates it to SX once, and applies it to all indices through ``Function.map``;
+only the lookup of each index's variables runs in Python. Components that cannot be
+templatised, or whose template disagrees with a direct walk at sample indices, fall
+back to walking every constraint.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pyomo.environ as pyo
+from pyomo.core.expr.numvalue import native_numeric_types
+from pyomo.core.expr.relational_expr import EqualityExpression, InequalityExpression, RangedExpression
+from pyomo.core.expr.template_expr import GetItemExpression, IndexTemplate, templatize_constraint
+
+_UNARY = {
+    "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos, "atan": ca.atan,
+    "exp": ca.exp, "log": ca.log, "sqrt": ca.sqrt, "abs": ca.fabs, "sinh": ca.sinh, "cosh": ca.cosh,
+    "tanh": ca.tanh, "log10": ca.log10,
+}  # fmt: skip
+
+
+class PyomoToSX:
+    """Translate Pyomo expressions to SX over given variable and parameter symbols."""
+
+    def __init__(self, var_index: dict[int, int], x: ca.SX, param_index: dict[int, int], p: ca.SX):
+        self.var_index, self.x = var_index, x
+        self.param_index, self.p = param_index, p
+        self._memo: dict[int, tuple[object, ca.SX]] = {}  # keeps nodes alive: ids stay unique
+
+    def __call__(self, node) -> ca.SX | float:
+        if type(node) in native_numeric_types:
+            return node
+        key = id(node)
+        if key in self._memo:
+            return self._memo[key][1]
+        out = self._convert(node)
+        if node.is_expression_type():
+            self._memo[key] = (node, out)
+        return out
+
+    def _convert(self, node) -> ca.SX | float:
+        if node.is_expression_type():
+            args = [self(a) for a in node.args]
+            name = getattr(node, "getname", lambda: "")()
+            if name in _UNARY and len(args) == 1:
+                return _UNARY[name](args[0])
+            return node._apply_operation(args)
+        if node.is_variable_type():
+            return float(node.value) if node.fixed else self.x[self.var_index[id(node)]]
+        if node.is_parameter_type() and id(node) in self.param_index:
+            return self.p[self.param_index[id(node)]]
+        return float(pyo.value(node))
+
+
+class _TemplateToSX(PyomoToSX):
+    """Like PyomoToSX, but each indexed reference (x[t], p[i], t) becomes a slot symbol."""
+
+    def __init__(self, base: PyomoToSX):
+        super().__init__(base.var_index, base.x, base.param_index, base.p)
+        self.slots: list[tuple[object, tuple]] = []
+        self.symbols: list[ca.SX] = []
+        self._slot_of: dict[str, int] = {}
+
+    def _convert(self, node) -> ca.SX | float:
+        if isinstance(node, IndexTemplate):
+            return self._slot(None, (node,), f"@{node}")
+        if isinstance(node, GetItemExpression):
+            return self._slot(node.args[0], tuple(node.args[1:]), str(node))
+        if not node.is_expression_type() and (node.is_variable_type() or node.is_parameter_type()):
+            return self._slot(node, (), f"#{id(node)}")  # a scalar: the same at every index
+        return super()._convert(node)
+
+    def _slot(self, base, index_args: tuple, key: str) -> ca.SX:
+        if key not in self._slot_of:
+            self._slot_of[key] = len(self.slots)
+            self.slots.append((base, index_args))
+            self.symbols.append(ca.SX.sym(f"s{len(self.slots)}"))
+        return self.symbols[self._slot_of[key]]
+
+
+def _bounded(expr) -> tuple[object, object, object]:
+    """(lower, body, upper) of a relational template, following Pyomo's own rule."""
+    if isinstance(expr, RangedExpression):
+        return expr.args
+    a, b = expr.args
+    if isinstance(expr, EqualityExpression):
+        if not _variable(b):
+            return b, a, b
+        return (a, b, a) if not _variable(a) else (0, a - b, 0)
+    if isinstance(expr, InequalityExpression):
+        if not _variable(a):
+            return a, b, None
+        return (None, a, b) if not _variable(b) else (None, a - b, 0)
+    raise TypeError(f"not a relational expression: {type(expr).__name__}")
+
+
+def _variable(e) -> bool:
+    return type(e) not in native_numeric_types and e.is_potentially_variable()
+
+
+def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> tuple[np.ndarray, ca.Function] | None:
+    """The template of ``comp`` as (slot index matrix, mapped Function), or None.
+
+    ``pool_extra`` collects numeric per-index constants; the pool vector is
+    (x, p, pool_extra) and ``apply_templates`` evaluates the templates on it.
+    """
+    try:
+        expr, templates = templatize_constraint(comp)
+        _, body, _ = _bounded(expr)
+    except Exception:  # noqa: BLE001  (any rule Pyomo cannot templatise)
+        return None
+    tw = _TemplateToSX(walk)
+    try:
+        row = ca.SX(tw(body))
+    except Exception:  # noqa: BLE001
+        return None
+    keys = list(comp.keys())
+    index = np.empty((len(tw.slots), len(keys)), dtype=np.int64)
+    n_x, n_p = walk.x.numel(), walk.p.numel()
+    for j, key in enumerate(keys):
+        values = key if isinstance(key, tuple) else (key,)
+        for tmpl, val in zip(templates, values, strict=True):
+            tmpl.set_value(val)
+        for s, (base, args) in enumerate(tw.slots):
+            index[s, j] = _resolve(base, args, walk, n_x, n_p, pool_extra)
+    for tmpl in templates:
+        tmpl.set_value(None)
+    fn = ca.Function("template", [ca.vertcat(*tw.symbols)], [row]).map(len(keys))
+    return index, fn
+
+
+def _resolve(base, args, walk: PyomoToSX, n_x: int, n_p: int, extra: list[float]) -> int:
+    """Position in the pool (x, then p, then constants) of one slot at the current index."""
+    if base is None:
+        extra.append(float(args[0]()))
+        return n_x + n_p + len(extra) - 1
+    if args:
+        idx = tuple(a() if isinstance(a, IndexTemplate) else pyo.value(a) for a in args)
+        data = base[idx[0] if len(idx) == 1 else idx]
+    else:
+        data = base
+    if type(data) in native_numeric_types:
+        extra.append(float(data))
+        return n_x + n_p + len(extra) - 1
+    if data.is_variable_type() and not data.fixed:
+        return walk.var_index[id(data)]
+    if data.is_parameter_type() and id(data) in walk.param_index:
+        return n_x + walk.param_index[id(data)]
+    extra.append(float(pyo.value(data)))
+    return n_x + n_p + len(extra) - 1
+
+
+def apply_templates(pool_vec: ca.SX, pieces: list) -> ca.SX:
+    """Evaluate each (index matrix, mapped Function) on the pool: SX rows, stacked."""
+    out = []
+    for index, fn in pieces:
+        args = ca.reshape(pool_vec[index.T.ravel().tolist()], index.shape[0], index.shape[1])
+        out.append(ca.vec(fn(args)))
+    return ca.vertcat(*out)
