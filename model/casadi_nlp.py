@@ -20,6 +20,7 @@ import casadi as ca
 import numpy as np
 import pyomo.environ as pyo
 from pyomo.contrib.pynumero.interfaces.nlp import NLP
+from pyomo.core.expr.numvalue import native_numeric_types
 from scipy.sparse import coo_matrix
 
 from model.pyomo_sx import PyomoToSX, apply_templates, component_rows
@@ -32,7 +33,7 @@ class CasadiNLP(NLP):
         self.model = model
         self.variables = [v for v in model.component_data_objects(pyo.Var, descend_into=True) if not v.fixed]
         self.params = [
-            q for q in model.component_data_objects(pyo.Param, descend_into=True) if q.parent_component().mutable
+            q for comp in model.component_objects(pyo.Param, descend_into=True) if comp.mutable for q in comp.values()
         ]
         objectives = list(model.component_data_objects(pyo.Objective, active=True, descend_into=True))
         if len(objectives) != 1:
@@ -69,7 +70,7 @@ class CasadiNLP(NLP):
         rows = []
         for (index, body), datas in pieces:
             if index is None:
-                rows.append(ca.vertcat(*[ca.SX(b) for b in body]) if body else ca.SX(0, 1))
+                rows.append(ca.vertcat(*body) if body else ca.SX(0, 1))
             else:
                 rows.append(self._checked(apply_templates(pool, [(index, body)]), datas, walk, x, p))
         g = ca.vertcat(*rows) if rows else ca.SX(0, 1)
@@ -91,6 +92,7 @@ class CasadiNLP(NLP):
     def _reduce(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX, presolve: bool) -> None:
         """Eliminate defined variables (if ``presolve``) and build the derivative functions."""
         self._full = (x, p, g, f)
+        self._p_symbol = p
         keep_rows, keep_cols, elim_cols, defs = self._definitions(x, g) if presolve else (None, None, [], None)
         if elim_cols:
             xr = x[keep_cols]
@@ -112,17 +114,14 @@ class CasadiNLP(NLP):
         """
         jac = ca.jacobian(g, x)
         rows, cols = jac.sparsity().get_triplet()
-        const: dict[int, list[tuple[int, float]]] = {}
+        const = _constant_entries(jac, x, self._p_symbol, rows)
         count = np.bincount(rows, minlength=g.numel())
-        for r, c, e in zip(rows, cols, jac.nonzeros(), strict=True):
-            if e.is_constant():
-                const.setdefault(r, []).append((c, float(e)))
         lbx, ubx = self._var_bounds()
         chosen: dict[int, tuple[int, float]] = {}
         used: set[int] = set()
         for r, entries in const.items():
             (c, coef), bounds = entries[0], self._bound_exprs[r]
-            if len(entries) != 1 or count[r] < 2 or coef == 0 or c in used or bounds != (0, 0):
+            if len(entries) != 1 or count[r] < 2 or coef == 0 or c in used or not all(_is_zero(b) for b in bounds):
                 continue
             if np.isfinite(lbx[c]) or np.isfinite(ubx[c]):
                 continue
@@ -137,7 +136,8 @@ class CasadiNLP(NLP):
         rest = ca.substitute(g[def_rows], x[elim], ca.DM.zeros(len(elim)))  # each row holds only its own
         defs = -rest / coefs
         keep_rows = [r for r in range(g.numel()) if r not in chosen]
-        keep_cols = [c for c in range(x.numel()) if c not in set(elim)]
+        gone = set(elim)
+        keep_cols = [c for c in range(x.numel()) if c not in gone]
         return keep_rows, keep_cols, elim, defs
 
     def _make_functions(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX) -> None:
@@ -310,6 +310,30 @@ class CasadiNLP(NLP):
         lam = self.full_duals(self._x if x is None else x, mult_g)
         for con, val in zip(self.constraints, lam, strict=True):
             self.model.dual[con] = -self._sense * float(val)
+
+
+def _is_zero(value) -> bool:
+    return type(value) in native_numeric_types and value == 0
+
+
+def _constant_entries(jac: ca.SX, x: ca.SX, p: ca.SX, rows: list) -> dict[int, list[tuple[int, float]]]:
+    """Per row, the Jacobian entries that are constants (screened numerically, then checked)."""
+    fn = ca.Function("jac_values", [x, p], [jac])
+    rng = np.random.default_rng(0)
+    a, b = (np.array(fn(rng.uniform(0.2, 0.8, x.numel()), rng.uniform(0.2, 0.8, p.numel())).nonzeros())
+            for _ in range(2))  # fmt: skip
+    same = np.flatnonzero(a == b)
+    per_row = np.bincount(np.asarray(rows)[same], minlength=jac.size1())
+    sp_rows, sp_cols = np.asarray(rows), np.asarray(jac.sparsity().get_triplet()[1])
+    out: dict[int, list[tuple[int, float]]] = {}
+    for k in same:
+        r = int(sp_rows[k])
+        entry = jac.nz[int(k)] if per_row[r] == 1 else None
+        if entry is not None and entry.is_constant():
+            out[r] = [(int(sp_cols[k]), float(entry))]
+        elif per_row[r] > 1:
+            out[r] = [(-1, 0.0)] * int(per_row[r])  # several constants: not a definition
+    return out
 
 
 def _without_chains(chosen: dict[int, tuple[int, float]], rows: list, cols: list) -> dict[int, tuple[int, float]]:

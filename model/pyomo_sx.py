@@ -13,6 +13,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pyomo.environ as pyo
+from pyomo.core.expr.numeric_expr import SumExpression
 from pyomo.core.expr.numvalue import native_numeric_types
 from pyomo.core.expr.relational_expr import EqualityExpression, InequalityExpression, RangedExpression
 from pyomo.core.expr.template_expr import GetItemExpression, IndexTemplate, templatize_constraint
@@ -140,7 +141,7 @@ def _resolve(base, args, walk: PyomoToSX, n_x: int, n_p: int, extra: list[float]
         extra.append(float(args[0]()))
         return n_x + n_p + len(extra) - 1
     if args:
-        idx = tuple(a() if isinstance(a, IndexTemplate) else pyo.value(a) for a in args)
+        idx = tuple(_index_value(a) for a in args)
         data = base[idx[0] if len(idx) == 1 else idx]
     else:
         data = base
@@ -153,6 +154,20 @@ def _resolve(base, args, walk: PyomoToSX, n_x: int, n_p: int, extra: list[float]
         return n_x + walk.param_index[id(data)]
     extra.append(float(pyo.value(data)))
     return n_x + n_p + len(extra) - 1
+
+
+def _index_value(a):
+    """Value of a small index expression (t, k - 1, tp[k - 1]) at the current template values."""
+    if type(a) in native_numeric_types:
+        return a
+    if isinstance(a, IndexTemplate):
+        return a()
+    if isinstance(a, GetItemExpression):
+        idx = tuple(_index_value(b) for b in a.args[1:])
+        return a.args[0][idx[0] if len(idx) == 1 else idx]
+    if isinstance(a, SumExpression):
+        return sum(_index_value(b) for b in a.args)
+    return pyo.value(a)
 
 
 def apply_templates(pool_vec: ca.SX, pieces: list) -> ca.SX:

@@ -16,7 +16,7 @@ t_0 included: with controls at the nodes this is the paper's scheme (31).
 from __future__ import annotations
 
 from pyomo.common.config import ConfigBlock, ConfigValue, PositiveInt
-from pyomo.core import Constraint, Var
+from pyomo.core import Constraint, Param, RangeSet, Var
 from pyomo.core.base import Transformation, TransformationFactory
 from pyomo.dae import ContinuousSet, DerivativeVar
 from pyomo.dae.diffvar import DAE_Error
@@ -64,13 +64,22 @@ def _add_trapezoid(dv: DerivativeVar, ds: ContinuousSet) -> None:
     if dv.get_continuousset_list() != [ds] or dv.dim() != 1:
         raise DAE_Error(f"dae.trapezoid handles first derivatives of Vars indexed by one set; not '{dv.name}'")
     sv = dv.get_state_var()
-    points = list(ds)
-
-    def rule(_block, k):
-        t0, t1 = points[k - 1], points[k]
-        return sv[t1] - sv[t0] == (t1 - t0) / 2 * (dv[t0] + dv[t1])
-
     block = dv.parent_block()
-    block.add_component(f"{dv.local_name}_trapezoid", Constraint(range(1, len(points)), rule=rule))
+    tp = _points_param(block, ds)
+    n = len(ds) - 1
+
+    def rule(_block, k):  # written with tp[k] so that Pyomo can templatise it
+        return sv[tp[k]] - sv[tp[k - 1]] == (tp[k] - tp[k - 1]) / 2 * (dv[tp[k - 1]] + dv[tp[k]])
+
+    block.add_component(f"{dv.local_name}_trapezoid", Constraint(RangeSet(1, n), rule=rule))
     dv.set_derivative_expression(None)
     block.reclassify_component_type(dv, Var)
+
+
+def _points_param(block, ds: ContinuousSet) -> Param:
+    """The set's points as an (immutable) Param indexed 0..N, shared by its derivatives."""
+    name = f"{ds.local_name}_points"
+    if block.find_component(name) is None:
+        points = list(ds)
+        block.add_component(name, Param(RangeSet(0, len(points) - 1), initialize=dict(enumerate(points))))
+    return block.find_component(name)
