@@ -122,16 +122,24 @@ def _add_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
 
 
 def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
-    """Signed angle swept around the first obstacle: sum of atan(cross/dot) per step."""
+    """Signed angle swept around the first obstacle, step by step: atan(cross / dot).
+
+    Each step's angle is a defined variable (one templated constraint per step, which
+    the NLP presolve eliminates again); their sum must be >= 0 (ccw) or <= 0 (cw).
+    """
     px, py = ocp.vehicle.position
-    X, Y = m.component(px), m.component(py)
-    cx, cy = ocp.obstacles[0].center
-    nodes = m.nodes
-    sweep = 0
-    for a, b in zip(nodes[:-1], nodes[1:], strict=True):
-        ax, ay, bx, by = X[a] - cx, Y[a] - cy, X[b] - cx, Y[b] - cy
-        sweep = sweep + pyo.atan((ax * by - ay * bx) / (ax * bx + ay * by))
-    m.pass_direction = pyo.Constraint(expr=(sweep >= 0) if passing == "ccw" else (sweep <= 0))
+    X, Y, tp = m.component(px), m.component(py), m.tau_points
+    m.steps = pyo.RangeSet(1, len(m.nodes) - 1)
+    m.sweep = pyo.Var(m.steps, initialize=0.0)
+
+    def rule(_m, k):
+        ax, ay = X[tp[k - 1]] - m.obstacle_cx[0], Y[tp[k - 1]] - m.obstacle_cy[0]
+        bx, by = X[tp[k]] - m.obstacle_cx[0], Y[tp[k]] - m.obstacle_cy[0]
+        return m.sweep[k] == pyo.atan((ax * by - ay * bx) / (ax * bx + ay * by))
+
+    m.sweep_step = pyo.Constraint(m.steps, rule=rule)
+    total = pyo.quicksum(m.sweep[k] for k in m.steps)
+    m.pass_direction = pyo.Constraint(expr=(total >= 0) if passing == "ccw" else (total <= 0))
 
 
 def _add_objective(m: pyo.ConcreteModel, ocp: OCP) -> None:
