@@ -123,16 +123,35 @@ def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> tuple[np.n
     keys = list(comp.keys())
     index = np.empty((len(tw.slots), len(keys)), dtype=np.int64)
     n_x, n_p = walk.x.numel(), walk.p.numel()
-    for j, key in enumerate(keys):
+    general = []
+    for s, (base, args) in enumerate(tw.slots):
+        if base is not None and not args:  # a scalar: one position for every index
+            index[s, :] = _resolve(base, args, walk, n_x, n_p, pool_extra)
+        elif base is not None and _same(args, templates) and base.is_variable_type():
+            index[s, :] = _positions(base, keys, walk)  # x[t] with t the constraint's own index
+        else:
+            general.append(s)
+    for j, key in enumerate(keys if general else []):
         values = key if isinstance(key, tuple) else (key,)
         for tmpl, val in zip(templates, values, strict=True):
             tmpl.set_value(val)
-        for s, (base, args) in enumerate(tw.slots):
-            index[s, j] = _resolve(base, args, walk, n_x, n_p, pool_extra)
+        for s in general:
+            index[s, j] = _resolve(*tw.slots[s], walk, n_x, n_p, pool_extra)
     for tmpl in templates:
         tmpl.set_value(None)
     fn = ca.Function("template", [ca.vertcat(*tw.symbols)], [row]).map(len(keys))
     return index, fn
+
+
+def _same(args: tuple, templates: tuple) -> bool:
+    """Is the index exactly the constraint's own template index (by identity)?"""
+    return len(args) == len(templates) and all(a is t for a, t in zip(args, templates, strict=True))
+
+
+def _positions(base, keys: list, walk: PyomoToSX) -> list[int]:
+    """x positions of base[key] for every key (free Vars only; else the slower path)."""
+    where = walk.var_index
+    return [where[id(base[key])] for key in keys]
 
 
 def _resolve(base, args, walk: PyomoToSX, n_x: int, n_p: int, extra: list[float]) -> int:
