@@ -67,10 +67,11 @@ assert solution.ok
 # The built-in unicycle (no steering angle) on the same roundabout, for comparison:
 
 # %%
-no_steering = {**roundabout, "bounds": {"u1": (-1, 1), "u2": (-1, 1)}}  # u2 is now the turn rate
+no_steering = {**roundabout, "bounds": {"u1": (-1, 1), "u2": (-3, 3)}}  # u2 is now the turn rate (rad/s)
 uni = OCP(vehicle=Unicycle(), initial=dict(x=0, y=0, theta=0), name="unicycle", **no_steering)
 uni_solution = uni.solve(intervals=60)
 print(f"unicycle: ok={uni_solution.ok} E={uni_solution.energy:.4g}")
+assert uni_solution.ok, uni_solution.status
 
 # %% [markdown]
 # Its Pontryagin system is derived from the same definition:
