@@ -16,6 +16,7 @@ from latex2mathml.converter import convert as latex_to_mathml
 # fenced code | inline code | display math | inline math (a lone $ or an escaped \$ is text)
 TOKENS = re.compile(r"(```.*?```|`[^`\n]+`|\$\$.+?\$\$|(?<![\\$])\$(?!\s)[^$\n]+?(?<![\s\\])\$(?!\$))", re.S)
 IMAGE = re.compile(r'<p>\s*<img alt="([^"]*)" src="([^"]+)"\s*/?>\s*</p>')
+LONG_INLINE = 100  # characters of LaTeX above which inline math gets its own scroll box
 EXTENSIONS = ["tables", "fenced_code", "toc", "sane_lists"]
 
 
@@ -47,7 +48,8 @@ def mathml(tex: str, display: bool) -> str:
     try:
         if display:
             return f'<div class="display-math">{latex_to_mathml(tex, display="block")}</div>'
-        return latex_to_mathml(tex, display="inline")
+        inline = latex_to_mathml(tex, display="inline")
+        return f'<span class="long-math">{inline}</span>' if len(tex) > LONG_INLINE else inline
     except Exception as err:  # noqa: BLE001 - any converter failure shows the source instead
         print(f"paper_html: math not converted ({err}): {tex[:80]}", file=sys.stderr)
         return f'<code class="math-error">{html.escape(tex)}</code>'
