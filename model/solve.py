@@ -19,6 +19,8 @@ from model.transcription import build_model, grid
 from model.validation import validate
 from model.vehicles import sym
 
+TIME_STARTS = (1.0, 1.5, 2.0)
+
 
 def passes_to_try(ocp: OCP) -> list[str]:
     """'auto' with an obstacle tries both directions; without one there is no pass."""
@@ -33,20 +35,29 @@ def solve_ocp(
     verbose: bool = False,
     options: dict | None = None,
     guess: pd.DataFrame | None = None,
+    starts: tuple[float, ...] | None = None,
 ) -> Solution:
     """Solve every pass direction asked for and keep the best validated solution.
 
     ``guess``: a trajectory (t, states, controls; e.g. ``other.trajectory``) to start
     from instead of the geometric guess; it is resampled onto the new grid.
+    ``starts``: scale factors of the first guess of Tf, one cold start each; the time
+    objective is nonconvex (local minima), so by default it tries TIME_STARTS.
     """
     start = time.perf_counter()
     best: Solution | None = None
     attempts = []
+    if starts is None:
+        starts = TIME_STARTS if ocp.cost.free_final_time and guess is None else (1.0,)
     for passing in passes_to_try(ocp):
-        sol = solve_pass(ocp, intervals, passing, verbose=verbose, options=options, guess=guess)
-        attempts.append({"pass": passing, "status": sol.status, "valid": sol.ok, "objective": sol.objective})
-        if best is None or _better(sol, best):
-            best = sol
+        for scale in starts:
+            sol = solve_pass(ocp, intervals, passing, verbose, options, guess, tf_scale=scale)
+            attempts.append(
+                {"pass": passing, "tf_guess_scale": scale, "status": sol.status, "valid": sol.ok,
+                 "objective": sol.objective}
+            )  # fmt: skip
+            if best is None or _better(sol, best):
+                best = sol
     best.attempts = attempts
     best.solve_seconds = time.perf_counter() - start
     return best
@@ -65,6 +76,7 @@ def solve_pass(
     verbose: bool = False,
     options: dict | None = None,
     guess: pd.DataFrame | None = None,
+    tf_scale: float = 1.0,
 ) -> Solution:
     """One Ipopt solve with the guess and the constraint of one pass direction."""
     t0 = time.perf_counter()
@@ -73,7 +85,7 @@ def solve_pass(
         tf_guess = float(ocp.final_time if not ocp.cost.free_final_time else guess["t"].iloc[-1])
         load_values(m, resample(ocp, guess, intervals))
     else:
-        tf_guess = guess_final_time(ocp, passing)
+        tf_guess = guess_final_time(ocp, passing) * (tf_scale if ocp.cost.free_final_time else 1.0)
         load_values(m, initial_guess(ocp, passing, intervals, tf_guess))
     if ocp.cost.free_final_time:
         m.tf.set_value(tf_guess)
