@@ -11,18 +11,13 @@ from scipy.integrate import solve_ivp
 from derivations.checking import Claim, check_expression, compare, decide, fmt, is_zero
 from derivations.claims_time import boundary_arc
 from derivations.extremals import Extremal, T, describe, holds_all, verify
+from derivations.paper_symbols import DIST, PAPER_PSI1, R, d, mu, phi, pph, pth, px, py, theta, u1, u2
 from derivations.pmp import PMPSystem, derive
 from derivations.problems import U2MAX, eetppco
-from derivations.symbolic import derivative_symbol, obstacle_symbols
-from model.vehicles import sym
+from derivations.symbolic import derivative_symbol
 
 SECTION = "4 Energy-optimal control"
-x, y, theta, phi = (sym(n) for n in ("x", "y", "theta", "phi"))
-px, py, pth, pph = (sym(n) for n in ("p_x", "p_y", "p_theta", "p_phi"))
-u1, u2, d, mu = sym("u1"), sym("u2"), sym("d"), sym("mu")
-xo, yo, R = obstacle_symbols(0, 1)
-DIST = sp.sqrt((x - xo) ** 2 + (y - yo) ** 2)
-A1 = px * sp.cos(theta) + py * sp.sin(theta) + pth * sp.tan(phi) / d
+A1 = PAPER_PSI1
 SEC2 = 1 + sp.tan(phi) ** 2
 
 # PAPER (claims under test), typed from the text.

@@ -8,18 +8,14 @@ import sympy as sp
 
 from derivations.checking import Claim, check_expression, compare, decide, is_zero, nonvanishing
 from derivations.extremals import Extremal, T, describe, holds_all, verify
+from derivations.paper_symbols import DIST, PAPER_PSI1, R, d, mu, phi, pph, pth, px, py, theta, u1, u2, x, xo, y, yo
 from derivations.pmp import PMPSystem, derive
 from derivations.problems import U1MAX, U2MAX, toctaco, toctpco
-from derivations.symbolic import derivative_symbol, obstacle_symbols
+from derivations.symbolic import derivative_symbol
 from model.vehicles import sym
 
 SECTION = "3 Time-optimal control"
-x, y, theta, phi = (sym(n) for n in ("x", "y", "theta", "phi"))
-px, py, pth, pph = (sym(n) for n in ("p_x", "p_y", "p_theta", "p_phi"))
-u1, u2, d, mu = sym("u1"), sym("u2"), sym("d"), sym("mu")
-xo, yo, R = obstacle_symbols(0, 1)
-DIST = sp.sqrt((x - xo) ** 2 + (y - yo) ** 2)
-PSI1 = px * sp.cos(theta) + py * sp.sin(theta) + pth * sp.tan(phi) / d
+PSI1 = PAPER_PSI1
 
 # PAPER (claims under test), typed from the text.
 PAPER_H5 = -1 + mu * (R - DIST) + PSI1 * u1 + pph * u2
