@@ -27,8 +27,12 @@ class Confirmation:
     summary: dict[str, float]
     nodes: pd.DataFrame
 
-    def agrees(self, control_tol: float = 1e-3, h_tol: float = 1e-3) -> bool:
-        """Controls match the maximum condition and H is constant (and 0 if Tf is free)."""
+    def agrees(self, control_tol: float = 1e-3, h_tol: float = 2e-2) -> bool:
+        """Controls match the maximum condition and H is constant (and 0 if Tf is free).
+
+        H of a direct solution is constant only up to the discretisation error, O(h) near
+        switches and contact points: the default h_tol suits N ~ 100.
+        """
         ctrl = [v for k, v in self.summary.items() if k.startswith("max |u - argmax|")]
         h_ok = self.summary["H spread"] <= h_tol and self.summary.get("max |H| (free Tf)", 0.0) <= h_tol
         return all(v <= control_tol for v in ctrl) and h_ok
@@ -70,9 +74,10 @@ def confirm(trajectory: pd.DataFrame, ocp: OCP, singular_tol: float = 1e-6) -> C
         summary.update(_control_check(system, law, values, nodes, singular_tol))
     ham = _evaluate(system, system.hamiltonian, values)
     nodes["H_derived"] = ham
-    summary["H spread"] = float(np.ptp(ham))
+    inner = ham[1:-1] if len(ham) > 3 else ham  # end nodes carry half-step costates
+    summary["H spread"] = float(np.ptp(inner))
     if system.free_final_time:
-        summary["max |H| (free Tf)"] = float(np.max(np.abs(ham)))
+        summary["max |H| (free Tf)"] = float(np.max(np.abs(inner)))
     if "H" in trajectory:
         summary["max |H - H column|"] = float(np.max(np.abs(ham - trajectory["H"].to_numpy(float))))
     summary["max adjoint residual"] = _adjoint_residual(system, values, nodes["t"].to_numpy())
@@ -107,15 +112,20 @@ def _control_check(system: PMPSystem, law, values, nodes: pd.DataFrame, tol: flo
 
 
 def _adjoint_residual(system: PMPSystem, values, t: np.ndarray) -> float:
-    """max over intervals of |(p_{k+1} - p_k)/h - (a_k + a_{k+1})/2| (trapezoid), a = -H_x."""
+    """max over interior intervals of |(p_{k+1} - p_k)/h - (a_k + a_{k+1})/2|, a = -H_x.
+
+    The first and last intervals are left out when there are more than two: the solver's
+    end-node costates are the half-step midpoint values (see model/costates.py).
+    """
     if len(t) < 2:
         return 0.0
+    inner = slice(1, -1) if len(t) > 3 else slice(None)
     h = np.diff(t)
     worst = 0.0
     for p, a in zip(system.costates, system.adjoint, strict=True):
         rate = _evaluate(system, a, values)
         gap = np.diff(values[p]) / h - (rate[:-1] + rate[1:]) / 2
-        worst = max(worst, float(np.max(np.abs(gap))))
+        worst = max(worst, float(np.max(np.abs(gap[inner]))))
     return worst
 
 
