@@ -85,15 +85,16 @@ def _add_dynamics(m: pyo.ConcreteModel, ocp: OCP) -> None:
     params = {sym(k): val for k, val in v.parameters().items()}
     rhs = v.rhs(numeric=False)
 
+    comps = [(sym(n), m.component(n)) for n in v.states + v.controls]
+
     def env(t):
-        table = {sym(n): m.component(n)[t] for n in v.states + v.controls}
-        table.update(params)
-        return table
+        return {s: comp[t] for s, comp in comps} | params
 
     for name, f in zip(v.states, rhs, strict=True):
+        derivative = m.component(f"d{name}")
 
-        def rule(_m, t, f=f, name=name):
-            return m.component(f"d{name}")[t] == m.tf * sympy_to_pyomo(f, env(t))
+        def rule(_m, t, f=f, dv=derivative):
+            return dv[t] == m.tf * sympy_to_pyomo(f, env(t))
 
         m.add_component(f"ode_{name}", pyo.Constraint(m.tau, rule=rule))
 
@@ -132,9 +133,11 @@ def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
     m.steps = pyo.RangeSet(1, len(m.nodes) - 1)
     m.sweep = pyo.Var(m.steps, initialize=0.0)
 
+    cx, cy = m.obstacle_cx[0], m.obstacle_cy[0]
+
     def rule(_m, k):
-        ax, ay = X[tp[k - 1]] - m.obstacle_cx[0], Y[tp[k - 1]] - m.obstacle_cy[0]
-        bx, by = X[tp[k]] - m.obstacle_cx[0], Y[tp[k]] - m.obstacle_cy[0]
+        ax, ay = X[tp[k - 1]] - cx, Y[tp[k - 1]] - cy
+        bx, by = X[tp[k]] - cx, Y[tp[k]] - cy
         return m.sweep[k] == pyo.atan((ax * by - ay * bx) / (ax * bx + ay * by))
 
     m.sweep_step = pyo.Constraint(m.steps, rule=rule)
