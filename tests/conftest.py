@@ -13,11 +13,11 @@ TRUCK_BOUNDS = {"u1": (-1.0, 1.0), "u2": (-0.35, 0.35), "phi": (-0.6, 0.6)}
 START = {"x": 0.0, "y": 0.0, "theta": 0.0, "phi": 0.0}
 
 
-def straight_energy(length: float = 1.0, tf: float = 2.0) -> OCP:
-    """Obstacle-free energy problem along the x axis: u1 = L / Tf is optimal."""
+def straight(cost, length: float = 1.0, tf: float = 2.0) -> OCP:
+    """Obstacle-free drive along the x axis (energy: u1 = L / Tf; time: Tf = L / u1max)."""
     return OCP(
         vehicle=Truck(0.1),
-        cost=Energy(),
+        cost=cost,
         bounds=TRUCK_BOUNDS,
         initial=START,
         final={"x": length, "y": 0.0, "theta": 0.0, "phi": 0.0},
@@ -25,15 +25,12 @@ def straight_energy(length: float = 1.0, tf: float = 2.0) -> OCP:
     )
 
 
+def straight_energy(length: float = 1.0, tf: float = 2.0) -> OCP:
+    return straight(Energy(), length, tf)
+
+
 def straight_time(length: float = 1.0) -> OCP:
-    return OCP(
-        vehicle=Truck(0.1),
-        cost=Time(),
-        bounds=TRUCK_BOUNDS,
-        initial=START,
-        final={"x": length, "y": 0.0, "theta": 0.0, "phi": 0.0},
-        final_time=3.0,
-    )
+    return straight(Time(), length, 3.0)  # final_time: the first guess
 
 
 def paper_energy_problem(tf: float = 4.5) -> OCP:
