@@ -20,8 +20,12 @@ from model.vehicles import sym
 _CASADI = {"sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "sqrt": ca.sqrt, "atan": ca.atan}
 
 
-def solve_with_opti(ocp: OCP, intervals: int, passing: str) -> dict:
-    """Build and solve with Opti; return times, iterations, objective, status."""
+def solve_with_opti(ocp: OCP, intervals: int, passing: str, simple_bounds: bool = True) -> dict:
+    """Build and solve with Opti; return times, iterations, objective, status.
+
+    ``simple_bounds``: CasADi's detect_simple_bounds (bounds and boundary values become
+    variable bounds, as the project's presolve does); False is Opti's default.
+    """
     t0 = time.perf_counter()
     v = ocp.vehicle
     n = intervals
@@ -47,7 +51,7 @@ def solve_with_opti(ocp: OCP, intervals: int, passing: str) -> dict:
     for name, vals in initial_guess(ocp, passing, n, tf).items():
         opti.set_initial(X.get(name, U.get(name)), vals)
     opts = {k: v for k, v in DEFAULT_OPTIONS.items() if k != "sb"}
-    opti.solver("ipopt", {"expand": True, "print_time": False}, opts)
+    opti.solver("ipopt", {"expand": True, "print_time": False, "detect_simple_bounds": simple_bounds}, opts)
     t1 = time.perf_counter()
     try:
         sol = opti.solve()

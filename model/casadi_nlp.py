@@ -90,7 +90,12 @@ class CasadiNLP(NLP):
         return ca.vertcat(*[ca.SX(walk(d.to_bounded_expression(evaluate_bounds=False)[1])) for d in datas])
 
     def _reduce(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX, presolve: bool) -> None:
-        """Eliminate defined variables (if ``presolve``) and build the derivative functions."""
+        """Presolve (if ``presolve``) and build the derivative functions.
+
+        1. eliminate defined variables (``_definitions``);
+        2. turn singleton rows lo <= c x_i + k(p) <= hi into bounds on x_i (boundary
+           conditions become fixed variables, as CasADi's detect_simple_bounds does).
+        """
         self._full = (x, p, g, f)
         self._p_symbol = p
         keep_rows, keep_cols, elim_cols, defs = self._definitions(x, g) if presolve else (None, None, [], None)
@@ -102,9 +107,39 @@ class CasadiNLP(NLP):
         else:
             keep_rows, keep_cols = list(range(g.numel())), list(range(x.numel()))
             xr, gr, fr = x, g, f
-        self._rows, self._cols, self._elim = np.array(keep_rows), np.array(keep_cols), np.array(elim_cols)
-        self._def_rows = np.setdiff1d(np.arange(g.numel()), self._rows)
+        self._def_rows = np.setdiff1d(np.arange(g.numel()), np.array(keep_rows, dtype=int))
+        self._singletons(xr, p, gr, keep_rows, keep_cols, presolve)
+        gr = gr[self._kept_local.tolist()] if len(self._bound_rows) else gr
+        self._rows, self._cols, self._elim = np.array(keep_rows)[self._kept_local], np.array(keep_cols), np.array(
+            elim_cols, dtype=int
+        )
         self._make_functions(xr, p, gr, fr)
+
+    def _singletons(self, xr: ca.SX, p: ca.SX, gr: ca.SX, keep_rows: list, keep_cols: list, presolve: bool) -> None:
+        """Rows of the reduced g with one constant Jacobian entry: bounds on that variable."""
+        self._bound_rows = np.zeros(0, dtype=int)
+        self._kept_local = np.arange(gr.numel())
+        if not presolve or gr.numel() == 0:
+            return
+        jac = ca.jacobian(gr, xr)
+        rows, cols = (np.asarray(a) for a in jac.sparsity().get_triplet())
+        counts = np.bincount(rows, minlength=gr.numel())
+        local, col, coef = [], [], []
+        for k in np.flatnonzero(counts[rows] == 1):
+            entry = jac.nz[int(k)]
+            if entry.is_constant() and float(entry) != 0:
+                local.append(int(rows[k]))
+                col.append(int(cols[k]))
+                coef.append(float(entry))
+        if not local:
+            return
+        offset = ca.substitute(gr[local], xr, ca.DM.zeros(xr.numel()))  # g = c x_i + k(p)
+        self._offset = ca.Function("offset", [p], [offset])
+        self._bound_rows = np.array(keep_rows)[local]
+        self._bound_cols_local = np.array(col)
+        self._bound_cols = np.array(keep_cols)[col]
+        self._bound_coef = np.array(coef)
+        self._kept_local = np.setdiff1d(np.arange(gr.numel()), local)
 
     def _definitions(self, x: ca.SX, g: ca.SX):
         """Rows 0 = c x_i + rest(x) that define an unbounded x_i from other variables.
@@ -175,10 +210,23 @@ class CasadiNLP(NLP):
         return lb, ub
 
     def primals_lb(self) -> np.ndarray:
-        return self._var_bounds()[0][self._cols]
+        return self._reduced_bounds()[0]
 
     def primals_ub(self) -> np.ndarray:
-        return self._var_bounds()[1][self._cols]
+        return self._reduced_bounds()[1]
+
+    def _reduced_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Variable bounds of the reduced NLP, tightened by the singleton rows."""
+        lb, ub = (b[self._cols] for b in self._var_bounds())
+        if len(self._bound_rows):
+            k = np.array(self._offset(self._p)).ravel()
+            c = self._bound_coef
+            lo = (self._gl[self._bound_rows] - k) / c
+            hi = (self._gu[self._bound_rows] - k) / c
+            lo, hi = np.where(c > 0, lo, hi), np.where(c > 0, hi, lo)
+            np.maximum.at(lb, self._bound_cols_local, lo)
+            np.minimum.at(ub, self._bound_cols_local, hi)
+        return lb, ub
 
     def constraints_lb(self) -> np.ndarray:
         return self._gl[self._rows]
@@ -284,19 +332,28 @@ class CasadiNLP(NLP):
             v.set_value(float(val), skip_validation=True)
 
     def full_duals(self, x: np.ndarray, mult_g: np.ndarray) -> np.ndarray:
-        """Multipliers of all rows; defining rows from stationarity in the eliminated variables."""
+        """Multipliers of all rows; presolved rows from stationarity in their variable.
+
+        For the column i of a presolved row r: df/dx_i + sum_j J_ji lam_j = 0 over all rows
+        (the variable's own bounds assumed inactive), solved for lam_r; definitions first,
+        then singleton rows.
+        """
         lam = np.zeros(len(self.constraints))
         lam[self._rows] = mult_g
-        if len(self._elim):
-            if not hasattr(self, "_kkt"):
-                xf, p, g, f = self._full
-                self._kkt = ca.Function("kkt", [xf, p], [ca.gradient(f, xf), ca.jacobian(g, xf)])
-            grad, jac = self._kkt(self.full_primals(x), self._p)
-            J = jac.sparse().tocsr()
-            cols = self._elim
-            rest = np.array(grad).ravel()[cols] + J[self._rows][:, cols].T @ mult_g
-            coef = np.asarray(J[self._def_rows, cols]).ravel()
-            lam[self._def_rows] = -rest / coef
+        if not len(self._elim) and not len(self._bound_rows):
+            return lam
+        if not hasattr(self, "_kkt"):
+            xf, p, g, f = self._full
+            self._kkt = ca.Function("kkt", [xf, p], [ca.gradient(f, xf), ca.jacobian(g, xf)])
+        grad, jac = self._kkt(self.full_primals(x), self._p)
+        grad, J = np.array(grad).ravel(), jac.sparse().tocsc()
+        if len(self._elim):  # an eliminated column meets only its definition and kept rows
+            rest = grad[self._elim] + J[self._rows][:, self._elim].T @ mult_g
+            lam[self._def_rows] = -rest / np.asarray(J[self._def_rows, self._elim]).ravel()
+        for r, c in zip(self._bound_rows, getattr(self, "_bound_cols", []), strict=True):
+            column = J[:, c]
+            others = column.indices != r
+            lam[r] = -(grad[c] + column.data[others] @ lam[column.indices[others]]) / J[r, c]
         return lam
 
     def load_duals(self, mult_g: np.ndarray, x: np.ndarray | None = None) -> None:

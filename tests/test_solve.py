@@ -48,13 +48,20 @@ def test_costates_satisfy_the_maximum_condition_with_an_obstacle(example_solutio
     tr = example_solution.trajectory
     assert example_solution.ok
     # energy problem: u = projection of the unconstrained maximiser psi onto the box
-    # (up to Ipopt's barrier: bound multipliers ~ mu / gap near a bound)
-    assert np.max(np.abs(np.clip(tr["psi_u1"], -1, 1) - tr["u1"])) < 1e-4
-    assert np.max(np.abs(np.clip(tr["psi_u2"], -0.35, 0.35) - tr["u2"])) < 1e-4
+    # up to Ipopt's complementarity tolerance (compl_inf_tol = 1e-4): next to a bound,
+    # |u - clip(psi)| = z / h with z * gap <= 1e-4, i.e. a few 1e-4 at the most
+    assert np.max(np.abs(np.clip(tr["psi_u1"], -1, 1) - tr["u1"])) < 1e-3
+    assert np.max(np.abs(np.clip(tr["psi_u2"], -0.35, 0.35) - tr["u2"])) < 1e-3
     assert (tr["mu"] >= 0).all()
-    h = tr["H"].to_numpy()[1:-1]  # end nodes carry half-step costates
-    dev = np.abs(h - np.median(h)) / np.median(h)  # autonomous: H constant up to O(h),
-    assert np.percentile(dev, 90) < 0.03 and dev.max() < 0.15  # spiking at the touch point
+    # autonomous: H constant along each arc off the obstacle; across a touch point the
+    # discrete jump of p changes H by O(h) only (it is continuous in the limit)
+    h, touching = tr["H"].to_numpy(), tr["mu"].to_numpy() > 1e-3
+    assert touching.any()
+    cuts = np.flatnonzero(touching)
+    arcs = [h[1 : cuts[0] - 1], h[cuts[-1] + 2 : -1]]  # end nodes carry half-step costates
+    for arc in arcs:
+        assert len(arc) > 10 and np.ptp(arc) < 0.02 * abs(np.median(arc))
+    assert abs(np.median(arcs[0]) - np.median(arcs[1])) < 0.05 * abs(np.median(h))
 
 
 def test_validation_rejects_a_perturbed_solution(example_solution):
