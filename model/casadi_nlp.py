@@ -23,7 +23,7 @@ from pyomo.contrib.pynumero.interfaces.nlp import NLP
 from pyomo.core.expr.numvalue import native_numeric_types
 from scipy.sparse import coo_matrix
 
-from model.pyomo_sx import PyomoToSX, apply_templates, component_rows
+from model.pyomo_sx import PyomoToSX, component_rows
 
 
 class CasadiNLP(NLP):
@@ -61,67 +61,101 @@ class CasadiNLP(NLP):
             tmpl = None
             if templates and comp.is_indexed() and len(datas) == len(comp) > 2:
                 tmpl = component_rows(comp, walk, extra)
-            if tmpl is None:
-                tmpl = (None, [walk(d.to_bounded_expression(evaluate_bounds=False)[1]) for d in datas])
-            pieces.append((tmpl, datas))
+            pieces.append((tmpl, datas, len(self.constraints)))
             self.constraints += datas
             self._bound_exprs += [d.to_bounded_expression(evaluate_bounds=False)[::2] for d in datas]
-        pool = ca.vertcat(x, p, ca.DM(extra)) if extra else ca.vertcat(x, p)
-        rows = []
-        for (index, body), datas in pieces:
-            if index is None:
-                rows.append(ca.vertcat(*body) if body else ca.SX(0, 1))
+        self._pool = ca.vertcat(x, p, ca.DM(extra)) if extra else ca.vertcat(x, p)
+        rows, self._templates = [], []
+        for tmpl, datas, offset in pieces:
+            body = tmpl.on(self._pool) if tmpl is not None else None
+            if body is not None and self._agrees(body, datas, walk, x, p):
+                self._templates.append((tmpl, offset))
             else:
-                rows.append(self._checked(apply_templates(pool, [(index, body)]), datas, walk, x, p))
+                body = ca.vertcat(*[walk(d.to_bounded_expression(evaluate_bounds=False)[1]) for d in datas])
+            rows.append(body if datas else ca.SX(0, 1))
         g = ca.vertcat(*rows) if rows else ca.SX(0, 1)
         f = self._sense * ca.SX(walk(self.objective.expr))
         return x, p, g, f
 
     @staticmethod
-    def _checked(rows: ca.SX, datas: list, walk: PyomoToSX, x: ca.SX, p: ca.SX) -> ca.SX:
-        """Compare template rows with direct walks at three indices; on mismatch, walk all."""
+    def _agrees(rows: ca.SX, datas: list, walk: PyomoToSX, x: ca.SX, p: ca.SX) -> bool:
+        """Do the template rows equal direct walks at three indices (random point)?"""
         picks = sorted({0, len(datas) // 2, len(datas) - 1})
         direct = ca.vertcat(*[ca.SX(walk(datas[i].to_bounded_expression(evaluate_bounds=False)[1])) for i in picks])
         check = ca.Function("check", [x, p], [rows[picks] - direct, direct])
         rng = np.random.default_rng(0)
         diff, ref = check(rng.uniform(0.1, 0.9, x.numel()), rng.uniform(0.1, 0.9, p.numel()))
-        if np.max(np.abs(np.array(diff))) <= 1e-10 * (1 + np.max(np.abs(np.array(ref)))):
-            return rows
-        return ca.vertcat(*[ca.SX(walk(d.to_bounded_expression(evaluate_bounds=False)[1])) for d in datas])
+        return bool(np.max(np.abs(np.array(diff))) <= 1e-10 * (1 + np.max(np.abs(np.array(ref)))))
 
     def _reduce(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX, presolve: bool) -> None:
         """Presolve (if ``presolve``) and build the derivative functions.
 
-        1. eliminate defined variables (``_definitions``);
+        1. eliminate defined variables (``_definitions``, found on the templates);
         2. turn singleton rows lo <= c x_i + k(p) <= hi into bounds on x_i (boundary
            conditions become fixed variables, as CasADi's detect_simple_bounds does).
         """
         self._full = (x, p, g, f)
-        self._p_symbol = p
-        keep_rows, keep_cols, elim_cols, defs = self._definitions(x, g) if presolve else (None, None, [], None)
-        if elim_cols:
-            xr = x[keep_cols]
-            gr = ca.substitute(g[keep_rows], x[elim_cols], defs)
-            fr = ca.substitute(f, x[elim_cols], defs)
+        def_rows, elim, defs = self._definitions(x.numel()) if presolve else ([], [], None)
+        keep_rows = np.setdiff1d(np.arange(g.numel()), def_rows)
+        keep_cols = np.setdiff1d(np.arange(x.numel()), elim)
+        order = np.argsort(elim)  # setdiff1d sorts; keep defs aligned with sorted columns
+        self._elim, self._def_rows = np.asarray(elim, dtype=int)[order], np.asarray(def_rows, dtype=int)[order]
+        xr, gr, fr = x[keep_cols.tolist()], g[keep_rows.tolist()], f
+        if len(elim):
+            defs = defs[order.tolist()]
+            gr = ca.substitute(gr, x[self._elim.tolist()], defs)
+            fr = ca.substitute(f, x[self._elim.tolist()], defs)
             self._expand = ca.Function("expand", [xr, p], [defs])
-        else:
-            keep_rows, keep_cols = list(range(g.numel())), list(range(x.numel()))
-            xr, gr, fr = x, g, f
-        self._def_rows = np.setdiff1d(np.arange(g.numel()), np.array(keep_rows, dtype=int))
-        self._singletons(xr, p, gr, keep_rows, keep_cols, presolve)
-        gr = gr[self._kept_local.tolist()] if len(self._bound_rows) else gr
-        self._rows, self._cols, self._elim = np.array(keep_rows)[self._kept_local], np.array(keep_cols), np.array(
-            elim_cols, dtype=int
-        )
-        self._make_functions(xr, p, gr, fr)
-
-    def _singletons(self, xr: ca.SX, p: ca.SX, gr: ca.SX, keep_rows: list, keep_cols: list, presolve: bool) -> None:
-        """Rows of the reduced g with one constant Jacobian entry: bounds on that variable."""
-        self._bound_rows = np.zeros(0, dtype=int)
-        self._kept_local = np.arange(gr.numel())
-        if not presolve or gr.numel() == 0:
-            return
+        self._cols = keep_cols
         jac = ca.jacobian(gr, xr)
+        kept = self._singletons(xr, p, gr, jac, keep_rows, presolve)
+        self._rows = keep_rows[kept]
+        self._make_functions(xr, p, gr[kept.tolist()], fr, jac[kept.tolist(), :])
+
+    def _definitions(self, n_x: int) -> tuple[list[int], list[int], ca.SX | None]:
+        """Template rows 0 = c X[t] + rest(other variables): X[t] := -rest / c.
+
+        A template qualifies if exactly one slot has a constant coefficient, that slot
+        is an unbounded Var indexed like the constraint, the bounds are the number 0,
+        and no other definition's variable appears in it.
+        """
+        lbx, ubx = self._var_bounds()
+        found = []
+        for tmpl, offset in self._templates:
+            n = tmpl.index.shape[1]
+            if not all(_is_zero(b) for lohi in self._bound_exprs[offset : offset + n] for b in lohi):
+                continue
+            slots = ca.vertcat(*tmpl.symbols)
+            grad = ca.jacobian(tmpl.row, slots)
+            const = [k for k in range(grad.numel()) if grad.nz[k].is_constant() and float(grad.nz[k]) != 0]
+            if len(const) != 1:
+                continue
+            s = grad.sparsity().get_col()[const[0]]
+            cols = tmpl.index[s]
+            others = [k for k in range(len(tmpl.symbols)) if k != s and np.all(tmpl.index[k] < n_x)]
+            if not tmpl.own[s] or not others or np.isfinite(lbx[cols]).any() or np.isfinite(ubx[cols]).any():
+                continue
+            rest = ca.substitute(tmpl.row, tmpl.symbols[s], 0)
+            fn = ca.Function("definition", [slots], [-rest / float(grad.nz[const[0]])]).map(n)
+            found.append((offset + np.arange(n), cols, tmpl.index[others].ravel(), tmpl, fn))
+        while True:  # no chains: a definition may not use another's variable
+            used = np.concatenate([c for _, c, _, _, _ in found]) if found else np.zeros(0, int)
+            bad = [i for i, (_, c, deps, _, _) in enumerate(found) if np.isin(deps, np.setdiff1d(used, c)).any()]
+            if not bad:
+                break
+            found = [item for i, item in enumerate(found) if i not in bad]
+        if not found or len(np.unique(used)) != len(used):
+            return [], [], None
+        rows = np.concatenate([r for r, _, _, _, _ in found]).tolist()
+        defs = ca.vertcat(*[tmpl.on(self._pool, fn) for _, _, _, tmpl, fn in found])
+        return rows, used.tolist(), defs
+
+    def _singletons(self, xr, p, gr, jac, keep_rows: np.ndarray, presolve: bool) -> np.ndarray:
+        """Rows with one constant Jacobian entry become bounds; returns the rows kept."""
+        self._bound_rows = np.zeros(0, dtype=int)
+        everything = np.arange(gr.numel())
+        if not presolve or gr.numel() == 0:
+            return everything
         rows, cols = (np.asarray(a) for a in jac.sparsity().get_triplet())
         counts = np.bincount(rows, minlength=gr.numel())
         local, col, coef = [], [], []
@@ -132,53 +166,18 @@ class CasadiNLP(NLP):
                 col.append(int(cols[k]))
                 coef.append(float(entry))
         if not local:
-            return
+            return everything
         offset = ca.substitute(gr[local], xr, ca.DM.zeros(xr.numel()))  # g = c x_i + k(p)
         self._offset = ca.Function("offset", [p], [offset])
-        self._bound_rows = np.array(keep_rows)[local]
+        self._bound_rows = keep_rows[local]
         self._bound_cols_local = np.array(col)
-        self._bound_cols = np.array(keep_cols)[col]
+        self._bound_cols = self._cols[col]
         self._bound_coef = np.array(coef)
-        self._kept_local = np.setdiff1d(np.arange(gr.numel()), local)
+        return np.setdiff1d(everything, local)
 
-    def _definitions(self, x: ca.SX, g: ca.SX):
-        """Rows 0 = c x_i + rest(x) that define an unbounded x_i from other variables.
-
-        A row qualifies if c is its only constant coefficient, its bounds are the
-        number 0 on both sides, and no other eliminated variable appears in it.
-        """
-        jac = ca.jacobian(g, x)
-        rows, cols = jac.sparsity().get_triplet()
-        const = _constant_entries(jac, x, self._p_symbol, rows)
-        count = np.bincount(rows, minlength=g.numel())
-        lbx, ubx = self._var_bounds()
-        chosen: dict[int, tuple[int, float]] = {}
-        used: set[int] = set()
-        for r, entries in const.items():
-            (c, coef), bounds = entries[0], self._bound_exprs[r]
-            if len(entries) != 1 or count[r] < 2 or coef == 0 or c in used or not all(_is_zero(b) for b in bounds):
-                continue
-            if np.isfinite(lbx[c]) or np.isfinite(ubx[c]):
-                continue
-            chosen[r] = (c, coef)
-            used.add(c)
-        chosen = _without_chains(chosen, rows, cols)
-        if not chosen:
-            return None, None, [], None
-        def_rows = sorted(chosen)
-        elim = [chosen[r][0] for r in def_rows]
-        coefs = ca.DM([chosen[r][1] for r in def_rows])
-        rest = ca.substitute(g[def_rows], x[elim], ca.DM.zeros(len(elim)))  # each row holds only its own
-        defs = -rest / coefs
-        keep_rows = [r for r in range(g.numel()) if r not in chosen]
-        gone = set(elim)
-        keep_cols = [c for c in range(x.numel()) if c not in gone]
-        return keep_rows, keep_cols, elim, defs
-
-    def _make_functions(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX) -> None:
+    def _make_functions(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX, jac: ca.SX) -> None:
         m, n = g.numel(), x.numel()
         sigma, lam = ca.SX.sym("sigma"), ca.SX.sym("lam", m)
-        jac = ca.jacobian(g, x)
         hess = ca.tril(ca.hessian(sigma * f + ca.dot(lam, g), x)[0])
         self._jac_rc = jac.sparsity().get_triplet()
         self._hess_rc = hess.sparsity().get_triplet()
@@ -371,41 +370,6 @@ class CasadiNLP(NLP):
 
 def _is_zero(value) -> bool:
     return type(value) in native_numeric_types and value == 0
-
-
-def _constant_entries(jac: ca.SX, x: ca.SX, p: ca.SX, rows: list) -> dict[int, list[tuple[int, float]]]:
-    """Per row, the Jacobian entries that are constants (screened numerically, then checked)."""
-    fn = ca.Function("jac_values", [x, p], [jac])
-    rng = np.random.default_rng(0)
-    a, b = (np.array(fn(rng.uniform(0.2, 0.8, x.numel()), rng.uniform(0.2, 0.8, p.numel())).nonzeros())
-            for _ in range(2))  # fmt: skip
-    same = np.flatnonzero(a == b)
-    per_row = np.bincount(np.asarray(rows)[same], minlength=jac.size1())
-    sp_rows, sp_cols = np.asarray(rows), np.asarray(jac.sparsity().get_triplet()[1])
-    out: dict[int, list[tuple[int, float]]] = {}
-    for k in same:
-        r = int(sp_rows[k])
-        entry = jac.nz[int(k)] if per_row[r] == 1 else None
-        if entry is not None and entry.is_constant():
-            out[r] = [(int(sp_cols[k]), float(entry))]
-        elif per_row[r] > 1:
-            out[r] = [(-1, 0.0)] * int(per_row[r])  # several constants: not a definition
-    return out
-
-
-def _without_chains(chosen: dict[int, tuple[int, float]], rows: list, cols: list) -> dict[int, tuple[int, float]]:
-    """Drop definitions whose row uses another eliminated variable, until none does."""
-    row_cols: dict[int, set[int]] = {}
-    for r, c in zip(rows, cols, strict=True):
-        if r in chosen:
-            row_cols.setdefault(r, set()).add(c)
-    while True:
-        elim = {c for c, _ in chosen.values()}
-        bad = [r for r, (c, _) in chosen.items() if (row_cols[r] & elim) - {c}]
-        if not bad:
-            return chosen
-        for r in bad:
-            chosen.pop(r)
 
 
 class _Buffered:

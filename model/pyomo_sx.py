@@ -10,6 +10,8 @@ back to walking every constraint.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import casadi as ca
 import numpy as np
 import pyomo.environ as pyo
@@ -104,11 +106,31 @@ def _variable(e) -> bool:
     return type(e) not in native_numeric_types and e.is_potentially_variable()
 
 
-def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> tuple[np.ndarray, ca.Function] | None:
-    """The template of ``comp`` as (slot index matrix, mapped Function), or None.
+@dataclass
+class Template:
+    """One indexed Constraint as a row template over slots, and where each slot points.
+
+    ``index[s, j]``: the pool position (x, then p, then constants) of slot s at the
+    j-th index; ``own[s]``: slot s is a Var indexed exactly like the constraint.
+    """
+
+    index: np.ndarray
+    fn: ca.Function
+    row: ca.SX
+    symbols: list[ca.SX]
+    own: list[bool]
+
+    def on(self, pool: ca.SX, fn: ca.Function | None = None) -> ca.SX:
+        """Evaluate ``fn`` (default: the row template) at every index: an SX column."""
+        args = ca.reshape(pool[self.index.T.ravel().tolist()], self.index.shape[0], self.index.shape[1])
+        return ca.vec((fn or self.fn)(args))
+
+
+def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> Template | None:
+    """The template of ``comp``, or None if Pyomo cannot templatise it.
 
     ``pool_extra`` collects numeric per-index constants; the pool vector is
-    (x, p, pool_extra) and ``apply_templates`` evaluates the templates on it.
+    (x, p, pool_extra) and ``Template.on`` evaluates the template on it.
     """
     try:
         expr, templates = templatize_constraint(comp)
@@ -123,12 +145,13 @@ def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> tuple[np.n
     keys = list(comp.keys())
     index = np.empty((len(tw.slots), len(keys)), dtype=np.int64)
     n_x, n_p = walk.x.numel(), walk.p.numel()
-    general = []
+    general, own = [], [False] * len(tw.slots)
     for s, (base, args) in enumerate(tw.slots):
         if base is not None and not args:  # a scalar: one position for every index
             index[s, :] = _resolve(base, args, walk, n_x, n_p, pool_extra)
-        elif base is not None and _same(args, templates) and base.is_variable_type():
+        elif base is not None and _same(args, templates) and base.ctype is pyo.Var:
             index[s, :] = _positions(base, keys, walk)  # x[t] with t the constraint's own index
+            own[s] = True
         else:
             general.append(s)
     for j, key in enumerate(keys if general else []):
@@ -140,7 +163,7 @@ def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> tuple[np.n
     for tmpl in templates:
         tmpl.set_value(None)
     fn = ca.Function("template", [ca.vertcat(*tw.symbols)], [row]).map(len(keys))
-    return index, fn
+    return Template(index, fn, row, tw.symbols, own)
 
 
 def _same(args: tuple, templates: tuple) -> bool:
@@ -187,12 +210,3 @@ def _index_value(a):
     if isinstance(a, SumExpression):
         return sum(_index_value(b) for b in a.args)
     return pyo.value(a)
-
-
-def apply_templates(pool_vec: ca.SX, pieces: list) -> ca.SX:
-    """Evaluate each (index matrix, mapped Function) on the pool: SX rows, stacked."""
-    out = []
-    for index, fn in pieces:
-        args = ca.reshape(pool_vec[index.T.ravel().tolist()], index.shape[0], index.shape[1])
-        out.append(ca.vec(fn(args)))
-    return ca.vertcat(*out)
