@@ -28,7 +28,7 @@ def section(rows: list[dict], ladders: dict) -> str:
                     "scenario": "scenario",
                     "grids": "N",
                     "objective": "J (finest)",
-                    "diffs": "successive |dJ|",
+                    "diffs": "successive change of J",
                     "order_J": "order of J",
                     "costate_change": "costate change (finest)",
                     "order_p": "order of p",
