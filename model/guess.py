@@ -21,12 +21,16 @@ def guess_final_time(ocp: OCP, passing: str) -> float:
     return max(length, 0.1) / (0.7 * (ocp.max_speed() or 1.0)) + 1.0
 
 
-def initial_guess(ocp: OCP, passing: str, n: int, tf: float) -> dict[str, np.ndarray]:
-    """Node values (n + 1 of each) of every state and control."""
+def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc") -> dict[str, np.ndarray]:
+    """Node values (n + 1 of each) of every state and control.
+
+    ``route``: "arc" goes around the first obstacle in the ``passing`` direction;
+    "line" drives straight at the goal and leaves the detour to the solver.
+    """
     v = ocp.vehicle
     s = np.linspace(0.0, 1.0, n + 1)
     px, py = v.position
-    x, y = _path(ocp, passing, s)
+    x, y = _path(ocp, passing if route == "arc" else "none", s)
     dx, dy = np.gradient(x, s), np.gradient(y, s)
     heading = np.unwrap(np.arctan2(dy, dx))
     theta0 = ocp.initial.get("theta", heading[0])

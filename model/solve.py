@@ -21,7 +21,8 @@ from model.transcription import build_model, grid
 from model.validation import validate
 from model.vehicles import sym
 
-TIME_STARTS = (1.0, 1.5, 2.0)
+TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
+DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
 
 
 def passes_to_try(ocp: OCP) -> list[str]:
@@ -37,25 +38,26 @@ def solve_ocp(
     verbose: bool = False,
     options: dict | None = None,
     guess: pd.DataFrame | None = None,
-    starts: tuple[float, ...] | None = None,
+    starts: tuple[tuple[float, str], ...] | None = None,
 ) -> Solution:
     """Solve every pass direction asked for and keep the best validated solution.
 
     ``guess``: a trajectory (t, states, controls; e.g. ``other.trajectory``) to start
     from instead of the geometric guess; it is resampled onto the new grid.
-    ``starts``: scale factors of the first guess of Tf, one cold start each; the time
-    objective is nonconvex (local minima), so by default it tries TIME_STARTS.
+    ``starts``: cold starts (scale of the Tf guess, guess route "arc" or "line"). Both
+    objectives are nonconvex (local minima): by default the time objective tries
+    TIME_STARTS, a problem with an obstacle DETOUR_STARTS, and keeps the best.
     """
     start = time.perf_counter()
     best: Solution | None = None
     attempts = []
     if starts is None:
-        starts = TIME_STARTS if ocp.cost.free_final_time and guess is None else (1.0,)
+        starts = _default_starts(ocp) if guess is None else ((1.0, "arc"),)
     for passing in passes_to_try(ocp):
-        for scale in starts:
-            sol = solve_pass(ocp, intervals, passing, verbose, options, guess, tf_scale=scale)
+        for scale, route in starts:
+            sol = solve_pass(ocp, intervals, passing, verbose, options, guess, tf_scale=scale, route=route)
             attempts.append(
-                {"pass": passing, "tf_guess_scale": scale, "status": sol.status, "valid": sol.ok,
+                {"pass": passing, "tf_guess_scale": scale, "route": route, "status": sol.status, "valid": sol.ok,
                  "objective": sol.objective}
             )  # fmt: skip
             if best is None or _better(sol, best):
@@ -63,6 +65,12 @@ def solve_ocp(
     best.attempts = attempts
     best.solve_seconds = time.perf_counter() - start
     return best
+
+
+def _default_starts(ocp: OCP) -> tuple[tuple[float, str], ...]:
+    if ocp.cost.free_final_time:
+        return TIME_STARTS
+    return DETOUR_STARTS if ocp.obstacles else ((1.0, "arc"),)
 
 
 @contextlib.contextmanager
@@ -91,6 +99,7 @@ def solve_pass(
     options: dict | None = None,
     guess: pd.DataFrame | None = None,
     tf_scale: float = 1.0,
+    route: str = "arc",
 ) -> Solution:
     """One Ipopt solve with the guess and the constraint of one pass direction."""
     t0 = time.perf_counter()
@@ -101,7 +110,7 @@ def solve_pass(
         load_values(m, resample(ocp, guess, intervals))
     else:
         tf_guess = guess_final_time(ocp, passing) * (tf_scale if ocp.cost.free_final_time else 1.0)
-        load_values(m, initial_guess(ocp, passing, intervals, tf_guess))
+        load_values(m, initial_guess(ocp, passing, intervals, tf_guess, route))
     if ocp.cost.free_final_time:
         m.tf.set_value(tf_guess)
     t1 = time.perf_counter()
