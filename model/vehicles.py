@@ -48,7 +48,7 @@ class Vehicle:
         exprs = [f[s] for s in self.states]
         if numeric:
             subs = {sym(k): v for k, v in self.parameters().items()}
-            exprs = [sp.sympify(e).subs(subs) for e in exprs]
+            exprs = [(e if isinstance(e, sp.Basic) else sp.Float(e)).subs(subs) for e in exprs]
         return exprs
 
 
