@@ -77,3 +77,19 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(case, tmp_path):
     assert len(lines) == 1 and key in lines[0], res.stderr
     assert "Traceback" not in res.stderr
     assert not out.exists()
+
+
+def test_derive_prints_the_pontryagin_system():
+    out = run("derive", EXAMPLE)
+    assert out.returncode == 0, out.stderr
+    assert "p_phi' = -p_theta*u1/(d*cos(phi)**2)" in out.stdout  # the truck's adjoint for phi
+    latex = run("derive", EXAMPLE, "--latex")
+    assert latex.returncode == 0 and "\\" in latex.stdout
+
+
+def test_check_validates_without_solving(tmp_path):
+    assert run("check", EXAMPLE).returncode == 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text(EXAMPLE.read_text().replace("wheelbase = 0.1", "wheelbase = 0"))
+    res = run("check", bad)
+    assert res.returncode == 2 and "vehicle.wheelbase" in res.stderr
