@@ -154,16 +154,29 @@ def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> Template |
             own[s] = True
         else:
             general.append(s)
-    for j, key in enumerate(keys if general else []):
-        values = key if isinstance(key, tuple) else (key,)
-        for tmpl, val in zip(templates, values, strict=True):
-            tmpl.set_value(val)
-        for s in general:
-            index[s, j] = _resolve(*tw.slots[s], walk, n_x, n_p, pool_extra)
-    for tmpl in templates:
-        tmpl.set_value(None)
+    if general and not _resolve_general(tw, general, templates, keys, index, walk, pool_extra):
+        return None
     fn = ca.Function("template", [ca.vertcat(*tw.symbols)], [row]).map(len(keys))
     return Template(index, fn, row, tw.symbols, own)
+
+
+def _resolve_general(tw, general, templates, keys, index, walk, pool_extra) -> bool:
+    """Fill the index rows of slots like x[tp[k - 1]]; False if an index is not understood."""
+    n_x, n_p = walk.x.numel(), walk.p.numel()
+    try:
+        columns = list(zip(*[k if isinstance(k, tuple) else (k,) for k in keys], strict=True))
+        by_template = {id(t): list(col) for t, col in zip(templates, columns, strict=True)}
+        for s in general:
+            base, args = tw.slots[s]
+            if base is None:  # the index value itself, e.g. t in a coefficient
+                index[s, :] = [_constant(float(v), n_x, n_p, pool_extra) for v in by_template[id(args[0])]]
+                continue
+            idx = [_index_values(a, by_template, len(keys)) for a in args]
+            datas = [base[i[0] if len(i) == 1 else i] for i in zip(*idx, strict=True)]
+            index[s, :] = [_position(d, walk, n_x, n_p, pool_extra) for d in datas]
+    except (TypeError, KeyError, IndexError, ValueError):
+        return False
+    return True
 
 
 def _same(args: tuple, templates: tuple) -> bool:
@@ -178,35 +191,37 @@ def _positions(base, keys: list, walk: PyomoToSX) -> list[int]:
 
 
 def _resolve(base, args, walk: PyomoToSX, n_x: int, n_p: int, extra: list[float]) -> int:
-    """Position in the pool (x, then p, then constants) of one slot at the current index."""
-    if base is None:
-        extra.append(float(args[0]()))
-        return n_x + n_p + len(extra) - 1
-    if args:
-        idx = tuple(_index_value(a) for a in args)
-        data = base[idx[0] if len(idx) == 1 else idx]
-    else:
-        data = base
+    """Position in the pool of a scalar slot (one Var or Param for every index)."""
+    return _position(base, walk, n_x, n_p, extra)
+
+
+def _position(data, walk: PyomoToSX, n_x: int, n_p: int, extra: list[float]) -> int:
+    """Position in the pool (x, then p, then constants) of one Var, Param or number."""
     if type(data) in native_numeric_types:
-        extra.append(float(data))
-        return n_x + n_p + len(extra) - 1
+        return _constant(float(data), n_x, n_p, extra)
     if data.is_variable_type() and not data.fixed:
         return walk.var_index[id(data)]
     if data.is_parameter_type() and id(data) in walk.param_index:
         return n_x + walk.param_index[id(data)]
-    extra.append(float(pyo.value(data)))
+    return _constant(float(pyo.value(data)), n_x, n_p, extra)
+
+
+def _constant(value: float, n_x: int, n_p: int, extra: list[float]) -> int:
+    extra.append(value)
     return n_x + n_p + len(extra) - 1
 
 
-def _index_value(a):
-    """Value of a small index expression (t, k - 1, tp[k - 1]) at the current template values."""
+def _index_values(a, by_template: dict[int, list], n: int) -> list:
+    """Values of a small index expression (t, k - 1, tp[k - 1]) at every index at once."""
     if type(a) in native_numeric_types:
-        return a
+        return [a] * n
     if isinstance(a, IndexTemplate):
-        return a()
+        return by_template[id(a)]
     if isinstance(a, GetItemExpression):
-        idx = tuple(_index_value(b) for b in a.args[1:])
-        return a.args[0][idx[0] if len(idx) == 1 else idx]
+        inner = [_index_values(b, by_template, n) for b in a.args[1:]]
+        base = a.args[0]
+        return [base[i[0] if len(i) == 1 else i] for i in zip(*inner, strict=True)]
     if isinstance(a, SumExpression):
-        return sum(_index_value(b) for b in a.args)
-    return pyo.value(a)
+        parts = [_index_values(b, by_template, n) for b in a.args]
+        return [sum(vals) for vals in zip(*parts, strict=True)]
+    raise TypeError(f"unsupported index expression {a}")
