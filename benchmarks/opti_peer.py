@@ -80,7 +80,8 @@ def _obstacles(opti: ca.Opti, ocp: OCP, X: dict, passing: str) -> None:
         cx, cy = ocp.obstacles[0].center
         ax, ay = X[px][:-1] - cx, X[py][:-1] - cy
         bx, by = X[px][1:] - cx, X[py][1:] - cy
-        sweep = ca.sum1(ca.atan((ax * by - ay * bx) / (ax * bx + ay * by)))
+        norms = ca.sqrt((ax**2 + ay**2) * (bx**2 + by**2))
+        sweep = ca.sum1(2 * ca.atan((ax * by - ay * bx) / (norms + ax * bx + ay * by)))
         opti.subject_to(sweep >= 0 if passing == "ccw" else sweep <= 0)
 
 

@@ -123,7 +123,10 @@ def _add_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
 
 
 def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
-    """Signed angle swept around the first obstacle, step by step: atan(cross / dot).
+    """Signed angle swept around the first obstacle, step by step.
+
+    The half-angle form 2 atan(cross / (|a||b| + dot)) is exact in (-pi, pi), also for
+    steps wider than 90 degrees on coarse grids.
 
     Each step's angle is a defined variable (one templated constraint per step, which
     the NLP presolve eliminates again); their sum must be >= 0 (ccw) or <= 0 (cw).
@@ -138,7 +141,8 @@ def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
     def rule(_m, k):
         ax, ay = X[tp[k - 1]] - cx, Y[tp[k - 1]] - cy
         bx, by = X[tp[k]] - cx, Y[tp[k]] - cy
-        return m.sweep[k] == pyo.atan((ax * by - ay * bx) / (ax * bx + ay * by))
+        norms = pyo.sqrt((ax**2 + ay**2) * (bx**2 + by**2))  # > 0 outside the obstacle
+        return m.sweep[k] == 2 * pyo.atan((ax * by - ay * bx) / (norms + ax * bx + ay * by))
 
     m.sweep_step = pyo.Constraint(m.steps, rule=rule)
     total = pyo.quicksum(m.sweep[k] for k in m.steps)
