@@ -104,3 +104,17 @@ def test_summary_is_full_precision_json(example_solution, tmp_path):
     assert header.startswith("t,x,y,theta,phi,u1,u2,")
     row = (tmp_path / "trajectory.csv").read_text().splitlines()[30].split(",")
     assert max(len(v.replace("-", "").replace(".", "").lstrip("0")) for v in row) >= 12
+
+
+def test_pass_direction_holds_on_a_coarse_grid():
+    """With 5 intervals a step sweeps more than 90 degrees; the constraint must still hold."""
+    solved = {}
+    for passing in ("ccw", "cw"):
+        ocp = paper_energy_problem()
+        ocp.passing = passing
+        sol = ocp.solve(intervals=5)
+        solved[passing] = sol.ok
+        if sol.ok:  # never a solution going round the wrong way
+            swept = sol.validation["measures"]["swept_angle"]
+            assert swept > 0 if passing == "ccw" else swept < 0
+    assert solved["ccw"]
