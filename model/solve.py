@@ -54,14 +54,17 @@ def solve_ocp(
     if starts is None:
         starts = _default_starts(ocp) if guess is None else ((1.0, "arc"),)
     for passing in passes_to_try(ocp):
-        for scale, route in starts:
-            sol = solve_pass(ocp, intervals, passing, verbose, options, guess, tf_scale=scale, route=route)
+        for (scale, route), sol in zip(
+            starts, solve_starts(ocp, intervals, passing, starts, verbose, options, guess), strict=True
+        ):
             attempts.append(
                 {"pass": passing, "tf_guess_scale": scale, "route": route, "status": sol.status, "valid": sol.ok,
                  "objective": sol.objective}
             )  # fmt: skip
             if best is None or _better(sol, best):
                 best = sol
+    best.nlp.load_primals(best.ipopt.x)  # the model may hold a later start's values
+    best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
     best.attempts = attempts
     best.solve_seconds = time.perf_counter() - start
     return best
@@ -102,23 +105,46 @@ def solve_pass(
     route: str = "arc",
 ) -> Solution:
     """One Ipopt solve with the guess and the constraint of one pass direction."""
+    return solve_starts(ocp, intervals, passing, ((tf_scale, route),), verbose, options, guess)[0]
+
+
+def solve_starts(
+    ocp: OCP,
+    intervals: int,
+    passing: str,
+    starts: tuple[tuple[float, str], ...],
+    verbose: bool = False,
+    options: dict | None = None,
+    guess: pd.DataFrame | None = None,
+) -> list[Solution]:
+    """Build the model of one pass direction once; solve it from each start in turn."""
     t0 = time.perf_counter()
     with paused_gc():  # Pyomo creates many small objects: collections cost 3x the build
         m = build_model(ocp, intervals, passing)
+    t1 = time.perf_counter()
+    nlp, sols = None, []
+    opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
+    for scale, route in starts:
+        _load_start(ocp, m, intervals, passing, guess, scale, route)
+        if nlp is None:
+            t1 = time.perf_counter()
+            nlp = CasadiNLP(m)
+            timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
+        res = run_ipopt(nlp, opts, x0=nlp.init_primals())
+        sols.append(finish(ocp, m, nlp, res, passing, timings))
+    return sols
+
+
+def _load_start(ocp: OCP, m: pyo.ConcreteModel, intervals: int, passing: str, guess, scale: float, route: str):
+    """Put a start's node values (a given trajectory, or the geometric guess) into the model."""
     if guess is not None:
         tf_guess = float(ocp.final_time if not ocp.cost.free_final_time else guess["t"].iloc[-1])
         load_values(m, resample(ocp, guess, intervals))
     else:
-        tf_guess = guess_final_time(ocp, passing) * (tf_scale if ocp.cost.free_final_time else 1.0)
+        tf_guess = guess_final_time(ocp, passing) * (scale if ocp.cost.free_final_time else 1.0)
         load_values(m, initial_guess(ocp, passing, intervals, tf_guess, route))
     if ocp.cost.free_final_time:
         m.tf.set_value(tf_guess)
-    t1 = time.perf_counter()
-    nlp = CasadiNLP(m)
-    t2 = time.perf_counter()
-    opts = {"print_level": 5} if verbose else {}
-    res = run_ipopt(nlp, {**opts, **(options or {})})
-    return finish(ocp, m, nlp, res, passing, {"model_build": t1 - t0, "derivative_setup": t2 - t1})
 
 
 def finish(ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, passing: str, timings: dict) -> Solution:
