@@ -65,7 +65,10 @@ def main(argv: list[str] | None = None) -> int:
 
 def _solve(scenario, args) -> int:
     intervals = args.intervals or scenario.intervals
-    sol = scenario.ocp.solve(intervals=intervals, verbose=args.verbose)
+    print(f"{scenario.ocp.name}: solving with N = {intervals} ...", file=sys.stderr, flush=True)
+    sol = scenario.ocp.solve(
+        intervals=intervals, verbose=args.verbose, progress=lambda line: print("  " + line, file=sys.stderr, flush=True)
+    )
     sol.write(args.out)
     line = (
         f"{scenario.ocp.name}: {sol.status}, objective {sol.objective:.10g}, Tf {sol.final_time:.6g} s, "

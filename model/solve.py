@@ -39,6 +39,7 @@ def solve_ocp(
     options: dict | None = None,
     guess: pd.DataFrame | None = None,
     starts: tuple[tuple[float, str], ...] | None = None,
+    progress=None,
 ) -> Solution:
     """Solve every pass direction asked for and keep the best validated solution.
 
@@ -47,6 +48,7 @@ def solve_ocp(
     ``starts``: cold starts (scale of the Tf guess, guess route "arc" or "line"). Both
     objectives are nonconvex (local minima): by default the time objective tries
     TIME_STARTS, a problem with an obstacle DETOUR_STARTS, and keeps the best.
+    ``progress``: called with one line of text after each start (e.g. ``print``).
     """
     start = time.perf_counter()
     best: Solution | None = None
@@ -61,6 +63,11 @@ def solve_ocp(
                 {"pass": passing, "tf_guess_scale": scale, "route": route, "status": sol.status, "valid": sol.ok,
                  "objective": sol.objective}
             )  # fmt: skip
+            if progress is not None:
+                progress(
+                    f"[{len(attempts)}] pass {passing}, start {route} x{scale:g}: {sol.status}, "
+                    f"objective {sol.objective:.8g}, {sol.iterations} iterations, {sol.timings['ipopt']:.2f} s in Ipopt"
+                )
             if best is None or _better(sol, best):
                 best = sol
     best.nlp.load_primals(best.ipopt.x)  # the model may hold a later start's values
