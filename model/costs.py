@@ -47,7 +47,3 @@ class Time(Cost):
     def lagrangian(self, vehicle: Vehicle) -> sp.Expr:
         return sp.Integer(1)
 
-
-def energy_lagrangian(vehicle: Vehicle) -> sp.Expr:
-    """The contract's reported energy, 1/2 sum u_i^2, whatever the objective."""
-    return Energy().lagrangian(vehicle)

@@ -48,7 +48,7 @@ class OCP:
         names = set(v.states) | set(v.controls)
         for key, val in v.parameters().items():
             if not math.isfinite(val) or val <= 0:
-                raise InputError(f"vehicle.{_param_key(key)}", f"must be > 0, got {val}")
+                raise InputError(f"vehicle.{v.parameter_keys.get(key, key)}", f"must be > 0, got {val}")
         for key, (lo, hi) in self.bounds.items():
             if key not in names:
                 raise InputError(f"bounds.{key}", f"unknown variable (model has {sorted(names)})")
@@ -142,6 +142,3 @@ class OCP:
 
         return derive(self, **options)
 
-
-def _param_key(name: str) -> str:
-    return {"d": "wheelbase"}.get(name, name)

@@ -148,7 +148,7 @@ def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> Template |
     general, own = [], [False] * len(tw.slots)
     for s, (base, args) in enumerate(tw.slots):
         if base is not None and not args:  # a scalar: one position for every index
-            index[s, :] = _resolve(base, args, walk, n_x, n_p, pool_extra)
+            index[s, :] = _position(base, walk, n_x, n_p, pool_extra)
         elif base is not None and _same(args, templates) and base.ctype is pyo.Var:
             index[s, :] = _positions(base, keys, walk)  # x[t] with t the constraint's own index
             own[s] = True
@@ -188,11 +188,6 @@ def _positions(base, keys: list, walk: PyomoToSX) -> list[int]:
     """x positions of base[key] for every key (free Vars only; else the slower path)."""
     where = walk.var_index
     return [where[id(base[key])] for key in keys]
-
-
-def _resolve(base, args, walk: PyomoToSX, n_x: int, n_p: int, extra: list[float]) -> int:
-    """Position in the pool of a scalar slot (one Var or Param for every index)."""
-    return _position(base, walk, n_x, n_p, extra)
 
 
 def _position(data, walk: PyomoToSX, n_x: int, n_p: int, extra: list[float]) -> int:

@@ -23,6 +23,7 @@ class Vehicle:
     states: tuple[str, ...] = ()
     controls: tuple[str, ...] = ()
     position: tuple[str, str] = ("x", "y")
+    parameter_keys: dict[str, str] = {}  # parameter symbol -> its key in a scenario's [vehicle]
 
     def parameters(self) -> dict[str, float]:
         """Numeric values of the model's parameters, keyed by symbol name."""
@@ -58,6 +59,7 @@ class Truck(Vehicle):
 
     wheelbase: float = 0.1
     model = "truck"
+    parameter_keys = {"d": "wheelbase"}
     states = ("x", "y", "theta", "phi")
     controls = ("u1", "u2")
 

@@ -15,7 +15,8 @@
 # # A new vehicle and a new scenario with the DSL
 #
 # A vehicle is one small class: its state and control names and its dynamics as SymPy
-# expressions. The transcription, the validator and the Pontryagin engine read it unchanged.
+# expressions (here a subclass of the truck that changes only the dynamics). The
+# transcription, the validator and the Pontryagin engine read it unchanged.
 # Here: a car whose speed input drives the *front* wheels (the rear axle moves at u1 cos(phi)).
 
 # %%
@@ -23,21 +24,18 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from model import OCP, Circle, Energy, Unicycle
-from model.vehicles import Vehicle, sym
+from model import OCP, Circle, Energy, Truck, Unicycle
+from model.vehicles import sym
 
 
 @dataclass
-class FrontDriveCar(Vehicle):
-    """Car-like robot driven at the front axle: speed u1 of the front wheels, steering rate u2."""
+class FrontDriveCar(Truck):
+    """Car-like robot driven at the front axle: speed u1 of the front wheels, steering rate u2.
 
-    wheelbase: float = 0.1
+    It reuses the truck's states, controls and wheelbase parameter; only the dynamics differ.
+    """
+
     model = "front-drive car"
-    states = ("x", "y", "theta", "phi")
-    controls = ("u1", "u2")
-
-    def parameters(self) -> dict[str, float]:
-        return {"d": float(self.wheelbase)}
 
     def dynamics(self) -> dict[str, sp.Expr]:
         x, y, theta, phi = self.state_symbols()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import sys
@@ -19,6 +20,16 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from model.scenario import load_scenario  # noqa: E402
+
+
+def parser(doc: str | None, results: bool = False) -> argparse.ArgumentParser:
+    """The study scripts' common options: --out folder, --section Markdown file (and --results)."""
+    ap = argparse.ArgumentParser(description=doc)
+    if results:
+        ap.add_argument("--results", type=Path, default=Path("results"))
+    ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--section", type=Path, required=True)
+    return ap
 
 
 def scenario(name: str):

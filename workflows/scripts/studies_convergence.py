@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
 import pandas as pd
-from studies_common import scenario, table, write_json, write_text
+from studies_common import parser, scenario, table, write_json, write_text
 
 from model.studies import convergence
 
@@ -42,10 +39,8 @@ def section(rows: list[dict], ladders: dict) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = parser(__doc__)
     ap.add_argument("--scenarios", nargs="+", required=True, help="name or name:N1,N2,...")
-    ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--section", type=Path, required=True)
     args = ap.parse_args()
     frames, summary, rows, ladders = [], {}, [], {}
     for spec in args.scenarios:

@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
 import numpy as np
-from studies_common import fmt, table, write_json, write_text
+from studies_common import fmt, parser, table, write_json, write_text
 
 from model.indirect import example_problem, richardson, shoot
 from model.studies import observed_orders, progress
@@ -15,9 +12,7 @@ GRIDS = [100, 200, 400, 800]
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--section", type=Path, required=True)
+    ap = parser(__doc__)
     args = ap.parse_args()
     ocp, sols, guess = example_problem(), [], None
     for n in progress(GRIDS, "indirect: direct grids"):

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from studies_common import fmt, plt, save, scenario, solved, table, write_json, write_text
+from studies_common import fmt, parser, plt, save, scenario, solved, table, write_json, write_text
 
 from model.studies import front_statements, pareto_front
 
@@ -134,12 +133,9 @@ def section(verdicts: dict, marks: list[dict], fronts: pd.DataFrame, fig: Path) 
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--results", type=Path, default=Path("results"))
+    ap = parser(__doc__, results=True)
     ap.add_argument("--points", type=int, default=6)
     ap.add_argument("--t-max", type=float, default=3.0)
-    ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--section", type=Path, required=True)
     args = ap.parse_args()
     fronts, verdicts, marks = [], {}, []
     for key in FRONTS:

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 from pathlib import Path
 
 import numpy as np
-from studies_common import fmt, plt, save, solved, table, write_json, write_text
+from studies_common import fmt, parser, plt, save, solved, table, write_json, write_text
 
 from model.arcs import arc_structure
 from model.costs import Time
@@ -166,12 +165,9 @@ def section(rows: list[dict], reg: list[dict], fig: Path) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--results", type=Path, default=Path("results"))
+    ap = parser(__doc__, results=True)
     ap.add_argument("--scenarios", nargs="+", required=True)
     ap.add_argument("--regularise", nargs="*", default=[])
-    ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--section", type=Path, required=True)
     args = ap.parse_args()
     results = {n: solved(args.results, n) for n in args.scenarios}
     rows = [describe(n, r) for n, r in results.items()]

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import pandas as pd
-from studies_common import plt, save, scenario, table, write_text
+from studies_common import parser, plt, save, scenario, table, write_text
 
 from model.studies import as_energy, progress, row, solve_best, with_wheelbase
 
@@ -115,9 +114,7 @@ def section(frame: pd.DataFrame, fig: Path) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--section", type=Path, required=True)
+    ap = parser(__doc__)
     args = ap.parse_args()
     frame = pd.DataFrame([r for label, spec in SWEEPS.items() for r in sweep(label, *spec)])
     args.out.mkdir(parents=True, exist_ok=True)
