@@ -16,6 +16,8 @@ multipliers of the defining rows are recovered for Pyomo afterwards.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import casadi as ca
 import numpy as np
 import pyomo.environ as pyo
@@ -23,6 +25,19 @@ from pyomo.contrib.pynumero.interfaces.nlp import NLP
 from pyomo.core.expr.numvalue import native_numeric_types
 from scipy.sparse import coo_matrix
 
+from model.blocks import (
+    Block,
+    Definition,
+    Layout,
+    Scatter,
+    eliminate,
+    eliminate_sum,
+    find_definition,
+    from_expressions,
+    hessian_layout,
+    jacobian_layout,
+    merge,
+)
 from model.pyomo_sx import PyomoToSX, component_rows
 
 
@@ -40,154 +55,188 @@ class CasadiNLP(NLP):
             raise ValueError(f"expected one active objective, found {len(objectives)}")
         self.objective = objectives[0]
         self._sense = 1.0 if self.objective.sense == pyo.minimize else -1.0
-        x_full, p, g_full, f = self._translate(templates)
-        self._reduce(x_full, p, g_full, f, presolve)
+        self._translate(templates)
+        self._reduce(presolve)
         self._x = self.init_primals()
         self._y = np.zeros(self.n_constraints())
         self._sigma = np.ones(1)
-        self._p = np.array([float(pyo.value(q)) for q in self.params])
+        self._p = np.array([float(pyo.value(q)) for q in self.params], dtype=float)
         self._evaluate_bounds()
 
     # -- construction ---------------------------------------------------------
-    def _translate(self, templates: bool):
-        """SX of every active constraint body (component by component) and of the objective."""
+    def _translate(self, templates: bool) -> None:
+        """One Block per active constraint component (a template where Pyomo gives one,
+        checked against direct walks) and one for the objective."""
         x = ca.SX.sym("x", len(self.variables))
         p = ca.SX.sym("p", len(self.params))
         walk = PyomoToSX({id(v): i for i, v in enumerate(self.variables)}, x,
                          {id(q): i for i, q in enumerate(self.params)}, p)  # fmt: skip
-        self.constraints, self._bound_exprs, pieces, extra = [], [], [], []
+        self.constraints, self._bound_exprs, extra, pieces = [], [], [], []
         for comp in self.model.component_objects(pyo.Constraint, active=True, descend_into=True):
             datas = [d for d in comp.values() if d.active]
-            tmpl = None
+            if not datas:
+                continue
+            block = None
             if templates and comp.is_indexed() and len(datas) == len(comp) > 2:
-                tmpl = component_rows(comp, walk, extra)
-            pieces.append((tmpl, datas, len(self.constraints)))
+                block = component_rows(comp, walk, extra)
+            pieces.append((block, datas, len(self.constraints)))
             self.constraints += datas
-            self._bound_exprs += [d.to_bounded_expression(evaluate_bounds=False)[::2] for d in datas]
-        self._pool = ca.vertcat(x, p, ca.DM(extra)) if extra else ca.vertcat(x, p)
-        rows, self._templates = [], []
-        for tmpl, datas, offset in pieces:
-            body = tmpl.on(self._pool) if tmpl is not None else None
-            if body is not None and self._agrees(body, datas, walk, x, p):
-                self._templates.append((tmpl, offset))
-            else:
-                body = ca.vertcat(*[walk(d.to_bounded_expression(evaluate_bounds=False)[1]) for d in datas])
-            rows.append(body if datas else ca.SX(0, 1))
-        g = ca.vertcat(*rows) if rows else ca.SX(0, 1)
-        f = self._sense * ca.SX(walk(self.objective.expr))
-        return x, p, g, f
+        self._consts = np.array(extra, dtype=float)
+        agree = self._agrees([(b, d) for b, d, _ in pieces if b is not None], walk, x, p)
+        self._blocks = []
+        for block, datas, offset in pieces:
+            if block is None or not agree.pop(0):
+                rows = ca.vertcat(*[walk(d.to_bounded_expression(evaluate_bounds=False)[1]) for d in datas])
+                block = from_expressions(rows, x, p, offset)
+            block.offset = offset
+            self._blocks.append(block)
+            self._bound_exprs += _bounds(block, datas)
+        self._objective_block = from_expressions(self._sense * ca.SX(walk(self.objective.expr)), x, p, 0)
 
-    @staticmethod
-    def _agrees(rows: ca.SX, datas: list, walk: PyomoToSX, x: ca.SX, p: ca.SX) -> bool:
-        """Do the template rows equal direct walks at three indices (random point)?"""
-        picks = sorted({0, len(datas) // 2, len(datas) - 1})
-        direct = ca.vertcat(*[ca.SX(walk(datas[i].to_bounded_expression(evaluate_bounds=False)[1])) for i in picks])
-        check = ca.Function("check", [x, p], [rows[picks] - direct, direct])
+    def _agrees(self, pairs: list, walk: PyomoToSX, x: ca.SX, p: ca.SX) -> list[bool]:
+        """Does each template equal direct walks at three of its indices (random point)?"""
+        if not pairs:
+            return []
         rng = np.random.default_rng(0)
-        diff, ref = check(rng.uniform(0.1, 0.9, x.numel()), rng.uniform(0.1, 0.9, p.numel()))
-        return bool(np.max(np.abs(np.array(diff))) <= 1e-10 * (1 + np.max(np.abs(np.array(ref)))))
+        xv, pv = rng.uniform(0.1, 0.9, x.numel()), rng.uniform(0.1, 0.9, p.numel())
+        pool = np.concatenate([xv, pv, self._consts])
+        picks = [sorted({0, len(datas) // 2, len(datas) - 1}) for _, datas in pairs]
+        direct = [walk(datas[i].to_bounded_expression(evaluate_bounds=False)[1]) for (_, datas), ks in
+                  zip(pairs, picks, strict=True) for i in ks]  # fmt: skip
+        ref = np.array(ca.Function("direct", [x, p], [ca.vertcat(*direct)])(xv, pv)).ravel()
+        out, k = [], 0
+        for (block, _), ks in zip(pairs, picks, strict=True):
+            fn = ca.Function("template", [block.slots], [block.row])
+            got = np.array([float(fn(block.gather(pool)[:, i])) for i in ks])
+            want = ref[k : k + len(ks)]
+            k += len(ks)
+            out.append(bool(np.max(np.abs(got - want)) <= 1e-10 * (1 + np.max(np.abs(want)))))
+        return out
 
-    def _reduce(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX, presolve: bool) -> None:
+    def _reduce(self, presolve: bool) -> None:
         """Presolve (if ``presolve``) and build the derivative functions.
 
-        1. eliminate defined variables (``_definitions``, found on the templates);
-        2. turn singleton rows lo <= c x_i + k(p) <= hi into bounds on x_i (boundary
-           conditions become fixed variables, as CasADi's detect_simple_bounds does).
+        1. eliminate defined variables (``_definitions``) by substituting their
+           definitions into the templates that use them;
+        2. turn blocks of singleton rows lo <= c x_i + k(p) <= hi into bounds on x_i
+           (boundary conditions become fixed variables, as CasADi's
+           detect_simple_bounds does).
         """
-        self._full = (x, p, g, f)
-        def_rows, elim, defs = self._definitions(x.numel()) if presolve else ([], [], None)
-        keep_rows = np.setdiff1d(np.arange(g.numel()), def_rows)
-        keep_cols = np.setdiff1d(np.arange(x.numel()), elim)
-        order = np.argsort(elim)  # setdiff1d sorts; keep defs aligned with sorted columns
-        self._elim, self._def_rows = np.asarray(elim, dtype=int)[order], np.asarray(def_rows, dtype=int)[order]
-        xr, gr, fr = x[keep_cols.tolist()], g[keep_rows.tolist()], f
-        if len(elim):
-            defs = defs[order.tolist()]
-            gr = ca.substitute(gr, x[self._elim.tolist()], defs)
-            fr = ca.substitute(f, x[self._elim.tolist()], defs)
-            self._expand = ca.Function("expand", [xr, p], [defs])
-        self._cols = keep_cols
-        jac = ca.jacobian(gr, xr)
-        kept = self._singletons(xr, p, gr, jac, keep_rows, presolve)
-        self._rows = keep_rows[kept]
-        self._make_functions(xr, p, gr[kept.tolist()], fr, jac[kept.tolist(), :])
+        n_x = len(self.variables)
+        defs = self._definitions(n_x) if presolve else []
+        blocks, objective = self._blocks, self._objective_block
+        if defs:
+            owner, at = np.full(n_x, -1), np.full(n_x, -1)
+            for i, d in enumerate(defs):
+                owner[d.cols], at[d.cols] = i, np.arange(d.block.n)
+            defining = {id(d.block) for d in defs}
+            try:
+                blocks = [self._substitute(b, defs, owner, at) for b in blocks if id(b) not in defining]
+                objective = self._substitute(objective, defs, owner, at)
+            except ValueError:
+                defs, blocks, objective = [], self._blocks, self._objective_block
+        self._defs = [(d, d.block.mapped(d.value)) for d in defs]
+        elim = np.concatenate([d.cols for d in defs]).astype(int) if defs else np.zeros(0, int)
+        rows = np.concatenate([d.block.rows() for d in defs]).astype(int) if defs else np.zeros(0, int)
+        order = np.argsort(elim)
+        self._elim, self._def_rows = elim[order], rows[order]
+        self._cols = np.setdiff1d(np.arange(n_x), elim)
+        kept, self._bounds = [], []
+        for b in blocks:
+            found = _singleton(b, n_x) if presolve else None
+            (self._bounds.append((b, *found)) if found else kept.append(b))
+        kept = _merge_by_size(kept)
+        self._rows = np.concatenate([b.rows() for b in kept]).astype(int) if kept else np.zeros(0, int)
+        self._make_bounds(n_x)
+        self._make_functions([self._reindex(b, n_x) for b in kept], self._reindex(objective, n_x))
 
-    def _definitions(self, n_x: int) -> tuple[list[int], list[int], ca.SX | None]:
-        """Template rows 0 = c X[t] + rest(other variables): X[t] := -rest / c.
+    def _substitute(self, block: Block, defs: list[Definition], owner: np.ndarray, at: np.ndarray) -> Block:
+        """``block`` with defined variables replaced by their definitions."""
 
-        A template qualifies if exactly one slot has a constant coefficient, that slot
-        is an unbounded Var indexed like the constraint, the bounds are the number 0,
-        and no other definition's variable appears in it.
+        def constant(values: np.ndarray) -> np.ndarray:
+            start = len(self.variables) + len(self.params) + len(self._consts)
+            self._consts = np.concatenate([self._consts, values])
+            return start + np.arange(len(values))
+
+        return eliminate_sum(block, defs, owner, at, constant) or eliminate(block, defs, owner, at)
+
+    def _definitions(self, n_x: int) -> list[Definition]:
+        """Templates 0 = c X[t] + rest(other variables) with zero bounds: X[t] := -rest / c.
+
+        No chains: a definition may not use another definition's variable.
         """
         lbx, ubx = self._var_bounds()
+        free = ~np.isfinite(lbx) & ~np.isfinite(ubx)
         found = []
-        for tmpl, offset in self._templates:
-            n = tmpl.index.shape[1]
-            if not all(_is_zero(b) for lohi in self._bound_exprs[offset : offset + n] for b in lohi):
-                continue
-            slots = ca.vertcat(*tmpl.symbols)
-            grad = ca.jacobian(tmpl.row, slots)
-            const = [k for k in range(grad.numel()) if grad.nz[k].is_constant() and float(grad.nz[k]) != 0]
-            if len(const) != 1:
-                continue
-            s = grad.sparsity().get_col()[const[0]]
-            cols = tmpl.index[s]
-            others = [k for k in range(len(tmpl.symbols)) if k != s and np.all(tmpl.index[k] < n_x)]
-            if not tmpl.own[s] or not others or np.isfinite(lbx[cols]).any() or np.isfinite(ubx[cols]).any():
-                continue
-            rest = ca.substitute(tmpl.row, tmpl.symbols[s], 0)
-            fn = ca.Function("definition", [slots], [-rest / float(grad.nz[const[0]])]).map(n)
-            found.append((offset + np.arange(n), cols, tmpl.index[others].ravel(), tmpl, fn))
-        while True:  # no chains: a definition may not use another's variable
-            used = np.concatenate([c for _, c, _, _, _ in found]) if found else np.zeros(0, int)
-            bad = [i for i, (_, c, deps, _, _) in enumerate(found) if np.isin(deps, np.setdiff1d(used, c)).any()]
+        for b in self._blocks:
+            lohi = self._bound_exprs[b.offset : b.offset + b.m]
+            if len(b.own) and all(_is_zero(v) for pair in lohi for v in pair):
+                d = find_definition(b, n_x, free)
+                found += [d] if d is not None else []
+        while found:
+            used = np.concatenate([d.cols for d in found])
+            bad = [i for i, d in enumerate(found) if np.isin(_uses(d, n_x), np.setdiff1d(used, d.cols)).any()]
             if not bad:
-                break
-            found = [item for i, item in enumerate(found) if i not in bad]
-        if not found or len(np.unique(used)) != len(used):
-            return [], [], None
-        rows = np.concatenate([r for r, _, _, _, _ in found]).tolist()
-        defs = ca.vertcat(*[tmpl.on(self._pool, fn) for _, _, _, tmpl, fn in found])
-        return rows, used.tolist(), defs
+                return found if len(np.unique(used)) == len(used) else []
+            found = [d for i, d in enumerate(found) if i not in bad]
+        return []
 
-    def _singletons(self, xr, p, gr, jac, keep_rows: np.ndarray, presolve: bool) -> np.ndarray:
-        """Rows with one constant Jacobian entry become bounds; returns the rows kept."""
+    def _reindex(self, block: Block, n_x: int) -> Block:
+        """The block over the reduced pool (kept x, p, constants)."""
+        where = np.full(n_x, -1)
+        where[self._cols] = np.arange(len(self._cols))
+        idx = block.index
+        new = np.where(idx < n_x, where[np.minimum(idx, n_x - 1)], idx - n_x + len(self._cols))
+        if np.any((idx < n_x) & (new < 0)):
+            raise RuntimeError("presolve left a reference to an eliminated variable")
+        return replace(block, index=new)
+
+    def _make_bounds(self, n_x: int) -> None:
+        """Singleton blocks: bound rows, their columns and coefficients, and the offset k(p)."""
         self._bound_rows = np.zeros(0, dtype=int)
-        everything = np.arange(gr.numel())
-        if not presolve or gr.numel() == 0:
-            return everything
-        rows, cols = (np.asarray(a) for a in jac.sparsity().get_triplet())
-        counts = np.bincount(rows, minlength=gr.numel())
-        local, col, coef = [], [], []
-        for k in np.flatnonzero(counts[rows] == 1):
-            entry = jac.nz[int(k)]
-            if entry.is_constant() and float(entry) != 0:
-                local.append(int(rows[k]))
-                col.append(int(cols[k]))
-                coef.append(float(entry))
-        if not local:
-            return everything
-        offset = ca.substitute(gr[local], xr, ca.DM.zeros(xr.numel()))  # g = c x_i + k(p)
-        self._offset = ca.Function("offset", [p], [offset])
-        self._bound_rows = keep_rows[local]
-        self._bound_cols_local = np.array(col)
-        self._bound_cols = self._cols[col]
-        self._bound_coef = np.array(coef)
-        return np.setdiff1d(everything, local)
+        self._bound_cols = np.zeros(0, dtype=int)
+        if not self._bounds:
+            return
+        self._bound_rows = np.concatenate([b.rows() for b, _, _ in self._bounds])
+        self._bound_cols = np.concatenate([b.index[s] for b, s, _ in self._bounds])
+        self._bound_coef = np.concatenate([np.full(b.n, c) for b, _, c in self._bounds])
+        self._bound_cols_local = np.searchsorted(self._cols, self._bound_cols)
+        self._offsets = [(b, b.mapped(ca.substitute(b.row, b.slots[s], 0))) for b, s, _ in self._bounds]
 
-    def _make_functions(self, x: ca.SX, p: ca.SX, g: ca.SX, f: ca.SX, jac: ca.SX) -> None:
-        m, n = g.numel(), x.numel()
-        sigma, lam = ca.SX.sym("sigma"), ca.SX.sym("lam", m)
-        hess = ca.tril(ca.hessian(sigma * f + ca.dot(lam, g), x)[0])
-        self._jac_rc = jac.sparsity().get_triplet()
-        self._hess_rc = hess.sparsity().get_triplet()
-        args = [x, p]
+    def _make_functions(self, blocks: list[Block], objective: Block) -> None:
+        """g, f, and raw Jacobian/gradient/Hessian entries as MX Functions over mapped templates."""
+        n, m = len(self._cols), sum(b.m for b in blocks)
+        x, p = ca.MX.sym("x", n), ca.MX.sym("p", len(self.params))
+        sigma, lam = ca.MX.sym("sigma"), ca.MX.sym("lam", m)
+        pool = ca.vertcat(x, p, ca.DM(self._consts)) if len(self._consts) else ca.vertcat(x, p)
+        g, jac, hess, jl, hl, start = [], [], [], [], [], 0
+        for b in blocks:
+            args = b.gather(pool)
+            g.append(b.evaluate(b.mapped(b.row), args))
+            jl.append(jacobian_layout(b, start))
+            jac.append(ca.vec(jl[-1].fn(args)))
+            hl.append(hessian_layout(b))
+            hess.append(ca.vec(hl[-1].fn(args, _per_index(b, lam[start : start + b.m]))))
+            start += b.m
+        args = objective.gather(pool)
+        gl, ol = jacobian_layout(objective, 0), hessian_layout(objective)
+        hl.append(ol)
+        hess.append(ca.vec(ol.fn(args, _per_index(objective, sigma))))
+        self._jac = _scatter(jl, lambda lay: lay.cols < n, n)
+        self._hess = _scatter(hl, lambda lay: (lay.cols < n) & (lay.rows < n), n)
+        self._grad = _scatter([gl], lambda lay: lay.cols < n, n, by_column=True)
+        self._jac_rc = (self._jac.rows, self._jac.cols)
+        self._hess_rc = (self._hess.rows, self._hess.cols)
+        f = objective.evaluate(objective.mapped(objective.row), args)
+        grad = ca.densify(ca.mtimes(self._grad.matrix(), ca.vec(gl.fn(args))))
+        jac_values = ca.densify(ca.mtimes(self._jac.matrix(), _cat(jac)))
+        hess_values = ca.densify(ca.mtimes(self._hess.matrix(), _cat(hess)))
         self._fns = {
-            "f": _Buffered(ca.Function("f", args, [f]), 1),
-            "grad": _Buffered(ca.Function("grad", args, [ca.densify(ca.gradient(f, x))]), n),
-            "g": _Buffered(ca.Function("g", args, [g]), m),
-            "jac": _Buffered(ca.Function("jacobian_g", args, [jac]), jac.nnz()),
-            "hess": _Buffered(ca.Function("hessian_lag", [x, p, sigma, lam], [hess]), hess.nnz()),
+            "f": _Buffered(ca.Function("f", [x, p], [f]), 1),
+            "grad": _Buffered(ca.Function("grad", [x, p], [grad]), n),
+            "g": _Buffered(ca.Function("g", [x, p], [_cat(g)]), m),
+            "jac": _Buffered(ca.Function("jacobian_g", [x, p], [jac_values]), self._jac.size),
+            "hess": _Buffered(ca.Function("hessian_lag", [x, p, sigma, lam], [hess_values]), self._hess.size),
         }
 
     # -- sizes and bounds -------------------------------------------------------
@@ -218,7 +267,8 @@ class CasadiNLP(NLP):
         """Variable bounds of the reduced NLP, tightened by the singleton rows."""
         lb, ub = (b[self._cols] for b in self._var_bounds())
         if len(self._bound_rows):
-            k = np.array(self._offset(self._p)).ravel()
+            pool = self._pool(np.zeros(len(self.variables)))
+            k = np.concatenate([np.array(fn(b.gather(pool))).ravel() for b, fn in self._offsets])
             c = self._bound_coef
             lo = (self._gl[self._bound_rows] - k) / c
             hi = (self._gu[self._bound_rows] - k) / c
@@ -322,8 +372,15 @@ class CasadiNLP(NLP):
         full = np.empty(len(self.variables))
         full[self._cols] = x
         if len(self._elim):
-            full[self._elim] = np.array(self._expand(x, self._p)).ravel()
+            full[self._elim] = 0.0
+            pool = self._pool(full)
+            for d, fn in self._defs:
+                full[d.cols] = np.array(fn(d.block.gather(pool))).ravel()
         return full
+
+    def _pool(self, x_full: np.ndarray) -> np.ndarray:
+        """Numeric pool (all variables, parameters, constants) in full numbering."""
+        return np.concatenate([x_full, self._p, self._consts])
 
     def load_primals(self, x: np.ndarray) -> None:
         """Write primal values (reduced vector) into the Pyomo variables."""
@@ -341,19 +398,33 @@ class CasadiNLP(NLP):
         lam[self._rows] = mult_g
         if not len(self._elim) and not len(self._bound_rows):
             return lam
-        if not hasattr(self, "_kkt"):
-            xf, p, g, f = self._full
-            self._kkt = ca.Function("kkt", [xf, p], [ca.gradient(f, xf), ca.jacobian(g, xf)])
-        grad, jac = self._kkt(self.full_primals(x), self._p)
-        grad, J = np.array(grad).ravel(), jac.sparse().tocsc()
+        grad, J = self._full_derivatives(self.full_primals(x))
         if len(self._elim):  # an eliminated column meets only its definition and kept rows
             rest = grad[self._elim] + J[self._rows][:, self._elim].T @ mult_g
             lam[self._def_rows] = -rest / np.asarray(J[self._def_rows, self._elim]).ravel()
-        for r, c in zip(self._bound_rows, getattr(self, "_bound_cols", []), strict=True):
+        for r, c in zip(self._bound_rows, self._bound_cols, strict=True):
             column = J[:, c]
             others = column.indices != r
             lam[r] = -(grad[c] + column.data[others] @ lam[column.indices[others]]) / J[r, c]
         return lam
+
+    def _full_derivatives(self, x_full: np.ndarray):
+        """Objective gradient and constraint Jacobian (CSC) of the model before presolve."""
+        if not hasattr(self, "_kkt"):
+            self._kkt = [(b, jacobian_layout(b, b.offset)) for b in self._blocks]
+            self._kkt_f = jacobian_layout(self._objective_block, 0)
+        n_x, pool = len(self.variables), self._pool(x_full)
+
+        def raw(block, lay):
+            vals = np.array(lay.fn(block.gather(pool))).T.ravel()
+            ok = lay.cols < n_x
+            return vals[ok], lay.rows[ok], lay.cols[ok]
+
+        parts = [raw(b, lay) for b, lay in self._kkt]
+        vals, rows, cols = (np.concatenate([q[i] for q in parts]) for i in range(3))
+        fv, _, fc = raw(self._objective_block, self._kkt_f)
+        J = coo_matrix((vals, (rows, cols)), shape=(len(self.constraints), n_x)).tocsc()
+        return np.bincount(fc, weights=fv, minlength=n_x), J
 
     def load_duals(self, mult_g: np.ndarray, x: np.ndarray | None = None) -> None:
         """Store constraint duals in ``model.dual`` with Pyomo's sign convention.
@@ -366,6 +437,65 @@ class CasadiNLP(NLP):
         lam = self.full_duals(self._x if x is None else x, mult_g)
         for con, val in zip(self.constraints, lam, strict=True):
             self.model.dual[con] = -self._sense * float(val)
+
+
+def _bounds(block: Block, datas: list) -> list[tuple]:
+    """(lower, upper) of each row: the template's numbers if it has them (checked at
+    both ends), else each constraint's own bound expressions."""
+    if block.bounds is not None:
+        ends = [
+            datas[0].to_bounded_expression(evaluate_bounds=False)[::2],
+            datas[-1].to_bounded_expression(evaluate_bounds=False)[::2],
+        ]
+        if all(tuple(e) == block.bounds for e in ends):
+            return [block.bounds] * len(datas)
+    return [d.to_bounded_expression(evaluate_bounds=False)[::2] for d in datas]
+
+
+def _singleton(block: Block, n_x: int) -> tuple[int, float] | None:
+    """(slot, c) if each row of ``block`` is c x_slot + k(p) with a constant c != 0."""
+    if block.r != 1 or block.slots.numel() == 0:
+        return None
+    is_x = np.all(block.index < n_x, axis=1)
+    mixed = np.any(block.index < n_x, axis=1) & ~is_x
+    grad = ca.jacobian(block.row, block.slots)
+    cols = np.asarray(grad.sparsity().get_col())
+    hits = [k for k in range(grad.nnz()) if is_x[cols[k]]]
+    if mixed.any() or len(hits) != 1 or not grad.nz[hits[0]].is_constant() or float(grad.nz[hits[0]]) == 0:
+        return None
+    return int(cols[hits[0]]), float(grad.nz[hits[0]])
+
+
+def _uses(d: Definition, n_x: int) -> np.ndarray:
+    """Variable positions a definition reads (its other slots)."""
+    idx = np.delete(d.block.index, d.slot, axis=0)
+    return idx[idx < n_x]
+
+
+def _scatter(layouts: list[Layout], valid, n: int, by_column: bool = False) -> Scatter:
+    rows = np.concatenate([lay.rows for lay in layouts])
+    cols = np.concatenate([lay.cols for lay in layouts])
+    weight = np.concatenate([lay.weight for lay in layouts])
+    ok = np.concatenate([valid(lay) for lay in layouts])
+    return Scatter(cols if by_column else rows, cols, n, ok, weight, dense=n if by_column else None)
+
+
+def _merge_by_size(blocks: list[Block]) -> list[Block]:
+    """Merge the non-summed blocks of equal size (one per size), keep the others."""
+    sizes: dict[int, list[Block]] = {}
+    for b in blocks:
+        sizes.setdefault(-1 if b.summed else b.n, []).append(b)
+    out = sizes.pop(-1, [])
+    return [merge(group) if len(group) > 1 else group[0] for group in sizes.values()] + out
+
+
+def _per_index(block: Block, lam: ca.MX) -> ca.MX:
+    """A block's multipliers as an r x n matrix: one column per index (shared if summed)."""
+    return ca.repmat(lam, 1, block.n) if block.summed else ca.reshape(lam, block.r, block.n)
+
+
+def _cat(parts: list) -> ca.MX:
+    return ca.vertcat(*parts) if parts else ca.MX(0, 1)
 
 
 def _is_zero(value) -> bool:

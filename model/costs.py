@@ -46,4 +46,3 @@ class Time(Cost):
 
     def lagrangian(self, vehicle: Vehicle) -> sp.Expr:
         return sp.Integer(1)
-

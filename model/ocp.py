@@ -141,4 +141,3 @@ class OCP:
         from derivations.pmp import derive
 
         return derive(self, **options)
-

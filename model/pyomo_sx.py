@@ -2,15 +2,13 @@
 
 A collocation model repeats one constraint template per node. ``component_rows``
 asks Pyomo for the template of an indexed Constraint (``templatize_constraint``),
-translates it to SX once, and applies it to all indices through ``Function.map``;
+translates it to SX once, and applies it to all indices (a ``model.blocks.Block``);
 only the lookup of each index's variables runs in Python. Components that cannot be
 templatised, or whose template disagrees with a direct walk at sample indices, fall
 back to walking every constraint.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -19,6 +17,8 @@ from pyomo.core.expr.numeric_expr import SumExpression
 from pyomo.core.expr.numvalue import native_numeric_types
 from pyomo.core.expr.relational_expr import EqualityExpression, InequalityExpression, RangedExpression
 from pyomo.core.expr.template_expr import GetItemExpression, IndexTemplate, templatize_constraint
+
+from model.blocks import Block
 
 _UNARY = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos, "atan": ca.atan,
@@ -106,35 +106,15 @@ def _variable(e) -> bool:
     return type(e) not in native_numeric_types and e.is_potentially_variable()
 
 
-@dataclass
-class Template:
-    """One indexed Constraint as a row template over slots, and where each slot points.
-
-    ``index[s, j]``: the pool position (x, then p, then constants) of slot s at the
-    j-th index; ``own[s]``: slot s is a Var indexed exactly like the constraint.
-    """
-
-    index: np.ndarray
-    fn: ca.Function
-    row: ca.SX
-    symbols: list[ca.SX]
-    own: list[bool]
-
-    def on(self, pool: ca.SX, fn: ca.Function | None = None) -> ca.SX:
-        """Evaluate ``fn`` (default: the row template) at every index: an SX column."""
-        args = ca.reshape(pool[self.index.T.ravel().tolist()], self.index.shape[0], self.index.shape[1])
-        return ca.vec((fn or self.fn)(args))
-
-
-def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> Template | None:
-    """The template of ``comp``, or None if Pyomo cannot templatise it.
+def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> Block | None:
+    """The template of ``comp`` as a Block, or None if Pyomo cannot templatise it.
 
     ``pool_extra`` collects numeric per-index constants; the pool vector is
-    (x, p, pool_extra) and ``Template.on`` evaluates the template on it.
+    (x, p, pool_extra).
     """
     try:
         expr, templates = templatize_constraint(comp)
-        _, body, _ = _bounded(expr)
+        lo, body, hi = _bounded(expr)
     except Exception:  # noqa: BLE001  (any rule Pyomo cannot templatise)
         return None
     tw = _TemplateToSX(walk)
@@ -156,8 +136,10 @@ def component_rows(comp, walk: PyomoToSX, pool_extra: list[float]) -> Template |
             general.append(s)
     if general and not _resolve_general(tw, general, templates, keys, index, walk, pool_extra):
         return None
-    fn = ca.Function("template", [ca.vertcat(*tw.symbols)], [row]).map(len(keys))
-    return Template(index, fn, row, tw.symbols, own)
+    block = Block(row, ca.vertcat(*tw.symbols), index, own=np.array(own, dtype=bool))
+    if all(b is None or type(b) in native_numeric_types for b in (lo, hi)):
+        block.bounds = (lo, hi)
+    return block
 
 
 def _resolve_general(tw, general, templates, keys, index, walk, pool_extra) -> bool:

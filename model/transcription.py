@@ -3,10 +3,15 @@
 Time is normalised, tau = t / Tf in [0, 1]; each state X has a DerivativeVar
 dX/dtau tied to Tf * f(X, U) at every node, and ``dae.trapezoid`` adds
 X_{k+1} = X_k + h/2 (f_k + f_{k+1}) (h = Tf / N). Controls live at the nodes.
-The energy objective is the paper's eq. (32); the time objective is Tf.
+The energy objective is the paper's eq. (32), the trapezoid sum of a running-cost
+variable defined at each node as Tf L(U) (like dX, a defined variable the NLP
+presolve eliminates again); the time objective is Tf.
 """
 
 from __future__ import annotations
+
+import functools
+import operator
 
 import pyomo.environ as pyo
 import sympy as sp
@@ -37,13 +42,10 @@ def sympy_to_pyomo(expr: sp.Expr, env: dict[sp.Symbol, object]):
     if expr.is_Number:
         return float(expr)
     args = [sympy_to_pyomo(a, env) for a in expr.args]
-    if expr.is_Add:
-        return sum(args[1:], args[0])
+    if expr.is_Add:  # not sum(): Pyomo's templatize_constraint replaces it
+        return functools.reduce(operator.add, args)
     if expr.is_Mul:
-        out = args[0]
-        for a in args[1:]:
-            out = out * a
-        return out
+        return functools.reduce(operator.mul, args)
     if expr.is_Pow:
         base, exp = args
         return pyo.sqrt(base) if expr.exp == sp.Rational(1, 2) else base**exp
@@ -157,13 +159,15 @@ def _add_objective(m: pyo.ConcreteModel, ocp: OCP) -> None:
     L = ocp.cost.lagrangian(v)
     nodes = m.nodes
     n = len(nodes) - 1
+    m.running_cost = pyo.Var(m.tau, initialize=0.0)
 
-    def running(t):
-        return sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
+    def rule(_m, t):
+        return m.running_cost[t] == m.tf * sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
 
-    values = [running(t) for t in nodes]
-    total = sum(values[1:-1]) + (values[0] + values[-1]) / 2
-    m.objective = pyo.Objective(expr=m.tf / n * total, sense=pyo.minimize)
+    m.running_cost_rate = pyo.Constraint(m.tau, rule=rule)
+    rate = m.running_cost
+    total = pyo.quicksum(rate[t] for t in nodes[1:-1]) + (rate[nodes[0]] + rate[nodes[-1]]) / 2
+    m.objective = pyo.Objective(expr=total / n, sense=pyo.minimize)
 
 
 def _rate_penalty(m: pyo.ConcreteModel, ocp: OCP):

@@ -63,6 +63,9 @@ def test_truck_constraints_against_hand_computed_case():
             expected = vals[s][k] - vals[s][k - 1] - h / 2 * (f(k - 1)[s] + f(k)[s])
             assert pyo.value(m.component(f"d{s}_trapezoid")[k].body) == pytest.approx(expected, rel=1e-12)
     L = [0.5 * (u1**2 + u2**2) for u1, u2 in zip(vals["u1"], vals["u2"], strict=True)]
+    for k, t in enumerate(nodes):
+        m.running_cost[t].value = tf * L[k]  # the defined running cost Tf L(U)
+        assert pyo.value(m.running_cost_rate[t].body) == pytest.approx(0, abs=1e-14)
     assert pyo.value(m.objective) == pytest.approx(h / 2 * (L[0] + L[1]) + h / 2 * (L[1] + L[2]), rel=1e-14)
 
 
