@@ -16,13 +16,13 @@ from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import numpy as np
+from scipy.sparse import coo_matrix, csr_matrix
 
 
 @dataclass
 class Block:
     """Rows ``row`` (r x 1 SX over ``slots``) at n indices; full rows offset + j r + i.
 
-    ``summed``: the n copies add up into the same r rows (a sum over the grid);
     ``bounds``: (lower, upper) numbers shared by all rows, if the template has them;
     ``ids``: explicit full row numbers [r, n] (merged blocks).
     """
@@ -32,7 +32,6 @@ class Block:
     index: np.ndarray
     offset: int = 0
     own: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
-    summed: bool = False
     bounds: tuple | None = None
     ids: np.ndarray | None = None
 
@@ -47,21 +46,16 @@ class Block:
     @property
     def m(self) -> int:
         """Number of rows."""
-        return self.r if self.summed else self.n * self.r
+        return self.n * self.r
 
     def rows(self) -> np.ndarray:
         """Full-model row numbers of this block, in evaluation order."""
         return self.ids.T.ravel() if self.ids is not None else self.offset + np.arange(self.m)
 
-    def evaluate(self, fn: ca.Function, args, *extra):
-        """Rows (or row-like outputs of ``fn``) of all indices; summed blocks add up."""
-        out = fn(args, *extra)
-        return ca.sum2(out) if self.summed else ca.vec(out)
-
-    def mapped(self, expr: ca.SX, extra: list[ca.SX] = ()) -> ca.Function:
+    def mapped(self, expr: ca.SX, extra: list[ca.SX] = ()) -> ca.Function | Chunked:
         """``expr`` (over slots and ``extra``) as a Function mapped over the n indices."""
         fn = ca.Function("block", [self.slots, *extra], [expr])
-        return fn.map(self.n) if self.n > 1 else fn
+        return Chunked(fn, self.n) if self.n > 1 else fn
 
     def gather(self, pool: ca.MX | np.ndarray):
         """Slot values at every index: an S x n matrix taken from the pool."""
@@ -71,28 +65,60 @@ class Block:
         return ca.reshape(pool[flat.tolist()], self.index.shape[0], self.n)
 
 
+class Chunked:
+    """``fn`` at n indices, called on chunks of ``CHUNK`` indices at a time.
+
+    One chunk is an SX function of CHUNK copies, so CasADi's per-call overhead of a
+    serial map (~50 ns, more than a small template costs) is paid n / CHUNK times.
+    The last chunk is padded with copies of the last index and cut off again.
+    """
+
+    CHUNK = 16
+
+    def __init__(self, fn: ca.Function, n: int):
+        self.n, self.k = n, min(self.CHUNK, n)
+        self.calls = -(-n // self.k)
+        self.fn = fn.map(self.k).expand().map(self.calls)
+
+    def __call__(self, *args):
+        pad = self.calls * self.k - self.n
+        if pad:
+            args = [_pad(ca.DM(a) if isinstance(a, np.ndarray) else a, self.n, pad) for a in args]
+        out = self.fn(*args)
+        return out[:, : self.n] if pad and out.numel() else out
+
+
+def _pad(a, n: int, pad: int):
+    return ca.horzcat(a, ca.repmat(a[:, -1], 1, pad)) if a.size2() == n else a
+
+
 def from_expressions(rows: ca.SX, x: ca.SX, p: ca.SX, offset: int) -> Block:
     """A one-index block of ``rows`` over the x and p entries they depend on."""
     dx = np.flatnonzero(ca.which_depends(rows, x, 1, False)) if x.numel() else np.zeros(0, int)
     dp = np.flatnonzero(ca.which_depends(rows, p, 1, False)) if p.numel() else np.zeros(0, int)
-    slots = ca.vertcat(*[x[int(i)] for i in dx], *[p[int(i)] for i in dp]) if len(dx) + len(dp) else ca.SX(0, 1)
+    slots = ca.vertcat(_pick(x, dx), _pick(p, dp))
     index = np.concatenate([dx, x.numel() + dp]).astype(np.int64).reshape(-1, 1)
     return Block(rows, slots, index, offset, np.zeros(len(index), dtype=bool))
+
+
+def _pick(v: ca.SX, which) -> ca.SX:
+    """Entries ``which`` of an SX column, in one call (an empty column if none)."""
+    which = np.asarray(which, dtype=np.int64)
+    return v[which.tolist()] if len(which) else ca.SX(0, 1)
 
 
 def tidy(block: Block) -> Block:
     """Merge slots that point to the same positions everywhere; drop unused slots."""
     if block.slots.numel() == 0:
         return block
-    _, first, inverse = np.unique(block.index, axis=0, return_index=True, return_inverse=True)
-    inverse = np.asarray(inverse).ravel()
-    keep = np.sort(first)
-    sym = [block.slots[int(s)] for s in range(block.slots.numel())]
-    row = ca.substitute(block.row, block.slots, ca.vertcat(*[sym[int(first[inverse[s]])] for s in range(len(sym))]))
+    seen: dict[bytes, int] = {}
+    first = np.array([seen.setdefault(r.tobytes(), s) for s, r in enumerate(block.index)], dtype=np.int64)
+    keep = np.unique(first)
+    row = ca.substitute(block.row, block.slots, _pick(block.slots, first))
     used = np.asarray(ca.which_depends(row, block.slots, 1, False), dtype=bool)
     keep = keep[used[keep]]
     own = block.own[keep] if len(block.own) else np.zeros(len(keep), dtype=bool)
-    slots = ca.vertcat(*[sym[int(s)] for s in keep]) if len(keep) else ca.SX(0, 1)
+    slots = _pick(block.slots, keep)
     return replace(block, row=row, slots=slots, index=block.index[keep], own=own)
 
 
@@ -140,31 +166,36 @@ def find_definition(block: Block, n_x: int, unbounded: np.ndarray) -> Definition
     return Definition(block, s, -rest / float(grad.nz[const[0]]))
 
 
-def eliminate_sum(block: Block, defs: list[Definition], owner: np.ndarray, at: np.ndarray, constant) -> Block | None:
-    """A one-row block sum_s c_s v_s of defined variables (one definition, constant c_s)
-    as a summed block: the definition's template over the defining indices, times c.
+def split_linear(block: Block, owner: np.ndarray, dpos: np.ndarray, pool: np.ndarray, n_free: int):
+    """``block`` = rest + K v, with v its slots on defined variables and K constant
+    (numbers, or pool constants at positions >= ``n_free``: evaluated per index).
 
-    ``constant(values)`` puts numbers in the pool and returns their positions.
-    None if the row is not of that form.
+    Returns the rest (a block without those slots) and the links (full row, position
+    of the defined value in the vector of all definitions, coefficient); None if a
+    defined slot enters nonlinearly or also points to free variables.
     """
     n_x = len(owner)
-    pos = block.index[:, 0] if block.n == 1 and block.r == 1 else np.zeros(0, int)
-    hit = np.flatnonzero((pos < n_x) & (owner[np.minimum(pos, n_x - 1)] >= 0)) if len(pos) else pos
-    if not len(hit) or len(np.unique(owner[pos[hit]])) != 1:
+    idx = block.index
+    defined = (idx < n_x) & (owner[np.minimum(idx, n_x - 1)] >= 0)
+    hit = np.flatnonzero(defined.any(axis=1))
+    if not len(hit):
+        return block, no_links()
+    if not defined[hit].all():
         return None
-    v = ca.vertcat(*[block.slots[int(s)] for s in hit])
+    v = _pick(block.slots, hit)
     grad = ca.jacobian(block.row, v)
-    if grad.nnz() != len(hit) or not all(grad.nz[k].is_constant() for k in range(grad.nnz())):
+    varying = np.flatnonzero(~np.all(idx >= n_free, axis=1))
+    if any(ca.which_depends(grad.nz[:], _pick(block.slots, varying), 1, True)):
         return None
-    if not ca.substitute(block.row, v, ca.DM.zeros(len(hit))).is_zero():
-        return None
-    d = defs[int(owner[pos[hit[0]]])]
-    coef, copy = ca.SX.sym("c"), ca.SX.sym("e", d.block.slots.numel())
-    row = coef * ca.substitute(d.value, d.block.slots, copy)
-    c = np.array(ca.evalf(grad)).ravel()
-    index = np.vstack([constant(c)[None, :], d.block.index[:, at[pos[hit]]]])
-    own = np.zeros(index.shape[0], dtype=bool)
-    return tidy(Block(row, ca.vertcat(coef, copy), index, block.offset, own, summed=True))
+    rest = tidy(replace(block, row=ca.substitute(block.row, v, ca.DM.zeros(len(hit)))))
+    gi, gs = (np.asarray(a, dtype=np.int64) for a in grad.sparsity().get_triplet())
+    coef = np.array(block.mapped(ca.vec(grad.nz[:]))(block.gather(pool))).T.ravel()  # [j, k]
+    full = block.rows().reshape(block.n, block.r)  # [j, i]
+    return rest, (full[:, gi].ravel(), dpos[idx[hit[gs]].T].ravel(), coef)
+
+
+def no_links() -> tuple:
+    return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
 
 
 def eliminate(block: Block, defs: list[Definition], owner: np.ndarray, at: np.ndarray) -> Block:
@@ -198,68 +229,72 @@ def eliminate(block: Block, defs: list[Definition], owner: np.ndarray, at: np.nd
     row = ca.substitute(block.row, ca.vertcat(*old), ca.vertcat(*new))
     own = np.zeros(sum(i.shape[0] for i in index), dtype=bool)
     own[: len(block.own)] = block.own
-    return tidy(Block(row, ca.vertcat(*slots), np.vstack(index), block.offset, own, block.summed))
+    return tidy(Block(row, ca.vertcat(*slots), np.vstack(index), block.offset, own))
 
 
 @dataclass
 class Layout:
     """A block's derivative nonzeros: a Function mapped over its indices, and for
-    each raw output entry the (row, column) it adds into, with a multiplicity."""
+    each raw output entry the (row, column) it adds into."""
 
     fn: ca.Function
     rows: np.ndarray
     cols: np.ndarray
-    weight: np.ndarray
 
 
-def jacobian_layout(block: Block, start: int) -> Layout:
-    """d rows / d slots per index; target rows start + j r + i, columns the slot positions."""
-    jac = ca.jacobian(block.row, block.slots)
+def _variable_slots(block: Block, n_var: int) -> tuple[ca.SX, np.ndarray]:
+    """The slots that point to a variable (position < n_var) at some index."""
+    which = np.flatnonzero((block.index < n_var).any(axis=1))
+    return _pick(block.slots, which), block.index[which]
+
+
+def jacobian_layout(block: Block, start: int, n_var: int) -> Layout:
+    """d rows / d variable slots per index; target rows start + j r + i, columns the
+    slot positions."""
+    slots, index = _variable_slots(block, n_var)
+    jac = ca.jacobian(block.row, slots)
     jr, jc = (np.asarray(a, dtype=np.int64) for a in jac.sparsity().get_triplet())
-    step = np.zeros((block.n, 1), dtype=np.int64) if block.summed else np.arange(block.n)[:, None] * block.r
-    rows = (start + step + jr[None, :]).ravel()
-    cols = block.index[jc].T.ravel()
-    return Layout(block.mapped(jac.nz[:]), rows, cols, np.ones(len(rows)))
+    rows = (start + np.arange(block.n)[:, None] * block.r + jr[None, :]).ravel()
+    return Layout(block.mapped(ca.vec(jac.nz[:])), rows, index[jc].T.ravel())
 
 
-def hessian_layout(block: Block) -> Layout:
-    """Lower triangle of d2 (lam . rows) / d slots2 per index, as (row >= column) targets.
-
-    Two different slots at the same position meet on the diagonal: weight 2.
-    """
+def hessian_layout(block: Block, n_var: int) -> tuple[Layout, np.ndarray]:
+    """Lower triangle of d2 (lam . rows) / d slots2 per index (variable slots), as
+    (row >= column) targets, and the weights: two different slots at the same
+    position meet on the diagonal twice."""
+    slots, index = _variable_slots(block, n_var)
     lam = ca.SX.sym("lam", block.r)
-    hess = ca.tril(ca.hessian(ca.dot(lam, block.row), block.slots)[0])
+    hess = ca.tril(ca.hessian(ca.dot(lam, block.row), slots)[0])
     hr, hc = (np.asarray(a, dtype=np.int64) for a in hess.sparsity().get_triplet())
-    a, b = block.index[hr].T.ravel(), block.index[hc].T.ravel()
+    a, b = index[hr].T.ravel(), index[hc].T.ravel()
     weight = np.where(np.tile(hr != hc, block.n) & (a == b), 2.0, 1.0)
-    return Layout(block.mapped(hess.nz[:], [lam]), np.maximum(a, b), np.minimum(a, b), weight)
+    return Layout(block.mapped(ca.vec(hess.nz[:]), [lam]), np.maximum(a, b), np.minimum(a, b)), weight
 
 
-class Scatter:
-    """Sum raw derivative entries into a sparse pattern without duplicates.
+class Assembly:
+    """Raw derivative entries summed into a sparse pattern by one constant matrix.
 
-    Entries not ``valid`` (a column or row that is not a variable) are dropped.
-    ``dense=n``: a dense vector of length n indexed by ``cols`` (a gradient).
+    Contributions are (row, column, raw entry, weight); a raw entry may feed several
+    targets. ``dense=n`` makes the pattern a dense vector of length n (a gradient).
     """
 
-    def __init__(self, rows, cols, n_cols: int, valid: np.ndarray, weight: np.ndarray, dense: int | None = None):
+    def __init__(self, rows, cols, raw, weight, n_raw: int, n_cols: int, dense: int | None = None):
         if dense is None:
-            keys, inverse = np.unique(rows[valid] * n_cols + cols[valid], return_inverse=True)
+            keys, target = np.unique(rows * n_cols + cols, return_inverse=True)
             self.rows, self.cols = (np.asarray(a, dtype=np.int64) for a in np.divmod(keys, n_cols))
             self.size = len(keys)
         else:
-            inverse, self.size = cols[valid], dense
-        self.target = np.full(len(rows), self.size, dtype=np.int64)
-        self.target[valid] = np.asarray(inverse).ravel()
-        self.weight = None if np.all(weight == 1.0) else weight
+            target, self.size = cols, dense
+        coo = coo_matrix((weight, (np.asarray(target).ravel(), raw)), shape=(self.size, n_raw)).tocsc()
+        coo.sum_duplicates()
+        pattern = ca.Sparsity(self.size, n_raw, coo.indptr.tolist(), coo.indices.tolist())
+        self.matrix = ca.DM(pattern, coo.data)
 
-    def __call__(self, raw: np.ndarray) -> np.ndarray:
-        w = raw if self.weight is None else raw * self.weight
-        return np.bincount(self.target, weights=w, minlength=self.size + 1)[: self.size]
 
-    def matrix(self) -> ca.DM:
-        """The same sum as a sparse matrix (size x raw entries), to apply inside CasADi."""
-        k = np.flatnonzero(self.target < self.size)
-        w = np.ones(len(self.target)) if self.weight is None else self.weight
-        pattern = ca.Sparsity.triplet(self.size, len(self.target), self.target[k].tolist(), k.tolist())
-        return ca.DM(pattern, w[k])
+def through(links: csr_matrix, lay: Layout, offset: int) -> tuple[np.ndarray, ...]:
+    """Contributions of a definition's derivative entries (rows = positions in the
+    vector of definitions) to the rows that use them with constant coefficients."""
+    pick = coo_matrix((np.ones(len(lay.rows)), (lay.rows, np.arange(len(lay.rows)))),
+                      shape=(links.shape[1], len(lay.rows)))  # fmt: skip
+    used = (links @ pick.tocsc()).tocoo()
+    return used.row, lay.cols[used.col], offset + used.col, used.data

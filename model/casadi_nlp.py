@@ -23,20 +23,23 @@ import numpy as np
 import pyomo.environ as pyo
 from pyomo.contrib.pynumero.interfaces.nlp import NLP
 from pyomo.core.expr.numvalue import native_numeric_types
-from scipy.sparse import coo_matrix
+from scipy.sparse import coo_matrix, csr_matrix
 
 from model.blocks import (
+    Assembly,
     Block,
     Definition,
     Layout,
-    Scatter,
     eliminate,
-    eliminate_sum,
     find_definition,
     from_expressions,
     hessian_layout,
     jacobian_layout,
     merge,
+    no_links,
+    split_linear,
+    through,
+    tidy,
 )
 from model.pyomo_sx import PyomoToSX, component_rows
 
@@ -55,12 +58,12 @@ class CasadiNLP(NLP):
             raise ValueError(f"expected one active objective, found {len(objectives)}")
         self.objective = objectives[0]
         self._sense = 1.0 if self.objective.sense == pyo.minimize else -1.0
+        self._p = np.array([float(pyo.value(q)) for q in self.params], dtype=float)
         self._translate(templates)
         self._reduce(presolve)
         self._x = self.init_primals()
         self._y = np.zeros(self.n_constraints())
         self._sigma = np.ones(1)
-        self._p = np.array([float(pyo.value(q)) for q in self.params], dtype=float)
         self._evaluate_bounds()
 
     # -- construction ---------------------------------------------------------
@@ -116,49 +119,60 @@ class CasadiNLP(NLP):
     def _reduce(self, presolve: bool) -> None:
         """Presolve (if ``presolve``) and build the derivative functions.
 
-        1. eliminate defined variables (``_definitions``) by substituting their
-           definitions into the templates that use them;
-        2. turn blocks of singleton rows lo <= c x_i + k(p) <= hi into bounds on x_i
+        1. defined variables (``_definitions``) leave the NLP: where they enter a row
+           linearly with constant coefficients (dX in the trapezoid rows, a sum of
+           running costs) the row keeps a link to the definition's value, computed
+           once per index; elsewhere the definition is substituted into the template;
+        2. blocks of singleton rows lo <= c x_i + k(p) <= hi become bounds on x_i
            (boundary conditions become fixed variables, as CasADi's
            detect_simple_bounds does).
         """
         n_x = len(self.variables)
         defs = self._definitions(n_x) if presolve else []
-        blocks, objective = self._blocks, self._objective_block
-        if defs:
-            owner, at = np.full(n_x, -1), np.full(n_x, -1)
-            for i, d in enumerate(defs):
-                owner[d.cols], at[d.cols] = i, np.arange(d.block.n)
-            defining = {id(d.block) for d in defs}
-            try:
-                blocks = [self._substitute(b, defs, owner, at) for b in blocks if id(b) not in defining]
-                objective = self._substitute(objective, defs, owner, at)
-            except ValueError:
-                defs, blocks, objective = [], self._blocks, self._objective_block
+        try:
+            blocks, objective, links, obj_links = self._link(defs, n_x)
+        except ValueError:
+            defs = []
+            blocks, objective, links, obj_links = self._link(defs, n_x)
         self._defs = [(d, d.block.mapped(d.value)) for d in defs]
         elim = np.concatenate([d.cols for d in defs]).astype(int) if defs else np.zeros(0, int)
         rows = np.concatenate([d.block.rows() for d in defs]).astype(int) if defs else np.zeros(0, int)
         order = np.argsort(elim)
         self._elim, self._def_rows = elim[order], rows[order]
         self._cols = np.setdiff1d(np.arange(n_x), elim)
-        kept, self._bounds = [], []
+        kept, self._bounds, linked = [], [], set(links[0].tolist())
         for b in blocks:
-            found = _singleton(b, n_x) if presolve else None
+            found = _singleton(b, n_x) if presolve and not linked.intersection(b.rows().tolist()) else None
             (self._bounds.append((b, *found)) if found else kept.append(b))
         kept = _merge_by_size(kept)
         self._rows = np.concatenate([b.rows() for b in kept]).astype(int) if kept else np.zeros(0, int)
         self._make_bounds(n_x)
-        self._make_functions([self._reindex(b, n_x) for b in kept], self._reindex(objective, n_x))
+        position = np.full(len(self.constraints), -1)
+        position[self._rows] = np.arange(len(self._rows))
+        n_d = sum(d.block.n for d in defs)
+        C = csr_matrix((links[2], (position[links[0]], links[1])), shape=(len(self._rows), n_d))
+        c_obj = csr_matrix((obj_links[2], (np.zeros(len(obj_links[1]), int), obj_links[1])), shape=(1, n_d))
+        reindex = self._reindexer(n_x)
+        self._make_functions([reindex(b) for b in kept], reindex(objective),
+                             [reindex(tidy(replace(d.block, row=d.value))) for d in defs], C, c_obj)  # fmt: skip
 
-    def _substitute(self, block: Block, defs: list[Definition], owner: np.ndarray, at: np.ndarray) -> Block:
-        """``block`` with defined variables replaced by their definitions."""
-
-        def constant(values: np.ndarray) -> np.ndarray:
-            start = len(self.variables) + len(self.params) + len(self._consts)
-            self._consts = np.concatenate([self._consts, values])
-            return start + np.arange(len(values))
-
-        return eliminate_sum(block, defs, owner, at, constant) or eliminate(block, defs, owner, at)
+    def _link(self, defs: list[Definition], n_x: int) -> tuple:
+        """Blocks without defined variables, and links (row, definition value, coefficient)."""
+        owner, dpos = np.full(n_x, -1), np.full(n_x, -1)
+        at, start = np.full(n_x, -1), 0
+        for i, d in enumerate(defs):
+            owner[d.cols], at[d.cols], dpos[d.cols] = i, np.arange(d.block.n), start + np.arange(d.block.n)
+            start += d.block.n
+        defining = {id(d.block) for d in defs}
+        blocks, links, pool = [], [], self._pool(np.zeros(n_x))
+        for b in [*(b for b in self._blocks if id(b) not in defining), self._objective_block]:
+            split = split_linear(b, owner, dpos, pool, n_x + len(self.params))
+            if split is None:
+                split = eliminate(b, defs, owner, at), no_links()
+            blocks.append(split[0])
+            links.append(split[1])
+        joined = tuple(np.concatenate([q[k] for q in links[:-1]]) for k in range(3))
+        return blocks[:-1], blocks[-1], joined, links[-1]
 
     def _definitions(self, n_x: int) -> list[Definition]:
         """Templates 0 = c X[t] + rest(other variables) with zero bounds: X[t] := -rest / c.
@@ -181,15 +195,19 @@ class CasadiNLP(NLP):
             found = [d for i, d in enumerate(found) if i not in bad]
         return []
 
-    def _reindex(self, block: Block, n_x: int) -> Block:
-        """The block over the reduced pool (kept x, p, constants)."""
+    def _reindexer(self, n_x: int):
+        """A function giving a block over the reduced pool (kept x, p, constants)."""
         where = np.full(n_x, -1)
         where[self._cols] = np.arange(len(self._cols))
-        idx = block.index
-        new = np.where(idx < n_x, where[np.minimum(idx, n_x - 1)], idx - n_x + len(self._cols))
-        if np.any((idx < n_x) & (new < 0)):
-            raise RuntimeError("presolve left a reference to an eliminated variable")
-        return replace(block, index=new)
+
+        def reindex(block: Block) -> Block:
+            idx = block.index
+            new = np.where(idx < n_x, where[np.minimum(idx, n_x - 1)], idx - n_x + len(self._cols))
+            if np.any((idx < n_x) & (new < 0)):
+                raise RuntimeError("presolve left a reference to an eliminated variable")
+            return replace(block, index=new)
+
+        return reindex
 
     def _make_bounds(self, n_x: int) -> None:
         """Singleton blocks: bound rows, their columns and coefficients, and the offset k(p)."""
@@ -203,40 +221,55 @@ class CasadiNLP(NLP):
         self._bound_cols_local = np.searchsorted(self._cols, self._bound_cols)
         self._offsets = [(b, b.mapped(ca.substitute(b.row, b.slots[s], 0))) for b, s, _ in self._bounds]
 
-    def _make_functions(self, blocks: list[Block], objective: Block) -> None:
-        """g, f, and raw Jacobian/gradient/Hessian entries as MX Functions over mapped templates."""
+    def _make_functions(self, blocks, objective, def_blocks, C: csr_matrix, c_obj: csr_matrix) -> None:
+        """g, f, gradient, Jacobian and Lagrangian Hessian as MX Functions over mapped
+        templates; raw derivative entries are summed into the sparse patterns by
+        constant matrices (``Assembly``) inside CasADi."""
         n, m = len(self._cols), sum(b.m for b in blocks)
         x, p = ca.MX.sym("x", n), ca.MX.sym("p", len(self.params))
         sigma, lam = ca.MX.sym("sigma"), ca.MX.sym("lam", m)
         pool = ca.vertcat(x, p, ca.DM(self._consts)) if len(self._consts) else ca.vertcat(x, p)
-        g, jac, hess, jl, hl, start = [], [], [], [], [], 0
+        jac, hess, grad = _Parts(), _Parts(), _Parts()
+        g, start = [], 0
         for b in blocks:
             args = b.gather(pool)
-            g.append(b.evaluate(b.mapped(b.row), args))
-            jl.append(jacobian_layout(b, start))
-            jac.append(ca.vec(jl[-1].fn(args)))
-            hl.append(hessian_layout(b))
-            hess.append(ca.vec(hl[-1].fn(args, _per_index(b, lam[start : start + b.m]))))
+            g.append(ca.vec(b.mapped(b.row)(args)))
+            jac.add(jacobian_layout(b, start, n), args)
+            lay, w = hessian_layout(b, n)
+            hess.add(lay, args, ca.reshape(lam[start : start + b.m], b.r, b.n), weight=w)
             start += b.m
         args = objective.gather(pool)
-        gl, ol = jacobian_layout(objective, 0), hessian_layout(objective)
-        hl.append(ol)
-        hess.append(ca.vec(ol.fn(args, _per_index(objective, sigma))))
-        self._jac = _scatter(jl, lambda lay: lay.cols < n, n)
-        self._hess = _scatter(hl, lambda lay: (lay.cols < n) & (lay.rows < n), n)
-        self._grad = _scatter([gl], lambda lay: lay.cols < n, n, by_column=True)
+        f = objective.mapped(objective.row)(args)
+        grad.add(jacobian_layout(objective, 0, n), args)
+        lay, w = hessian_layout(objective, n)
+        hess.add(lay, args, sigma, weight=w)
+        g = _cat(g)
+        for block, (lo, hi) in zip(def_blocks, _segments(def_blocks), strict=True):
+            args = block.gather(pool)
+            value = ca.vec(block.mapped(block.row)(args))
+            links, cost = C[:, lo:hi], c_obj[:, lo:hi]
+            lay = jacobian_layout(block, 0, n)
+            if links.nnz:  # used by rows
+                g += ca.mtimes(_dm(links), value)
+                jac.add(lay, args, links=links)
+            if cost.nnz:  # used by the objective
+                f += ca.mtimes(_dm(cost), value)
+                grad.add(lay, args, links=cost)
+            weight = ca.mtimes(_dm(links.T), lam) + sigma * _dm(cost.T)
+            lay, w = hessian_layout(block, n)
+            hess.add(lay, args, ca.reshape(weight, 1, block.n), weight=w)
+        g_all = g
+        self._jac, self._hess, self._grad = jac.assemble(n), hess.assemble(n, lower=True), grad.assemble(n, dense=True)
         self._jac_rc = (self._jac.rows, self._jac.cols)
         self._hess_rc = (self._hess.rows, self._hess.cols)
-        f = objective.evaluate(objective.mapped(objective.row), args)
-        grad = ca.densify(ca.mtimes(self._grad.matrix(), ca.vec(gl.fn(args))))
-        jac_values = ca.densify(ca.mtimes(self._jac.matrix(), _cat(jac)))
-        hess_values = ca.densify(ca.mtimes(self._hess.matrix(), _cat(hess)))
         self._fns = {
             "f": _Buffered(ca.Function("f", [x, p], [f]), 1),
-            "grad": _Buffered(ca.Function("grad", [x, p], [grad]), n),
-            "g": _Buffered(ca.Function("g", [x, p], [_cat(g)]), m),
-            "jac": _Buffered(ca.Function("jacobian_g", [x, p], [jac_values]), self._jac.size),
-            "hess": _Buffered(ca.Function("hessian_lag", [x, p, sigma, lam], [hess_values]), self._hess.size),
+            "grad": _Buffered(ca.Function("grad", [x, p], [grad.values(self._grad)]), n),
+            "g": _Buffered(ca.Function("g", [x, p], [ca.densify(g_all)]), m),
+            "jac": _Buffered(ca.Function("jacobian_g", [x, p], [jac.values(self._jac)]), self._jac.size),
+            "hess": _Buffered(
+                ca.Function("hessian_lag", [x, p, sigma, lam], [hess.values(self._hess)]), self._hess.size
+            ),
         }
 
     # -- sizes and bounds -------------------------------------------------------
@@ -253,9 +286,12 @@ class CasadiNLP(NLP):
         return len(self._hess_rc[0])
 
     def _var_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        lb = np.array([-np.inf if v.lb is None else v.lb for v in self.variables], dtype=float)
-        ub = np.array([np.inf if v.ub is None else v.ub for v in self.variables], dtype=float)
-        return lb, ub
+        """Variable bounds (read from Pyomo once; ``refresh_parameters`` re-reads them)."""
+        if not hasattr(self, "_lbx"):
+            both = np.array([v.bounds for v in self.variables], dtype=float).reshape(-1, 2)
+            self._lbx = np.where(np.isnan(both[:, 0]), -np.inf, both[:, 0])
+            self._ubx = np.where(np.isnan(both[:, 1]), np.inf, both[:, 1])
+        return self._lbx, self._ubx
 
     def primals_lb(self) -> np.ndarray:
         return self._reduced_bounds()[0]
@@ -295,8 +331,8 @@ class CasadiNLP(NLP):
         return np.zeros(size)
 
     def _bounds_now(self) -> tuple[np.ndarray, np.ndarray]:
-        lo = np.array([-np.inf if a is None else pyo.value(a) for a, _ in self._bound_exprs], dtype=float)
-        hi = np.array([np.inf if b is None else pyo.value(b) for _, b in self._bound_exprs], dtype=float)
+        lo = np.array([_number(a, -np.inf) for a, _ in self._bound_exprs], dtype=float)
+        hi = np.array([_number(b, np.inf) for _, b in self._bound_exprs], dtype=float)
         return lo, hi
 
     def _evaluate_bounds(self) -> None:
@@ -323,8 +359,9 @@ class CasadiNLP(NLP):
         return float(self._sigma[0])
 
     def refresh_parameters(self) -> None:
-        """Re-read mutable Param values and the constraint bounds that use them."""
+        """Re-read mutable Param values, variable bounds and the constraint bounds."""
         self._p[:] = [float(pyo.value(q)) for q in self.params]
+        del self._lbx, self._ubx
         self._evaluate_bounds()
 
     def get_obj_scaling(self):
@@ -411,8 +448,9 @@ class CasadiNLP(NLP):
     def _full_derivatives(self, x_full: np.ndarray):
         """Objective gradient and constraint Jacobian (CSC) of the model before presolve."""
         if not hasattr(self, "_kkt"):
-            self._kkt = [(b, jacobian_layout(b, b.offset)) for b in self._blocks]
-            self._kkt_f = jacobian_layout(self._objective_block, 0)
+            n_x = len(self.variables)
+            self._kkt = [(b, jacobian_layout(b, b.offset, n_x)) for b in self._blocks]
+            self._kkt_f = jacobian_layout(self._objective_block, 0, n_x)
         n_x, pool = len(self.variables), self._pool(x_full)
 
         def raw(block, lay):
@@ -472,30 +510,60 @@ def _uses(d: Definition, n_x: int) -> np.ndarray:
     return idx[idx < n_x]
 
 
-def _scatter(layouts: list[Layout], valid, n: int, by_column: bool = False) -> Scatter:
-    rows = np.concatenate([lay.rows for lay in layouts])
-    cols = np.concatenate([lay.cols for lay in layouts])
-    weight = np.concatenate([lay.weight for lay in layouts])
-    ok = np.concatenate([valid(lay) for lay in layouts])
-    return Scatter(cols if by_column else rows, cols, n, ok, weight, dense=n if by_column else None)
+class _Parts:
+    """Raw derivative entries of many layouts: MX pieces and where each entry goes."""
+
+    def __init__(self):
+        self.pieces, self.contrib, self.count = [], [], 0
+
+    def add(self, lay: Layout, args, *extra, weight=None, links: csr_matrix | None = None) -> None:
+        self.pieces.append(ca.vec(lay.fn(args, *extra)))
+        if links is None:
+            w = np.ones(len(lay.rows)) if weight is None else weight
+            self.contrib.append((lay.rows, lay.cols, self.count + np.arange(len(lay.rows)), w))
+        else:
+            self.contrib.append(through(links, lay, self.count))
+        self.count += len(lay.rows)
+
+    def assemble(self, n: int, lower: bool = False, dense: bool = False) -> Assembly:
+        rows, cols, raw, w = (np.concatenate([c[k] for c in self.contrib]) for k in range(4))
+        ok = (cols < n) & ((rows < n) if lower else True)
+        return Assembly(rows[ok], cols[ok], raw[ok], w[ok], self.count, n, dense=n if dense else None)
+
+    def values(self, assembly: Assembly) -> ca.MX:
+        return ca.densify(ca.mtimes(assembly.matrix, _cat(self.pieces)))
+
+
+def _dm(matrix) -> ca.DM:
+    """A scipy sparse matrix as a CasADi DM."""
+    csc = matrix.tocsc()
+    csc.sum_duplicates()
+    return ca.DM(ca.Sparsity(csc.shape[0], csc.shape[1], csc.indptr.tolist(), csc.indices.tolist()), csc.data)
 
 
 def _merge_by_size(blocks: list[Block]) -> list[Block]:
-    """Merge the non-summed blocks of equal size (one per size), keep the others."""
+    """Merge blocks of equal size: one block per size."""
     sizes: dict[int, list[Block]] = {}
     for b in blocks:
-        sizes.setdefault(-1 if b.summed else b.n, []).append(b)
-    out = sizes.pop(-1, [])
-    return [merge(group) if len(group) > 1 else group[0] for group in sizes.values()] + out
+        sizes.setdefault(b.n, []).append(b)
+    return [merge(group) if len(group) > 1 else group[0] for group in sizes.values()]
 
 
-def _per_index(block: Block, lam: ca.MX) -> ca.MX:
-    """A block's multipliers as an r x n matrix: one column per index (shared if summed)."""
-    return ca.repmat(lam, 1, block.n) if block.summed else ca.reshape(lam, block.r, block.n)
+def _segments(blocks: list[Block]) -> list[tuple[int, int]]:
+    """(first, end) positions of each definition block's values in the vector of all."""
+    ends = np.cumsum([b.n for b in blocks], dtype=int).tolist()
+    return list(zip([0, *ends][: len(ends)], ends, strict=True))
 
 
 def _cat(parts: list) -> ca.MX:
     return ca.vertcat(*parts) if parts else ca.MX(0, 1)
+
+
+def _number(bound, missing: float) -> float:
+    """A bound's value now (``missing`` if there is none)."""
+    if bound is None:
+        return missing
+    return bound if type(bound) in native_numeric_types else pyo.value(bound)
 
 
 def _is_zero(value) -> bool:

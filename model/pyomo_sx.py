@@ -34,6 +34,13 @@ class PyomoToSX:
         self.var_index, self.x = var_index, x
         self.param_index, self.p = param_index, p
         self._memo: dict[int, tuple[object, ca.SX]] = {}  # keeps nodes alive: ids stay unique
+        self._xs: list[ca.SX] | None = None
+
+    def _entries(self) -> list[ca.SX]:
+        """The entries of x as separate SX (split once: indexing x costs a call each)."""
+        if self._xs is None:
+            self._xs = ca.vertsplit(self.x)
+        return self._xs
 
     def __call__(self, node) -> ca.SX | float:
         if type(node) in native_numeric_types:
@@ -52,9 +59,11 @@ class PyomoToSX:
             name = getattr(node, "getname", lambda: "")()
             if name in _UNARY and len(args) == 1:
                 return _UNARY[name](args[0])
+            if isinstance(node, SumExpression) and len(args) > 2:  # one call, not n - 1 additions
+                return ca.sum1(ca.vertcat(*[a if isinstance(a, ca.SX) else ca.SX(a) for a in args]))
             return node._apply_operation(args)
         if node.is_variable_type():
-            return float(node.value) if node.fixed else self.x[self.var_index[id(node)]]
+            return float(node.value) if node.fixed else self._entries()[self.var_index[id(node)]]
         if node.is_parameter_type() and id(node) in self.param_index:
             return self.p[self.param_index[id(node)]]
         return float(pyo.value(node))
@@ -154,7 +163,7 @@ def _resolve_general(tw, general, templates, keys, index, walk, pool_extra) -> b
                 index[s, :] = [_constant(float(v), n_x, n_p, pool_extra) for v in by_template[id(args[0])]]
                 continue
             idx = [_index_values(a, by_template, len(keys)) for a in args]
-            datas = [base[i[0] if len(i) == 1 else i] for i in zip(*idx, strict=True)]
+            datas = _items(base, [i[0] if len(i) == 1 else i for i in zip(*idx, strict=True)])
             index[s, :] = [_position(d, walk, n_x, n_p, pool_extra) for d in datas]
     except (TypeError, KeyError, IndexError, ValueError):
         return False
@@ -169,7 +178,7 @@ def _same(args: tuple, templates: tuple) -> bool:
 def _positions(base, keys: list, walk: PyomoToSX) -> list[int]:
     """x positions of base[key] for every key (free Vars only; else the slower path)."""
     where = walk.var_index
-    return [where[id(base[key])] for key in keys]
+    return [where[id(d)] for d in _items(base, keys)]
 
 
 def _position(data, walk: PyomoToSX, n_x: int, n_p: int, extra: list[float]) -> int:
@@ -188,6 +197,17 @@ def _constant(value: float, n_x: int, n_p: int, extra: list[float]) -> int:
     return n_x + n_p + len(extra) - 1
 
 
+def _items(base, keys: list) -> list:
+    """base[key] for every key; straight from the component's data dict when it has them all."""
+    data = getattr(base, "_data", None)
+    if isinstance(data, dict):
+        try:
+            return [data[k] for k in keys]
+        except (KeyError, TypeError):
+            pass
+    return [base[k] for k in keys]
+
+
 def _index_values(a, by_template: dict[int, list], n: int) -> list:
     """Values of a small index expression (t, k - 1, tp[k - 1]) at every index at once."""
     if type(a) in native_numeric_types:
@@ -197,7 +217,7 @@ def _index_values(a, by_template: dict[int, list], n: int) -> list:
     if isinstance(a, GetItemExpression):
         inner = [_index_values(b, by_template, n) for b in a.args[1:]]
         base = a.args[0]
-        return [base[i[0] if len(i) == 1 else i] for i in zip(*inner, strict=True)]
+        return _items(base, [i[0] if len(i) == 1 else i for i in zip(*inner, strict=True)])
     if isinstance(a, SumExpression):
         parts = [_index_values(b, by_template, n) for b in a.args]
         return [sum(vals) for vals in zip(*parts, strict=True)]

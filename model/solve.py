@@ -135,7 +135,8 @@ def solve_starts(
         _load_start(ocp, m, intervals, passing, guess, scale, route)
         if nlp is None:
             t1 = time.perf_counter()
-            nlp = CasadiNLP(m)
+            with paused_gc():
+                nlp = CasadiNLP(m)
             timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
         res = run_ipopt(nlp, opts, x0=nlp.init_primals())
         sols.append(finish(ocp, m, nlp, res, passing, timings))

@@ -92,7 +92,8 @@ def test_presolve_keeps_solution_and_recovers_multipliers():
         duals.append(np.array([m.dual[c] for c in nlp.constraints]))
         values.append(np.array([v.value for v in nlp.variables]))
         if presolve:
-            assert nlp.n_primals() < len(nlp.variables) and len(nlp._elim) == 4 * 31 + 30 + 31  # dX, sweep steps, running cost
+            eliminated = 4 * 31 + 30 + 31  # dX, sweep steps, running cost
+            assert nlp.n_primals() < len(nlp.variables) and len(nlp._elim) == eliminated
             assert all(abs(pyo.value(c.body)) < 1e-8 for c in m.ode_x.values())
     np.testing.assert_allclose(values[1], values[0], atol=1e-6)
     np.testing.assert_allclose(duals[1], duals[0], atol=1e-5)
