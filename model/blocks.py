@@ -57,12 +57,18 @@ class Block:
         fn = ca.Function("block", [self.slots, *extra], [expr])
         return Chunked(fn, self.n) if self.n > 1 else fn
 
-    def gather(self, pool: ca.MX | np.ndarray):
-        """Slot values at every index: an S x n matrix taken from the pool."""
-        flat = self.index.T.ravel()
+    @property
+    def width(self) -> int:
+        """Columns of a padded evaluation: n rounded up to whole chunks."""
+        return Chunked.width(self.n)
+
+    def gather(self, pool: ca.MX | np.ndarray, padded: bool = False):
+        """Slot values at every index: an S x n matrix taken from the pool (S x width
+        if ``padded``, the last index repeated)."""
         if isinstance(pool, np.ndarray):
-            return pool[flat].reshape(self.n, -1).T
-        return ca.reshape(pool[flat.tolist()], self.index.shape[0], self.n)
+            return pool[self.index.T.ravel()].reshape(self.n, -1).T
+        cols = pad_columns(self.n) if padded else np.arange(self.n)
+        return ca.reshape(pool[self.index[:, cols].T.ravel().tolist()], self.index.shape[0], len(cols))
 
 
 class Chunked:
@@ -80,12 +86,31 @@ class Chunked:
         self.calls = -(-n // self.k)
         self.fn = fn.map(self.k).expand().map(self.calls)
 
+    @classmethod
+    def width(cls, n: int) -> int:
+        k = min(cls.CHUNK, n)
+        return -(-n // k) * k
+
+    def padded(self, *args):
+        """Evaluate on arguments already padded to ``width`` columns; output padded too."""
+        return self.fn(*args)
+
     def __call__(self, *args):
         pad = self.calls * self.k - self.n
         if pad:
             args = [_pad(ca.DM(a) if isinstance(a, np.ndarray) else a, self.n, pad) for a in args]
         out = self.fn(*args)
         return out[:, : self.n] if pad and out.numel() else out
+
+
+def pad_columns(n: int) -> np.ndarray:
+    """Column numbers 0..n-1 padded to whole chunks with copies of the last."""
+    return np.minimum(np.arange(Chunked.width(n)), n - 1)
+
+
+def apply(fn: ca.Function | Chunked, *args):
+    """Evaluate a block Function on padded arguments (a plain one-index Function as is)."""
+    return fn.padded(*args) if isinstance(fn, Chunked) else fn(*args)
 
 
 def _pad(a, n: int, pad: int):
@@ -192,6 +217,21 @@ def split_linear(block: Block, owner: np.ndarray, dpos: np.ndarray, pool: np.nda
     coef = np.array(block.mapped(ca.vec(grad.nz[:]))(block.gather(pool))).T.ravel()  # [j, k]
     full = block.rows().reshape(block.n, block.r)  # [j, i]
     return rest, (full[:, gi].ravel(), dpos[idx[hit[gs]].T].ravel(), coef)
+
+
+def nonlinear_uses(block: Block, owner: np.ndarray, n_free: int) -> np.ndarray:
+    """Columns of defined variables that ``block`` uses other than linearly with a
+    constant coefficient (these must be substituted; the others can be linked)."""
+    n_x = len(owner)
+    idx = block.index
+    defined = (idx < n_x) & (owner[np.minimum(idx, n_x - 1)] >= 0)
+    varying = _pick(block.slots, np.flatnonzero(~np.all(idx >= n_free, axis=1)))
+    bad = []
+    for s in np.flatnonzero(defined.any(axis=1)):
+        grad = ca.jacobian(block.row, block.slots[int(s)])
+        if not defined[s].all() or any(ca.which_depends(grad.nz[:], varying, 1, True)):
+            bad.append(idx[s][defined[s]])
+    return np.unique(np.concatenate(bad)) if bad else np.zeros(0, np.int64)
 
 
 def no_links() -> tuple:

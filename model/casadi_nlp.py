@@ -30,6 +30,7 @@ from model.blocks import (
     Block,
     Definition,
     Layout,
+    apply,
     eliminate,
     find_definition,
     from_expressions,
@@ -37,6 +38,8 @@ from model.blocks import (
     jacobian_layout,
     merge,
     no_links,
+    nonlinear_uses,
+    pad_columns,
     split_linear,
     through,
     tidy,
@@ -166,7 +169,13 @@ class CasadiNLP(NLP):
         defining = {id(d.block) for d in defs}
         blocks, links, pool = [], [], self._pool(np.zeros(n_x))
         for b in [*(b for b in self._blocks if id(b) not in defining), self._objective_block]:
-            split = split_linear(b, owner, dpos, pool, n_x + len(self.params))
+            n_free = n_x + len(self.params)
+            split = split_linear(b, owner, dpos, pool, n_free)
+            if split is None:  # substitute the nonlinear uses, link the rest
+                only = np.full(n_x, -1)
+                bad = nonlinear_uses(b, owner, n_free)
+                only[bad] = owner[bad]
+                split = split_linear(eliminate(b, defs, only, at), owner, dpos, pool, n_free)
             if split is None:
                 split = eliminate(b, defs, owner, at), no_links()
             blocks.append(split[0])
@@ -232,21 +241,21 @@ class CasadiNLP(NLP):
         jac, hess, grad = _Parts(), _Parts(), _Parts()
         g, start = [], 0
         for b in blocks:
-            args = b.gather(pool)
-            g.append(ca.vec(b.mapped(b.row)(args)))
+            args = b.gather(pool, padded=True)
+            g.append(ca.vec(apply(b.mapped(b.row), args)[:, : b.n]))
             jac.add(jacobian_layout(b, start, n), args)
             lay, w = hessian_layout(b, n)
-            hess.add(lay, args, ca.reshape(lam[start : start + b.m], b.r, b.n), weight=w)
+            hess.add(lay, args, _padded(lam, start, b), weight=w)
             start += b.m
-        args = objective.gather(pool)
-        f = objective.mapped(objective.row)(args)
+        args = objective.gather(pool, padded=True)
+        f = apply(objective.mapped(objective.row), args)
         grad.add(jacobian_layout(objective, 0, n), args)
         lay, w = hessian_layout(objective, n)
         hess.add(lay, args, sigma, weight=w)
         g = _cat(g)
         for block, (lo, hi) in zip(def_blocks, _segments(def_blocks), strict=True):
-            args = block.gather(pool)
-            value = ca.vec(block.mapped(block.row)(args))
+            args = block.gather(pool, padded=True)
+            value = ca.vec(apply(block.mapped(block.row), args)[:, : block.n])
             links, cost = C[:, lo:hi], c_obj[:, lo:hi]
             lay = jacobian_layout(block, 0, n)
             if links.nnz:  # used by rows
@@ -257,7 +266,7 @@ class CasadiNLP(NLP):
                 grad.add(lay, args, links=cost)
             weight = ca.mtimes(_dm(links.T), lam) + sigma * _dm(cost.T)
             lay, w = hessian_layout(block, n)
-            hess.add(lay, args, ca.reshape(weight, 1, block.n), weight=w)
+            hess.add(lay, args, _padded(weight, 0, block), weight=w)
         g_all = g
         self._jac, self._hess, self._grad = jac.assemble(n), hess.assemble(n, lower=True), grad.assemble(n, dense=True)
         self._jac_rc = (self._jac.rows, self._jac.cols)
@@ -517,13 +526,14 @@ class _Parts:
         self.pieces, self.contrib, self.count = [], [], 0
 
     def add(self, lay: Layout, args, *extra, weight=None, links: csr_matrix | None = None) -> None:
-        self.pieces.append(ca.vec(lay.fn(args, *extra)))
+        """Evaluate a layout on padded arguments; entries of padding indices go nowhere."""
+        self.pieces.append(ca.vec(apply(lay.fn, args, *extra)))
         if links is None:
             w = np.ones(len(lay.rows)) if weight is None else weight
             self.contrib.append((lay.rows, lay.cols, self.count + np.arange(len(lay.rows)), w))
         else:
             self.contrib.append(through(links, lay, self.count))
-        self.count += len(lay.rows)
+        self.count += self.pieces[-1].numel()
 
     def assemble(self, n: int, lower: bool = False, dense: bool = False) -> Assembly:
         rows, cols, raw, w = (np.concatenate([c[k] for c in self.contrib]) for k in range(4))
@@ -547,6 +557,12 @@ def _merge_by_size(blocks: list[Block]) -> list[Block]:
     for b in blocks:
         sizes.setdefault(b.n, []).append(b)
     return [merge(group) if len(group) > 1 else group[0] for group in sizes.values()]
+
+
+def _padded(v: ca.MX, start: int, block: Block) -> ca.MX:
+    """r x width matrix of a block's per-row values v[start + j r + i], padded."""
+    idx = start + pad_columns(block.n)[None, :] * block.r + np.arange(block.r)[:, None]
+    return ca.reshape(v[idx.T.ravel().tolist()], block.r, idx.shape[1])
 
 
 def _segments(blocks: list[Block]) -> list[tuple[int, int]]:
