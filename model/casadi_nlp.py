@@ -1,19 +1,22 @@
 """A pynumero ``NLP`` for a Pyomo model, with exact derivatives from CasADi SX.
 
 Pyomo's own cyipopt route needs the ASL library, which cannot be built here. This
-class translates the model's active constraints and objective into CasADi SX (one
-template per indexed Constraint, see ``model.pyomo_sx``), generates sparse Jacobian
-and Lagrangian-Hessian functions, and serves them to pynumero's ``CyIpoptNLP``
-through persistent buffers. Mutable Params are CasADi parameters, so their values
-may change between solves without a rebuild.
+class translates each active constraint component into a row template over slots
+(``model.blocks.Block``, built by ``model.pyomo_sx``), differentiates the templates
+symbolically (Jacobian and Lagrangian Hessian per index), evaluates them mapped over
+their indices, and sums the entries into the sparse patterns with constant matrices
+inside CasADi; pynumero's ``CyIpoptNLP`` reads them through persistent buffers.
+Mutable Params are CasADi parameters, so their values may change between solves
+without a rebuild.
 
 Presolve: an equality row with exactly one constant coefficient, on an unbounded
 variable, that defines it from other variables (dX[t] == Tf f(X[t], U[t]) in a
-pyomo.dae model) is used to eliminate that variable. Ipopt sees the reduced NLP (the
-same one CasADi Opti builds for the trapezoid rule); the eliminated values and the
-multipliers of the defining rows are recovered for Pyomo afterwards.
+pyomo.dae model) removes that variable: rows that use it linearly keep a link to its
+value (computed once per node), other uses get the definition substituted. Blocks of
+singleton rows become variable bounds. Ipopt sees the reduced NLP (the same one CasADi
+Opti builds for the trapezoid rule with detect_simple_bounds); the eliminated values
+and the multipliers of the presolved rows are recovered for Pyomo afterwards.
 """
-
 from __future__ import annotations
 
 from dataclasses import replace
