@@ -17,6 +17,7 @@ singleton rows become variable bounds. Ipopt sees the reduced NLP (the same one 
 Opti builds for the trapezoid rule with detect_simple_bounds); the eliminated values
 and the multipliers of the presolved rows are recovered for Pyomo afterwards.
 """
+
 from __future__ import annotations
 
 from dataclasses import replace

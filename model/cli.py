@@ -36,6 +36,10 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
     s.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals")
     s.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log")
+    s.add_argument(
+        "--ipopt", action="append", default=[], metavar="KEY=VALUE",
+        help="an Ipopt option, e.g. mumps_pivot_order=5 or mu_strategy=adaptive (repeatable)",
+    )  # fmt: skip
     d = sub.add_parser("derive", help="print the Pontryagin system of a scenario's problem")
     d.add_argument("scenario", type=Path, help="scenario file (TOML)")
     d.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
@@ -52,6 +56,14 @@ def main(argv: list[str] | None = None) -> int:
         scenario = load_scenario(args.scenario)
         if getattr(args, "intervals", None) is not None and args.intervals < 1:
             raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
+        options = ipopt_options(getattr(args, "ipopt", []))
+        if options:
+            from model.ipopt import IpoptOptionError, check_options
+
+            try:
+                check_options(options)
+            except IpoptOptionError as err:
+                raise InputError("--ipopt", str(err)) from None
     except InputError as err:
         print(f"roundabout: invalid input: {err}", file=sys.stderr)
         return 2
@@ -60,14 +72,35 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.command == "derive":
         return _derive(scenario, args.latex)
-    return _solve(scenario, args)
+    return _solve(scenario, args, options)
 
 
-def _solve(scenario, args) -> int:
+def ipopt_options(pairs: list[str]) -> dict:
+    """``KEY=VALUE`` strings as Ipopt options (numbers where they parse as numbers)."""
+    options = {}
+    for pair in pairs:
+        key, sep, text = pair.partition("=")
+        if not sep or not key.strip() or not text.strip():
+            raise InputError("--ipopt", f"expected KEY=VALUE, got {pair!r}")
+        value: int | float | str = text.strip()
+        for kind in (int, float):
+            try:
+                value = kind(text)
+                break
+            except ValueError:
+                continue
+        options[key.strip()] = value
+    return options
+
+
+def _solve(scenario, args, options: dict) -> int:
     intervals = args.intervals or scenario.intervals
     print(f"{scenario.ocp.name}: solving with N = {intervals} ...", file=sys.stderr, flush=True)
     sol = scenario.ocp.solve(
-        intervals=intervals, verbose=args.verbose, progress=lambda line: print("  " + line, file=sys.stderr, flush=True)
+        intervals=intervals,
+        verbose=args.verbose,
+        options=options,
+        progress=lambda line: print("  " + line, file=sys.stderr, flush=True),
     )
     sol.write(args.out)
     line = (

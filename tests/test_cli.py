@@ -93,3 +93,31 @@ def test_check_validates_without_solving(tmp_path):
     bad.write_text(EXAMPLE.read_text().replace("wheelbase = 0.1", "wheelbase = 0"))
     res = run("check", bad)
     assert res.returncode == 2 and "vehicle.wheelbase" in res.stderr
+
+
+@pytest.mark.parametrize(
+    ("option", "names"),
+    [
+        ("mumps_pivot_order", "KEY=VALUE"),
+        ("no_such_option=1", "Ipopt rejected option no_such_option"),
+        ("mu_strategy=bogus", "mu_strategy"),
+        ("=3", "KEY=VALUE"),
+    ],
+)
+def test_bad_ipopt_option_exits_2_and_writes_nothing(tmp_path, option, names):
+    res = run("solve", EXAMPLE, "--out", tmp_path / "out", "--intervals", "20", "--ipopt", option)
+    assert res.returncode == 2, res.stderr
+    last = res.stderr.strip().splitlines()[-1]
+    assert last.startswith("roundabout: invalid input: --ipopt") and names in last
+    assert not (tmp_path / "out").exists()
+
+
+def test_ipopt_options_reach_the_solver(tmp_path):
+    """Another linear-solver ordering: same optimum; the log shows the option was used."""
+    res = run("solve", EXAMPLE, "--out", tmp_path / "out", "--intervals", "20", "--ipopt", "mumps_pivot_order=0",
+              "--ipopt", "print_user_options=yes", "--verbose")  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    assert "mumps_pivot_order = 0" in res.stdout + res.stderr
+    assert run("solve", EXAMPLE, "--out", tmp_path / "ref", "--intervals", "20").returncode == 0
+    objective = [json.loads((tmp_path / d / "summary.json").read_text())["objective"] for d in ("out", "ref")]
+    assert objective[0] == pytest.approx(objective[1], rel=1e-7)

@@ -20,6 +20,12 @@ def test_there_are_notebooks():
 def test_notebook_runs(notebook: Path, tmp_path: Path):
     assert notebook.read_text().startswith("# ---\n# jupyter:"), "jupytext header missing"
     assert "# %%" in notebook.read_text()
-    run = subprocess.run([sys.executable, str(notebook)], cwd=tmp_path, capture_output=True, text=True,
-                         timeout=300, env={**os.environ, "MPLBACKEND": "Agg"})
+    run = subprocess.run(
+        [sys.executable, str(notebook)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "MPLBACKEND": "Agg"},
+    )
     assert run.returncode == 0, run.stderr[-3000:]

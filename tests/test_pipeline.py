@@ -56,8 +56,15 @@ def test_dry_run_plans_every_solve_figure_table_and_the_paper(tmp_path):
     jobs = job_counts(run.stdout + run.stderr)
     n = len(list(SCENARIOS.glob("*.toml")))
     assert jobs["solve"] == n and jobs["scenario_figures"] == n
-    for rule in ("derivations", "scenario_table", "figure_phase_rate", "figure_paths", "paper_sections",
-                 "paper_html", "all"):
+    for rule in (
+        "derivations",
+        "scenario_table",
+        "figure_phase_rate",
+        "figure_paths",
+        "paper_sections",
+        "paper_html",
+        "all",
+    ):
         assert jobs[rule] == 1, rule
 
 
@@ -93,18 +100,49 @@ def test_nothing_to_do_after_a_build_and_only_dependents_after_an_edit(one_scena
 
 
 def failed(name: str = "bad") -> Result:
-    summary = {"name": name, "status": "infeasible", "exit_code": 1, "valid": False, "final_time": 1.0,
-               "energy": 0.1, "iterations": 3000, "solve_seconds": 9.0, "validation": {}}
+    summary = {
+        "name": name,
+        "status": "infeasible",
+        "exit_code": 1,
+        "valid": False,
+        "final_time": 1.0,
+        "energy": 0.1,
+        "iterations": 3000,
+        "solve_seconds": 9.0,
+        "validation": {},
+    }
     frame = pd.DataFrame({"t": [0.0, 1.0], "x": [0.0, 1.0], "y": [0.0, 0.0], "u1": [1.0, 1.0], "u2": [0.0, 0.0]})
     return Result(name, summary, frame)
 
 
 def solved(name: str = "s1") -> Result:
     t = pd.Series([0.0, 0.5, 1.0])
-    frame = pd.DataFrame({"t": t, "x": t, "y": 0 * t, "theta": 0 * t, "phi": 0 * t, "u1": 1 + 0 * t,
-                          "u2": 0 * t, "psi_u1": 1 + 0 * t, "psi_u2": 0 * t, "H": 0 * t, "mu": 0 * t})
-    summary = {"name": name, "status": "optimal", "exit_code": 0, "valid": True, "final_time": 1.0,
-               "energy": 0.5, "iterations": 10, "solve_seconds": 0.5, "validation": {"defects": {"passed": True}}}
+    frame = pd.DataFrame(
+        {
+            "t": t,
+            "x": t,
+            "y": 0 * t,
+            "theta": 0 * t,
+            "phi": 0 * t,
+            "u1": 1 + 0 * t,
+            "u2": 0 * t,
+            "psi_u1": 1 + 0 * t,
+            "psi_u2": 0 * t,
+            "H": 0 * t,
+            "mu": 0 * t,
+        }
+    )
+    summary = {
+        "name": name,
+        "status": "optimal",
+        "exit_code": 0,
+        "valid": True,
+        "final_time": 1.0,
+        "energy": 0.5,
+        "iterations": 10,
+        "solve_seconds": 0.5,
+        "validation": {"defects": {"passed": True}},
+    }
     return Result(name, summary, frame)
 
 
