@@ -235,55 +235,17 @@ class CasadiNLP(NLP):
         self._offsets = [(b, b.mapped(ca.substitute(b.row, b.slots[s], 0))) for b, s, _ in self._bounds]
 
     def _make_functions(self, blocks, objective, def_blocks, C: csr_matrix, c_obj: csr_matrix) -> None:
-        """g, f, gradient, Jacobian and Lagrangian Hessian as MX Functions over mapped
-        templates; raw derivative entries are summed into the sparse patterns by
-        constant matrices (``Assembly``) inside CasADi."""
-        n, m = len(self._cols), sum(b.m for b in blocks)
-        x, p = ca.MX.sym("x", n), ca.MX.sym("p", len(self.params))
-        sigma, lam = ca.MX.sym("sigma"), ca.MX.sym("lam", m)
-        pool = ca.vertcat(x, p, ca.DM(self._consts)) if len(self._consts) else ca.vertcat(x, p)
-        jac, hess, grad = _Parts(), _Parts(), _Parts()
-        g, start = [], 0
+        """g, f, gradient, Jacobian and Lagrangian Hessian as buffered MX Functions."""
+        graph = _Graph(len(self._cols), len(self.params), sum(b.m for b in blocks), self._consts)
+        start = 0
         for b in blocks:
-            args = b.gather(pool, padded=True)
-            g.append(ca.vec(apply(b.mapped(b.row), args)[:, : b.n]))
-            jac.add(jacobian_layout(b, start, n), args)
-            lay, w = hessian_layout(b, n)
-            hess.add(lay, args, _padded(lam, start, b), weight=w)
+            graph.rows(b, start)
             start += b.m
-        args = objective.gather(pool, padded=True)
-        f = apply(objective.mapped(objective.row), args)
-        grad.add(jacobian_layout(objective, 0, n), args)
-        lay, w = hessian_layout(objective, n)
-        hess.add(lay, args, sigma, weight=w)
-        g = _cat(g)
+        graph.objective(objective)
         for block, (lo, hi) in zip(def_blocks, _segments(def_blocks), strict=True):
-            args = block.gather(pool, padded=True)
-            value = ca.vec(apply(block.mapped(block.row), args)[:, : block.n])
-            links, cost = C[:, lo:hi], c_obj[:, lo:hi]
-            lay = jacobian_layout(block, 0, n)
-            if links.nnz:  # used by rows
-                g += ca.mtimes(_dm(links), value)
-                jac.add(lay, args, links=links)
-            if cost.nnz:  # used by the objective
-                f += ca.mtimes(_dm(cost), value)
-                grad.add(lay, args, links=cost)
-            weight = ca.mtimes(_dm(links.T), lam) + sigma * _dm(cost.T)
-            lay, w = hessian_layout(block, n)
-            hess.add(lay, args, _padded(weight, 0, block), weight=w)
-        g_all = g
-        self._jac, self._hess, self._grad = jac.assemble(n), hess.assemble(n, lower=True), grad.assemble(n, dense=True)
-        self._jac_rc = (self._jac.rows, self._jac.cols)
-        self._hess_rc = (self._hess.rows, self._hess.cols)
-        self._fns = {
-            "f": _Buffered(ca.Function("f", [x, p], [f]), 1),
-            "grad": _Buffered(ca.Function("grad", [x, p], [grad.values(self._grad)]), n),
-            "g": _Buffered(ca.Function("g", [x, p], [ca.densify(g_all)]), m),
-            "jac": _Buffered(ca.Function("jacobian_g", [x, p], [jac.values(self._jac)]), self._jac.size),
-            "hess": _Buffered(
-                ca.Function("hessian_lag", [x, p, sigma, lam], [hess.values(self._hess)]), self._hess.size
-            ),
-        }
+            graph.definition(block, C[:, lo:hi], c_obj[:, lo:hi])
+        self._fns, jac, hess = graph.functions()
+        self._jac_rc, self._hess_rc = (jac.rows, jac.cols), (hess.rows, hess.cols)
 
     # -- sizes and bounds -------------------------------------------------------
     def n_primals(self) -> int:
@@ -521,6 +483,67 @@ def _uses(d: Definition, n_x: int) -> np.ndarray:
     """Variable positions a definition reads (its other slots)."""
     idx = np.delete(d.block.index, d.slot, axis=0)
     return idx[idx < n_x]
+
+
+class _Graph:
+    """The MX graph of g, f and the raw derivative entries, grown block by block over
+    mapped templates; constant matrices (``Assembly``) sum the raw entries into the
+    sparse patterns inside CasADi."""
+
+    def __init__(self, n: int, n_p: int, m: int, consts: np.ndarray):
+        self.n, self.m = n, m
+        self.x, self.p = ca.MX.sym("x", n), ca.MX.sym("p", n_p)
+        self.sigma, self.lam = ca.MX.sym("sigma"), ca.MX.sym("lam", m)
+        self.pool = ca.vertcat(self.x, self.p, ca.DM(consts)) if len(consts) else ca.vertcat(self.x, self.p)
+        self.g, self.links, self.f = [], [], ca.MX(0)
+        self.jac, self.hess, self.grad = _Parts(), _Parts(), _Parts()
+
+    def rows(self, b: Block, start: int) -> None:
+        """Constraint rows start .. start + b.m of the reduced NLP."""
+        args = b.gather(self.pool, padded=True)
+        self.g.append(ca.vec(apply(b.mapped(b.row), args)[:, : b.n]))
+        self.jac.add(jacobian_layout(b, start, self.n), args)
+        lay, w = hessian_layout(b, self.n)
+        self.hess.add(lay, args, _padded(self.lam, start, b), weight=w)
+
+    def objective(self, b: Block) -> None:
+        args = b.gather(self.pool, padded=True)
+        self.f += apply(b.mapped(b.row), args)
+        self.grad.add(jacobian_layout(b, 0, self.n), args)
+        lay, w = hessian_layout(b, self.n)
+        self.hess.add(lay, args, self.sigma, weight=w)
+
+    def definition(self, b: Block, links: csr_matrix, cost: csr_matrix) -> None:
+        """A defined variable's values, linked into rows (``links``) and the objective (``cost``)."""
+        args = b.gather(self.pool, padded=True)
+        value = ca.vec(apply(b.mapped(b.row), args)[:, : b.n])
+        lay = jacobian_layout(b, 0, self.n)
+        if links.nnz:
+            self.links.append(ca.mtimes(_dm(links), value))
+            self.jac.add(lay, args, links=links)
+        if cost.nnz:
+            self.f += ca.mtimes(_dm(cost), value)
+            self.grad.add(lay, args, links=cost)
+        weight = ca.mtimes(_dm(links.T), self.lam) + self.sigma * _dm(cost.T)
+        lay, w = hessian_layout(b, self.n)
+        self.hess.add(lay, args, _padded(weight, 0, b), weight=w)
+
+    def functions(self) -> tuple[dict, Assembly, Assembly]:
+        n, x, p = self.n, self.x, self.p
+        g = _cat(self.g)
+        for linked in self.links:
+            g += linked
+        jac, hess, grad = self.jac.assemble(n), self.hess.assemble(n, lower=True), self.grad.assemble(n, dense=True)
+        fns = {
+            "f": _Buffered(ca.Function("f", [x, p], [self.f]), 1),
+            "grad": _Buffered(ca.Function("grad", [x, p], [self.grad.values(grad)]), n),
+            "g": _Buffered(ca.Function("g", [x, p], [ca.densify(g)]), self.m),
+            "jac": _Buffered(ca.Function("jacobian_g", [x, p], [self.jac.values(jac)]), jac.size),
+            "hess": _Buffered(
+                ca.Function("hessian_lag", [x, p, self.sigma, self.lam], [self.hess.values(hess)]), hess.size
+            ),
+        }
+        return fns, jac, hess
 
 
 class _Parts:
