@@ -17,6 +17,7 @@ import pandas as pd
 
 from model.costs import Energy, Time
 from model.ocp import OCP
+from model.resolve import Resolver
 from model.vehicles import Truck
 
 T = TypeVar("T")
@@ -78,10 +79,15 @@ def solve_best(ocp: OCP, intervals: int, guess=None, fallback: bool = True):
 
 # -- time-energy trade-off --------------------------------------------------------
 def pareto_front(ocp: OCP, t_min_sol, final_times: list[float], intervals: int, label: str = "") -> pd.DataFrame:
-    """Energy-optimal J(Tf) for increasing Tf, each solve warm-started from the previous one."""
-    rows, guess = [], t_min_sol.trajectory if t_min_sol.ok else None
+    """Energy-optimal J(Tf) for increasing Tf. The first point starts from the minimum-time
+    trajectory; each next Tf re-solves the built model from the previous primal-dual point
+    (``model.resolve``, no rebuild), with a fresh solve if that fails."""
+    rows, guess, again = [], t_min_sol.trajectory if t_min_sol.ok else None, None
     for tf in progress(final_times, f"pareto {label}"):
-        sol = solve_best(as_energy(ocp, tf), intervals, guess=guess)
+        sol = again.solve(final_time=tf) if again is not None else None
+        if sol is None or not sol.ok:
+            sol = solve_best(as_energy(ocp, tf), intervals, guess=guess)
+            again = Resolver(sol) if sol.ok else None
         rows.append(row(sol, final_time_set=tf))
         if sol.ok:
             guess = sol.trajectory
