@@ -1,17 +1,36 @@
 """The CasADi-backed pynumero NLP: derivatives against finite differences, duals' sign."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
+from model import OCP, Circle, Energy, Time, Unicycle
 from model.casadi_nlp import CasadiNLP
 from model.transcription import build_model
 from tests.conftest import paper_energy_problem, straight_time
 
 
-@pytest.fixture(scope="module", params=["energy", "time"])
+def _unicycle() -> OCP:
+    return OCP(
+        vehicle=Unicycle(), cost=Energy(), final_time=3.0, bounds={"u1": (-1, 1), "u2": (-1, 1)},
+        initial={"x": 0, "y": 0, "theta": 0}, final={"x": 1, "y": 0.2},
+        obstacles=[Circle((0.5, 0.0), 0.1)], passing="cw",
+    )  # fmt: skip
+
+
+PROBLEMS = {
+    "energy": (paper_energy_problem, "ccw"),
+    "time": (straight_time, None),
+    "time_rate_penalty": (lambda: dataclasses.replace(straight_time(), cost=Time(rate_penalty=1e-2)), None),
+    "unicycle": (_unicycle, "cw"),
+}
+
+
+@pytest.fixture(scope="module", params=list(PROBLEMS))
 def nlp(request):
-    ocp = paper_energy_problem() if request.param == "energy" else straight_time()
-    return CasadiNLP(build_model(ocp, intervals=6, passing="ccw" if request.param == "energy" else None))
+    make, passing = PROBLEMS[request.param]
+    return CasadiNLP(build_model(make(), intervals=6, passing=passing))
 
 
 def _fd(fun, x, eps=1e-6):
