@@ -57,18 +57,18 @@ class Block:
         fn = ca.Function("block", [self.slots, *extra], [expr])
         return Chunked(fn, self.n) if self.n > 1 else fn
 
-    @property
-    def width(self) -> int:
-        """Columns of a padded evaluation: n rounded up to whole chunks."""
-        return Chunked.width(self.n)
-
-    def gather(self, pool: ca.MX | np.ndarray, padded: bool = False):
-        """Slot values at every index: an S x n matrix taken from the pool (S x width
-        if ``padded``, the last index repeated)."""
+    def gather(self, pool: ca.MX | np.ndarray):
+        """Slot values at every index, padded to whole chunks (the last index repeated):
+        an S x width matrix taken from the pool, the argument of ``mapped`` Functions."""
+        cols = pad_columns(self.n)
+        flat = self.index[:, cols].T.ravel()
         if isinstance(pool, np.ndarray):
-            return pool[self.index.T.ravel()].reshape(self.n, -1).T
-        cols = pad_columns(self.n) if padded else np.arange(self.n)
-        return ca.reshape(pool[self.index[:, cols].T.ravel().tolist()], self.index.shape[0], len(cols))
+            return pool[flat].reshape(len(cols), -1).T
+        return ca.reshape(pool[flat.tolist()], self.index.shape[0], len(cols))
+
+    def values(self, fn: ca.Function | Chunked, pool: np.ndarray) -> np.ndarray:
+        """A ``mapped`` Function evaluated numerically at the n indices: outputs x n."""
+        return np.array(fn(self.gather(pool)))[:, : self.n]
 
 
 class Chunked:
@@ -76,7 +76,8 @@ class Chunked:
 
     One chunk is an SX function of CHUNK copies, so CasADi's per-call overhead of a
     serial map (~50 ns, more than a small template costs) is paid n / CHUNK times.
-    The last chunk is padded with copies of the last index and cut off again.
+    It is called on arguments padded to whole chunks (``Block.gather``) and returns
+    padded columns; the caller keeps the first n.
     """
 
     CHUNK = 16
@@ -91,30 +92,13 @@ class Chunked:
         k = min(cls.CHUNK, n)
         return -(-n // k) * k
 
-    def padded(self, *args):
-        """Evaluate on arguments already padded to ``width`` columns; output padded too."""
-        return self.fn(*args)
-
     def __call__(self, *args):
-        pad = self.calls * self.k - self.n
-        if pad:
-            args = [_pad(ca.DM(a) if isinstance(a, np.ndarray) else a, self.n, pad) for a in args]
-        out = self.fn(*args)
-        return out[:, : self.n] if pad and out.numel() else out
+        return self.fn(*args)
 
 
 def pad_columns(n: int) -> np.ndarray:
     """Column numbers 0..n-1 padded to whole chunks with copies of the last."""
     return np.minimum(np.arange(Chunked.width(n)), n - 1)
-
-
-def apply(fn: ca.Function | Chunked, *args):
-    """Evaluate a block Function on padded arguments (a plain one-index Function as is)."""
-    return fn.padded(*args) if isinstance(fn, Chunked) else fn(*args)
-
-
-def _pad(a, n: int, pad: int):
-    return ca.horzcat(a, ca.repmat(a[:, -1], 1, pad)) if a.size2() == n else a
 
 
 def from_expressions(rows: ca.SX, x: ca.SX, p: ca.SX, offset: int) -> Block:
@@ -199,9 +183,7 @@ def split_linear(block: Block, owner: np.ndarray, dpos: np.ndarray, pool: np.nda
     of the defined value in the vector of all definitions, coefficient); None if a
     defined slot enters nonlinearly or also points to free variables.
     """
-    n_x = len(owner)
-    idx = block.index
-    defined = (idx < n_x) & (owner[np.minimum(idx, n_x - 1)] >= 0)
+    idx, defined = block.index, _defined(block, owner)
     hit = np.flatnonzero(defined.any(axis=1))
     if not len(hit):
         return block, no_links()
@@ -214,7 +196,7 @@ def split_linear(block: Block, owner: np.ndarray, dpos: np.ndarray, pool: np.nda
         return None
     rest = tidy(replace(block, row=ca.substitute(block.row, v, ca.DM.zeros(len(hit)))))
     gi, gs = (np.asarray(a, dtype=np.int64) for a in grad.sparsity().get_triplet())
-    coef = np.array(block.mapped(ca.vec(grad.nz[:]))(block.gather(pool))).T.ravel()  # [j, k]
+    coef = block.values(block.mapped(ca.vec(grad.nz[:])), pool).T.ravel()  # [j, k]
     full = block.rows().reshape(block.n, block.r)  # [j, i]
     return rest, (full[:, gi].ravel(), dpos[idx[hit[gs]].T].ravel(), coef)
 
@@ -222,16 +204,22 @@ def split_linear(block: Block, owner: np.ndarray, dpos: np.ndarray, pool: np.nda
 def nonlinear_uses(block: Block, owner: np.ndarray, n_free: int) -> np.ndarray:
     """Columns of defined variables that ``block`` uses other than linearly with a
     constant coefficient (these must be substituted; the others can be linked)."""
-    n_x = len(owner)
-    idx = block.index
-    defined = (idx < n_x) & (owner[np.minimum(idx, n_x - 1)] >= 0)
+    idx, defined = block.index, _defined(block, owner)
+    hit = np.flatnonzero(defined.any(axis=1))
+    if not len(hit):
+        return np.zeros(0, np.int64)
+    grad = ca.jacobian(block.row, _pick(block.slots, hit))  # one call for all defined slots
     varying = _pick(block.slots, np.flatnonzero(~np.all(idx >= n_free, axis=1)))
-    bad = []
-    for s in np.flatnonzero(defined.any(axis=1)):
-        grad = ca.jacobian(block.row, block.slots[int(s)])
-        if not defined[s].all() or any(ca.which_depends(grad.nz[:], varying, 1, True)):
-            bad.append(idx[s][defined[s]])
-    return np.unique(np.concatenate(bad)) if bad else np.zeros(0, np.int64)
+    moving = np.asarray(ca.which_depends(grad.nz[:], varying, 1, True), dtype=bool)
+    bad = ~defined[hit].all(axis=1)
+    bad[np.asarray(grad.sparsity().get_col())[moving]] = True
+    return np.unique(idx[hit[bad]][defined[hit[bad]]])
+
+
+def _defined(block: Block, owner: np.ndarray) -> np.ndarray:
+    """[S, n]: does slot s point at index j to a defined variable (``owner`` >= 0)?"""
+    n_x = len(owner)
+    return (block.index < n_x) & (owner[np.minimum(block.index, n_x - 1)] >= 0)
 
 
 def no_links() -> tuple:
@@ -245,14 +233,10 @@ def eliminate(block: Block, defs: list[Definition], owner: np.ndarray, at: np.nd
     ``owner[c]``/``at[c]``: the definition and index that define column c (-1: none).
     Raises ValueError if a slot mixes defined and free columns or two definitions.
     """
-    n_x = len(owner)
-    idx = block.index
+    idx, defined = block.index, _defined(block, owner)
     old, new, slots, index = [], [], [block.slots], [idx]
     for s in range(idx.shape[0]):
-        pos = idx[s]
-        inside = pos < n_x
-        hit = np.zeros(len(pos), dtype=bool)
-        hit[inside] = owner[pos[inside]] >= 0
+        pos, hit = idx[s], defined[s]
         if not hit.any():
             continue
         which = np.unique(owner[pos[hit]]) if hit.all() else []

@@ -34,7 +34,6 @@ from model.blocks import (
     Block,
     Definition,
     Layout,
-    apply,
     eliminate,
     find_definition,
     from_expressions,
@@ -172,16 +171,13 @@ class CasadiNLP(NLP):
             start += d.block.n
         defining = {id(d.block) for d in defs}
         blocks, links, pool = [], [], self._pool(np.zeros(n_x))
+        n_free = n_x + len(self.params)
         for b in [*(b for b in self._blocks if id(b) not in defining), self._objective_block]:
-            n_free = n_x + len(self.params)
-            split = split_linear(b, owner, dpos, pool, n_free)
-            if split is None:  # substitute the nonlinear uses, link the rest
-                only = np.full(n_x, -1)
-                bad = nonlinear_uses(b, owner, n_free)
-                only[bad] = owner[bad]
-                split = split_linear(eliminate(b, defs, only, at), owner, dpos, pool, n_free)
-            if split is None:
-                split = eliminate(b, defs, owner, at), no_links()
+            only = np.full(n_x, -1)  # substitute the nonlinear uses, link the rest
+            bad = nonlinear_uses(b, owner, n_free)
+            only[bad] = owner[bad]
+            split = split_linear(eliminate(b, defs, only, at), owner, dpos, pool, n_free)
+            split = split or (eliminate(b, defs, owner, at), no_links())
             blocks.append(split[0])
             links.append(split[1])
         joined = tuple(np.concatenate([q[k] for q in links[:-1]]) for k in range(3))
@@ -279,7 +275,7 @@ class CasadiNLP(NLP):
         lb, ub = (b[self._cols] for b in self._var_bounds())
         if len(self._bound_rows):
             pool = self._pool(np.zeros(len(self.variables)))
-            k = np.concatenate([np.array(fn(b.gather(pool))).ravel() for b, fn in self._offsets])
+            k = np.concatenate([b.values(fn, pool).ravel() for b, fn in self._offsets])
             c = self._bound_coef
             lo = (self._gl[self._bound_rows] - k) / c
             hi = (self._gu[self._bound_rows] - k) / c
@@ -387,7 +383,7 @@ class CasadiNLP(NLP):
             full[self._elim] = 0.0
             pool = self._pool(full)
             for d, fn in self._defs:
-                full[d.cols] = np.array(fn(d.block.gather(pool))).ravel()
+                full[d.cols] = d.block.values(fn, pool).ravel()
         return full
 
     def _pool(self, x_full: np.ndarray) -> np.ndarray:
@@ -429,7 +425,7 @@ class CasadiNLP(NLP):
         n_x, pool = len(self.variables), self._pool(x_full)
 
         def raw(block, lay):
-            vals = np.array(lay.fn(block.gather(pool))).T.ravel()
+            vals = block.values(lay.fn, pool).T.ravel()
             ok = lay.cols < n_x
             return vals[ok], lay.rows[ok], lay.cols[ok]
 
@@ -500,23 +496,23 @@ class _Graph:
 
     def rows(self, b: Block, start: int) -> None:
         """Constraint rows start .. start + b.m of the reduced NLP."""
-        args = b.gather(self.pool, padded=True)
-        self.g.append(ca.vec(apply(b.mapped(b.row), args)[:, : b.n]))
+        args = b.gather(self.pool)
+        self.g.append(ca.vec(b.mapped(b.row)(args)[:, : b.n]))
         self.jac.add(jacobian_layout(b, start, self.n), args)
         lay, w = hessian_layout(b, self.n)
         self.hess.add(lay, args, _padded(self.lam, start, b), weight=w)
 
     def objective(self, b: Block) -> None:
-        args = b.gather(self.pool, padded=True)
-        self.f += apply(b.mapped(b.row), args)
+        args = b.gather(self.pool)
+        self.f += b.mapped(b.row)(args)
         self.grad.add(jacobian_layout(b, 0, self.n), args)
         lay, w = hessian_layout(b, self.n)
         self.hess.add(lay, args, self.sigma, weight=w)
 
     def definition(self, b: Block, links: csr_matrix, cost: csr_matrix) -> None:
         """A defined variable's values, linked into rows (``links``) and the objective (``cost``)."""
-        args = b.gather(self.pool, padded=True)
-        value = ca.vec(apply(b.mapped(b.row), args)[:, : b.n])
+        args = b.gather(self.pool)
+        value = ca.vec(b.mapped(b.row)(args)[:, : b.n])
         lay = jacobian_layout(b, 0, self.n)
         if links.nnz:
             self.links.append(ca.mtimes(_dm(links), value))
@@ -554,7 +550,7 @@ class _Parts:
 
     def add(self, lay: Layout, args, *extra, weight=None, links: csr_matrix | None = None) -> None:
         """Evaluate a layout on padded arguments; entries of padding indices go nowhere."""
-        self.pieces.append(ca.vec(apply(lay.fn, args, *extra)))
+        self.pieces.append(ca.vec(lay.fn(args, *extra)))
         if links is None:
             w = np.ones(len(lay.rows)) if weight is None else weight
             self.contrib.append((lay.rows, lay.cols, self.count + np.arange(len(lay.rows)), w))

@@ -135,20 +135,24 @@ def test_unicycle_goes_through_the_engine():
     assert "p_theta" in render_pmp(ocp) and r"\dot{p_{\theta}}" in render_pmp(ocp, "latex")
 
 
-def _open_road_energy() -> OCP:
+FAR_OBSTACLE = (Circle((0.5, 2.0), 0.2, 0.05),)
+
+
+def _open_road(cost=None, final_time: float = 2.0, obstacles=FAR_OBSTACLE) -> OCP:
+    """A straight drive to x = 1; the default obstacle is far off the road."""
     return OCP(
         vehicle=Truck(0.1),
-        cost=Energy(),
-        final_time=2.0,
+        cost=cost or Energy(),
+        final_time=final_time,
         bounds={"u1": (-1, 1), "u2": (-0.35, 0.35)},
         initial={"x": 0, "y": 0, "theta": 0, "phi": 0},
         final={"x": 1, "y": 0, "theta": 0},
-        obstacles=[Circle((0.5, 2.0), 0.2, 0.05)],
+        obstacles=list(obstacles),
     )
 
 
 def test_confirmation_on_exact_extremal_and_on_a_corrupted_one():
-    ocp = _open_road_energy()
+    ocp = _open_road()
     good = confirm(straight_drive(ocp, 0.5), ocp)
     assert good.agrees() and good.summary["max adjoint residual"] < 1e-12
     corrupted = straight_drive(ocp, 0.5)
@@ -158,14 +162,7 @@ def test_confirmation_on_exact_extremal_and_on_a_corrupted_one():
 
 
 def test_confirmation_time_optimal_singular_nodes():
-    ocp = OCP(
-        vehicle=Truck(0.1),
-        cost=Time(),
-        final_time=1.0,
-        bounds={"u1": (-1, 1), "u2": (-0.35, 0.35)},
-        initial={"x": 0, "y": 0, "theta": 0, "phi": 0},
-        final={"x": 1, "y": 0, "theta": 0},
-    )
+    ocp = _open_road(Time(), final_time=1.0, obstacles=())
     res = confirm(straight_drive(ocp, 1.0), ocp)
     assert res.agrees() and res.summary["fraction u2 singular"] == 1.0
     assert np.isnan(res.nodes["u2_argmax"]).all()

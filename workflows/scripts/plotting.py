@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -141,27 +142,35 @@ def failed_figure(result: Result, title: str) -> plt.Figure:
     return fig
 
 
-def solution_figure(result: Result, ocp) -> plt.Figure:
+def _solved_grid(draw):
+    """``draw(axes, frame, result, ocp) -> title`` on a 2 x 2 figure of a solved result; a
+    failed solve gets the placeholder instead: it is never drawn as a solution."""
+
+    @functools.wraps(draw)
+    def figure(result: Result, ocp) -> plt.Figure:
+        if not result.solved:
+            return failed_figure(result, ocp.title or result.name)
+        fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), layout="constrained")
+        fig.suptitle(draw(axes, result.trajectory, result, ocp))
+        return fig
+
+    return figure
+
+
+@_solved_grid
+def solution_figure(axes, frame: pd.DataFrame, result: Result, ocp) -> str:
     """The paper's Figures 4-7: (a) controls, (b) states, (c) path, (d) cumulative energy."""
-    if not result.solved:
-        return failed_figure(result, ocp.title or result.name)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), layout="constrained")
-    frame = result.trajectory
     controls_panel(axes[0, 0], frame, ocp.bounds)
     states_panel(axes[0, 1], frame)
     path_panel(axes[1, 0], frame, ocp)
     energy_panel(axes[1, 1], frame)
-    fig.suptitle(f"{ocp.title or result.name}  (Tf = {result.summary['final_time']:.4g} s, "
-                 f"E = {result.summary['energy']:.4g})")
-    return fig
+    return (f"{ocp.title or result.name}  (Tf = {result.summary['final_time']:.4g} s, "
+            f"E = {result.summary['energy']:.4g})")
 
 
-def costate_figure(result: Result, ocp) -> plt.Figure:
+@_solved_grid
+def costate_figure(axes, frame: pd.DataFrame, result: Result, ocp) -> str:
     """Costate estimates, switching functions beside the controls (with bounds), and H and mu."""
-    if not result.solved:
-        return failed_figure(result, ocp.title or result.name)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), layout="constrained")
-    frame = result.trajectory
     ax = axes[0, 0]
     for i, name in enumerate(c for c in frame.columns if c.startswith("p_")):
         ax.plot(frame["t"], frame[name], color=PALETTE[i], label=f"$p_{{{name[2:]}}}$".replace("theta", r"\theta")
@@ -179,8 +188,7 @@ def costate_figure(result: Result, ocp) -> plt.Figure:
                title=f"({tag}) {LABELS[name]} and its switching function (bounds dashed)")
         ax.legend(loc="best")
     hamiltonian_panel(axes[1, 1], frame)
-    fig.suptitle(f"{ocp.title or result.name}: Pontryagin quantities")
-    return fig
+    return f"{ocp.title or result.name}: Pontryagin quantities"
 
 
 def hamiltonian_panel(ax: plt.Axes, frame: pd.DataFrame) -> None:
