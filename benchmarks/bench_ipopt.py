@@ -19,11 +19,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from model.casadi_nlp import CasadiNLP  # noqa: E402
-from model.ipopt import run_ipopt  # noqa: E402
-from model.scenario import load_scenario  # noqa: E402
-from model.solve import _load_start  # noqa: E402
-from model.transcription import build_model  # noqa: E402
+from model.direct.solve import load_start  # noqa: E402
+from model.direct.transcription import build_model  # noqa: E402
+from model.nlp.casadi_nlp import CasadiNLP  # noqa: E402
+from model.nlp.ipopt import run_ipopt  # noqa: E402
+from model.problem.scenario import load_scenario  # noqa: E402
+from model.search.multistart import start_values  # noqa: E402
 
 CONFIGS: dict[str, dict] = {
     "project default (MUMPS + QAMD ordering)": {},
@@ -74,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     nlps = {}
     for n in args.sizes:
         m = build_model(ocp, n, "ccw")
-        _load_start(ocp, m, n, "ccw", None, 1.0, "arc")
+        load_start(m, start_values(ocp, n, "ccw", None))
         nlp = CasadiNLP(m)
         nlps[n] = (nlp, nlp.init_primals())
     for name, options in CONFIGS.items():

@@ -19,9 +19,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from model.resolve import Resolver  # noqa: E402
-from model.scenario import load_scenario  # noqa: E402
-from model.solve import solve_pass  # noqa: E402
+from model.direct.resolve import Resolver  # noqa: E402
+from model.problem.scenario import load_scenario  # noqa: E402
+from model.search.multistart import solve_pass  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -26,8 +26,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.opti_peer import solve_with_opti  # noqa: E402
-from model.scenario import load_scenario  # noqa: E402
-from model.solve import solve_pass  # noqa: E402
+from model.problem.scenario import load_scenario  # noqa: E402
+from model.search.multistart import solve_pass  # noqa: E402
 
 
 def project(ocp, n: int, passing: str) -> dict:

@@ -13,9 +13,9 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
-from model.guess import initial_guess
-from model.ipopt import DEFAULT_OPTIONS
-from model.ocp import OCP
+from model.nlp.ipopt import DEFAULT_OPTIONS
+from model.problem.ocp import OCP
+from model.search.guess import initial_guess
 from model.vehicles import sym
 
 _CASADI = {"sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "sqrt": ca.sqrt, "atan": ca.atan}

@@ -17,7 +17,7 @@ import sympy as sp
 from derivations.pmp import PMPSystem, derive
 
 if TYPE_CHECKING:
-    from model.ocp import OCP
+    from model.problem.ocp import OCP
 
 
 @dataclass

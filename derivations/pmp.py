@@ -22,7 +22,7 @@ from derivations.symbolic import (
 )
 
 if TYPE_CHECKING:
-    from model.ocp import OCP
+    from model.problem.ocp import OCP
 
 
 @dataclass

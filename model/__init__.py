@@ -1,9 +1,48 @@
-"""roundabout-ocp: optimal trajectories of truck-type vehicles (the modelling DSL)."""
+"""roundabout-ocp: optimal trajectories of truck-type vehicles around roundabouts.
 
-from model.costs import Energy, Time
-from model.errors import InputError
-from model.obstacles import Circle
-from model.ocp import OCP
-from model.vehicles import VEHICLES, Truck, Unicycle, Vehicle
+The public API, re-exported from the layers (see docs/architecture.md)::
 
-__all__ = ["OCP", "Circle", "Energy", "InputError", "Time", "Truck", "Unicycle", "VEHICLES", "Vehicle"]
+    from model import OCP, Truck, Energy, Circle, Resolver, load_scenario
+
+Names are imported on first use (PEP 562), so ``import model`` stays cheap and a
+command that only reads a scenario file never loads the solver.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+_PUBLIC = {
+    "InputError": "model.errors",
+    "Vehicle": "model.vehicles",
+    "Truck": "model.vehicles",
+    "Unicycle": "model.vehicles",
+    "VEHICLES": "model.vehicles",
+    "Circle": "model.scene",
+    "OCP": "model.problem",
+    "Cost": "model.problem",
+    "Energy": "model.problem",
+    "Time": "model.problem",
+    "Scenario": "model.problem",
+    "load_scenario": "model.problem",
+    "validate": "model.analysis",
+    "certify_trajectory": "model.analysis",
+    "Solution": "model.direct",
+    "Resolver": "model.direct",
+    "solve_ocp": "model.search",
+}
+
+__all__ = sorted(_PUBLIC)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _PUBLIC:
+        raise AttributeError(f"module 'model' has no attribute {name!r}")
+    value = getattr(import_module(_PUBLIC[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -50,7 +50,7 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
-    from model.scenario import load_scenario
+    from model.problem.scenario import load_scenario
 
     try:
         scenario = load_scenario(args.scenario)
@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
             raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
         options = ipopt_options(getattr(args, "ipopt", []))
         if options:
-            from model.ipopt import IpoptOptionError, check_options
+            from model.nlp.ipopt import IpoptOptionError, check_options
 
             try:
                 check_options(options)

@@ -7,9 +7,9 @@ import numpy as np
 import pyomo.environ as pyo
 import pytest
 
-from model.blocks import Chunked, pad_columns
-from model.casadi_nlp import CasadiNLP
-from model.ipopt import run_ipopt
+from model.nlp.blocks import Chunked, pad_columns
+from model.nlp.casadi_nlp import CasadiNLP
+from model.nlp.ipopt import run_ipopt
 from tests.test_bridge import _fd
 
 SIZE = 21  # not a multiple of the chunk: the last chunk is padded

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from model import OCP, Circle, Energy, Time, Unicycle
-from model.casadi_nlp import CasadiNLP
-from model.transcription import build_model
+from model.direct.transcription import build_model
+from model.nlp.casadi_nlp import CasadiNLP
 from tests.conftest import paper_energy_problem, straight_time
 
 
@@ -94,9 +94,9 @@ def test_presolve_keeps_solution_and_recovers_multipliers():
     """Eliminating dX = Tf f changes nothing Pyomo sees: same primal values and duals."""
     import pyomo.environ as pyo
 
-    from model.guess import initial_guess
-    from model.ipopt import run_ipopt
-    from model.solve import load_values
+    from model.direct.solve import load_values
+    from model.nlp.ipopt import run_ipopt
+    from model.search.guess import initial_guess
 
     ocp = paper_energy_problem()
     duals, values = [], []

@@ -7,9 +7,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from model.certificate import certify_trajectory
-from model.costs import Time
-from model.scenario import load_scenario
+from model.analysis.certificate import certify_trajectory
+from model.problem.costs import Time
+from model.problem.scenario import load_scenario
 from tests.conftest import ROOT
 
 S2 = ROOT / "workflows" / "scenarios" / "s2-case1.toml"

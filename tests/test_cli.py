@@ -7,7 +7,7 @@ import sys
 import pandas as pd
 import pytest
 
-from model.scenario import load_scenario
+from model.problem.scenario import load_scenario
 from tests.conftest import EXAMPLE, ROOT
 
 

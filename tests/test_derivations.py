@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from derivations.checking import FAILS, HOLDS, check_expression, compare
-from derivations.claims import all_claims
 from derivations.numerics import confirm, straight_drive
+from derivations.paper.checking import FAILS, HOLDS, check_expression, compare
+from derivations.paper.claims import all_claims
+from derivations.paper.problems import eetppco, toctaco, toctpco
+from derivations.paper.report import main as report_main
 from derivations.pmp import derive, render_pmp
-from derivations.problems import eetppco, toctaco, toctpco
-from derivations.report import main as report_main
 from model import OCP, Circle, Energy, Time, Truck, Unicycle
 from model.vehicles import sym
 
@@ -58,7 +58,7 @@ def test_abnormal_energy_is_affine():
 
 
 def test_straight_singular_arc_has_order_two_and_kelley_holds():
-    from derivations.claims_time import _on_arc, straight
+    from derivations.paper.claims_time import _on_arc, straight
 
     system = derive(toctaco())
     arc = system.singular_arc("u2", max_order=4, on=_on_arc(straight(system), system))

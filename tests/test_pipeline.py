@@ -26,12 +26,12 @@ sys.path.insert(0, str(SCRIPTS))
 
 import paper_html  # noqa: E402
 import paper_sections  # noqa: E402
-import plotting  # noqa: E402
 import solve as solve_wrapper  # noqa: E402
 import tables  # noqa: E402
-from results_io import Result, comment_block  # noqa: E402
 
-from model.scenario import load_scenario  # noqa: E402
+from model.plotting import figures as plotting  # noqa: E402
+from model.plotting.results import Result, comment_block  # noqa: E402
+from model.problem.scenario import load_scenario  # noqa: E402
 
 pytestmark = pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed")
 

@@ -3,8 +3,8 @@
 import pytest
 
 from model import Circle
-from model.resolve import Resolver
-from model.solve import solve_pass
+from model.direct.resolve import Resolver
+from model.search.multistart import solve_pass
 from tests.conftest import paper_energy_problem
 
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from model import InputError
-from model.scenario import load_scenario
-from model.validation import validate
+from model.analysis.validation import validate
+from model.problem.scenario import load_scenario
 from tests.conftest import SCENARIOS, paper_energy_problem, straight_energy, straight_time
 
 

@@ -8,11 +8,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from model.arcs import chattering, control_arcs
-from model.costs import Energy, Time
-from model.indirect import example_problem, richardson, shoot
-from model.scenario import load_scenario
-from model.studies import observed_orders, pareto_front
+from model.analysis.arcs import chattering, control_arcs
+from model.indirect.shooting import example_problem, richardson, shoot
+from model.problem.costs import Energy, Time
+from model.problem.scenario import load_scenario
+from model.studies.sweeps import observed_orders, pareto_front
 from tests.conftest import ROOT, straight_time
 
 

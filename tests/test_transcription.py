@@ -7,8 +7,8 @@ import pyomo.environ as pyo
 import pytest
 from pyomo.dae import ContinuousSet, DerivativeVar
 
-import model.trapezoid  # noqa: F401
-from model.transcription import build_model
+import model.direct.trapezoid  # noqa: F401
+from model.direct.transcription import build_model
 from tests.conftest import straight_energy
 
 

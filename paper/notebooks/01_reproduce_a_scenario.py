@@ -19,7 +19,6 @@
 # `python 01_reproduce_a_scenario.py`; figures are written to the current folder.
 
 # %%
-import sys
 from pathlib import Path
 
 
@@ -30,12 +29,10 @@ def repository_root() -> Path:
 
 
 ROOT = repository_root()
-sys.path.insert(0, str(ROOT / "workflows" / "scripts"))
 
-import plotting  # noqa: E402  (the pipeline's figure style and plots)
-from results_io import Result  # noqa: E402
-
-from model.scenario import load_scenario  # noqa: E402
+from model.plotting import figures as plotting  # noqa: E402  (the pipeline's figure style and plots)
+from model.plotting.results import Result  # noqa: E402
+from model.problem.scenario import load_scenario  # noqa: E402
 
 # %% [markdown]
 # The scenario file holds the problem and, in its comment block, why its parameters differ from

@@ -27,9 +27,9 @@ def repository_root() -> Path:
     return next(p for p in (here, *here.parents) if (p / "Snakefile").exists())
 
 
-from derivations.claims_numbers import claims as section5_claims  # noqa: E402
 from derivations.numerics import confirm  # noqa: E402
-from model.scenario import load_scenario  # noqa: E402
+from derivations.paper.claims_numbers import claims as section5_claims  # noqa: E402
+from model.problem.scenario import load_scenario  # noqa: E402
 
 ocp = load_scenario(repository_root() / "workflows" / "scenarios" / "s1.toml").ocp
 
@@ -42,7 +42,7 @@ print(system.to_text())
 
 # %% [markdown]
 # ## Claims of the paper's Section 5 and their verdicts
-# (all sections: `python -m derivations.report --out DIR`, or results/derivations/ after a build)
+# (all sections: `python -m derivations.paper.report --out DIR`, or results/derivations/ after a build)
 
 # %%
 for claim in section5_claims():

@@ -22,10 +22,14 @@ _globs = [config["scenarios"]] if isinstance(config["scenarios"], str) else list
 SCENARIO_FILES = {Path(f).stem: f for g in _globs for f in sorted(glob(str(repo_path(g))))}
 SCENARIOS = sorted(SCENARIO_FILES)
 PAPER_SCENARIOS = [s for s in config.get("paper_keys", {}) if s in SCENARIO_FILES]
-MODEL_CODE = sorted(glob(str(ROOT / "model" / "*.py")))
-DERIVATION_CODE = sorted(glob(str(ROOT / "derivations" / "*.py")))
 FORMATS = list(config.get("figure_formats", ["pdf", "png"]))
-PLOTTING = str(SCRIPTS / "plotting.py")
+
+sys.path.insert(0, str(ROOT / "tools"))
+from import_graph import closure  # noqa: E402  (a rule depends on the code its script can import)
+
+# A solve runs the CLI and the method OCP.solve names (model.problem.methods.DEFAULT_SOLVE).
+SOLVE_CODE = closure("model.cli", "model.search.multistart")
+DERIVATION_CODE = closure("derivations.paper.report")
 
 
 def scenario_file(wildcards) -> str:

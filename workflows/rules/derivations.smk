@@ -4,11 +4,10 @@
 rule derivations:
     input:
         DERIVATION_CODE,
-        MODEL_CODE,
     output:
         claims="results/derivations/claims.json",
         report="results/derivations/report.md",
     log:
         "results/logs/derivations.log",
     shell:
-        "{PYTHON} -m derivations.report --out results/derivations > {log} 2>&1"
+        "{PYTHON} -m derivations.paper.report --out results/derivations > {log} 2>&1"

@@ -1,6 +1,6 @@
 """Figures: per scenario (the paper's Figs. 4-7 and the Pontryagin quantities), and across scenarios."""
 
-FIGURE_CODE = [PLOTTING, str(SCRIPTS / "results_io.py")]
+FIGURE_CODE = closure(SCRIPTS / "figures_scenario.py", SCRIPTS / "figures_compare.py")
 
 
 def solve_outputs(names):

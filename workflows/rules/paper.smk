@@ -19,7 +19,7 @@ rule paper_sections:
         report="results/derivations/report.md",
         table="results/tables/scenarios.md",
         script=SCRIPTS / "paper_sections.py",
-        helpers=SCRIPTS / "results_io.py",
+        helpers=closure(SCRIPTS / "paper_sections.py"),
     output:
         OWN_SECTIONS,
     shell:

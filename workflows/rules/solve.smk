@@ -5,7 +5,7 @@ rule solve:
     input:
         scenario=scenario_file,
         wrapper=SCRIPTS / "solve.py",
-        model=MODEL_CODE,
+        code=SOLVE_CODE,
     output:
         summary="results/scenarios/{scenario}/summary.json",
         trajectory="results/scenarios/{scenario}/trajectory.csv",

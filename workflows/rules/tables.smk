@@ -10,7 +10,7 @@ rule scenario_table:
         scenarios=[SCENARIO_FILES[s] for s in SCENARIOS],
         claims="results/derivations/claims.json",
         script=SCRIPTS / "tables.py",
-        helpers=SCRIPTS / "results_io.py",
+        helpers=closure(SCRIPTS / "tables.py"),
     output:
         csv="results/tables/scenarios.csv",
         md="results/tables/scenarios.md",

@@ -5,10 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import plotting
-from results_io import load_result
-
-from model.scenario import load_scenario
+from model.plotting import figures as plotting
+from model.plotting.results import load_result
+from model.problem.scenario import load_scenario
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from results_io import Result, comment_block, fmt, load_claims, load_result
+from model.plotting.results import Result, comment_block, fmt, load_claims, load_result
 
 PLACEHOLDER = re.compile(r"\{\{\s*([a-z_]+)((?:\s+[^\s}]+)*)\s*\}\}")
 

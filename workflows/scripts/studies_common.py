@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from model.scenario import load_scenario  # noqa: E402
+from model.problem.scenario import load_scenario  # noqa: E402
 
 
 def parser(doc: str | None, results: bool = False) -> argparse.ArgumentParser:

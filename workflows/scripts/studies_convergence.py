@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 from studies_common import parser, scenario, table, write_json, write_text
 
-from model.studies import convergence
+from model.studies.sweeps import convergence
 
 
 def section(rows: list[dict], ladders: dict) -> str:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from studies_common import fmt, parser, table, write_json, write_text
 
-from model.indirect import example_problem, richardson, shoot
-from model.studies import observed_orders, progress
+from model.indirect.shooting import example_problem, richardson, shoot
+from model.studies.sweeps import observed_orders, progress
 
 GRIDS = [100, 200, 400, 800]
 

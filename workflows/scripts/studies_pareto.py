@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 from studies_common import fmt, parser, plt, save, scenario, solved, table, write_json, write_text
 
-from model.studies import front_statements, pareto_front
+from model.studies.sweeps import front_statements, pareto_front
 
 # geometry (time scenario) -> the paper's energy cases on that front
 FRONTS = {"s1": ("time-s1", ["s1"]), "s2": ("time-s2", ["s2-case1", "s2-case2", "s2-case3"]), "s3": ("time-s3", ["s3"])}

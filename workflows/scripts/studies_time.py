@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 from studies_common import fmt, parser, plt, save, solved, table, write_json, write_text
 
-from model.arcs import arc_structure
-from model.costs import Time
-from model.studies import progress
+from model.analysis.arcs import arc_structure
+from model.problem.costs import Time
+from model.studies.sweeps import progress
 
 EPSILONS = [1e-5, 1e-4]
 

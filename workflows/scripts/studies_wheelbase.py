@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 from studies_common import parser, plt, save, scenario, table, write_text
 
-from model.studies import as_energy, progress, row, solve_best, with_wheelbase
+from model.studies.sweeps import as_energy, progress, row, solve_best, with_wheelbase
 
 # sweep name -> (time scenario, energy scenario, fixed Tf for the energy solves, wheelbases)
 SWEEPS = {

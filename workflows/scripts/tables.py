@@ -8,9 +8,9 @@ import json
 from pathlib import Path
 
 import pandas as pd
-from results_io import Result, comment_block, fmt, load_claims, load_result
 
-from derivations.claims_numbers import PRINTED_RESULTS
+from derivations.paper.claims_numbers import PRINTED_RESULTS
+from model.plotting.results import Result, comment_block, fmt, load_claims, load_result
 
 PRINTED = {key: {"label": label, "final_time": tf, "energy": e} for key, label, tf, e, _ in PRINTED_RESULTS}
 

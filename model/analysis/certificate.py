@@ -1,0 +1,206 @@
+"""A Pontryagin certificate of a solved problem, read off its node trajectory.
+
+Conventions are those of ``model/costates.py``: maximisation, H = -L + p.f + mu c,
+p at the nodes is the average of the two neighbouring interval-midpoint multipliers
+(the end nodes carry the nearest midpoint value), mu >= 0 is the obstacle multiplier
+density. Each item is {"value", "tolerance", "passed"} plus what it measured:
+
+- ``costate_recovery``: the midpoint values p_{k+1/2} are rebuilt from the node values
+  (p_0 = p_{1/2}, p_k = (p_{k-1/2} + p_{k+1/2}) / 2); the last one must equal p_N.
+- ``adjoint``: (p_{k+1/2} - p_{k-1/2}) / h against -dH/dx at node k, the derivation
+  engine's adjoint expressions (``derivations.functions``), relative to the scale of p';
+  nodes next to an active phi bound (its multiplier is not adjoined) are left out and
+  counted, as are nodes where mu jumps (reported separately, not judged).
+- ``hamiltonian``: H constant (H = 0 for a free final time) at the interior nodes. A
+  switch of a bang control lies on the grid, not at its true instant: that shifts H by at
+  most |psi| at the switching node times the jump, so the tolerance is
+  sum_u max_k |psi_{k+1} - psi_k| (u_max - u_min) / 2 for affine controls, a few h^2 for
+  smooth ones.
+- ``maximum``: the gap max_v H(x, p, v) - H(x, p, u) over the control box at each node
+  (bang-bang: the sign of each switching function; energy: u = clip(psi)).
+- ``transversality``: p_i(Tf) = 0 for free final states (an O(h) end-node estimate).
+- ``complementarity``: max |mu c| and ``multiplier_sign``: mu >= 0 (raw duals if present).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from derivations.functions import pmp_functions
+from model.problem.ocp import OCP
+
+TOL = {"recovery": 1e-7, "adjoint": 1e-5, "maximum": 1e-5, "complementarity": 1e-6, "sign": 1e-6}
+
+
+def _item(value: float, tol: float, **extra) -> dict:
+    return {"value": float(value), "tolerance": float(tol), "passed": bool(value <= tol), **extra}
+
+
+def certify(solution) -> dict:
+    """The PMP certificate of ``solution`` (a Solution): items, each with value, tolerance, passed."""
+    ocp, traj = solution.ocp, solution.trajectory
+    if not np.all(np.isfinite(traj.to_numpy())):
+        return {"passed": False, "items": {}, "note": "non-finite trajectory"}
+    raw = _raw_obstacle_duals(solution)
+    return certify_trajectory(ocp, traj, raw_duals=raw)
+
+
+def certify_trajectory(ocp: OCP, traj: pd.DataFrame, raw_duals: np.ndarray | None = None) -> dict:
+    """The certificate from the node trajectory alone (e.g. a trajectory.csv).
+
+    Only t, the states, controls, p_<state> and mu are read; H and the switching
+    functions are recomputed from the derivation engine's expressions.
+    """
+    fns = pmp_functions(ocp)
+    v = ocp.vehicle
+    cols = {n: traj[n].to_numpy(dtype=float) for n in traj.columns}
+    if "mu" not in cols or not ocp.obstacles:
+        cols["mu"] = np.zeros(len(traj))
+    derived = fns.evaluate(cols)
+    cols["H"] = derived["H"]
+    cols.update({f"psi_{c}": derived[f"psi_{c}"] for c, _ in fns.laws})
+    t = cols["t"]
+    h = (t[-1] - t[0]) / (len(t) - 1)
+    mids = {s: _midpoints(cols[f"p_{s}"]) for s in v.states}
+    flags = _flags(ocp, cols)
+    rhs = {s: derived[f"adjoint_{s}"] for s in v.states}
+    items = {
+        "costate_recovery": _recovery(mids, cols, v.states),
+        "adjoint": _adjoint(rhs, mids, h, flags, v.states),
+        "hamiltonian": _hamiltonian(ocp, cols, h, flags),
+        "maximum": _maximum(fns.laws, ocp, cols),
+    }
+    trans = _transversality(ocp, cols, rhs, h)
+    if trans is not None:
+        items["transversality"] = trans
+    if ocp.obstacles:
+        items["complementarity"] = _complementarity(ocp, cols, h)
+        items["multiplier_sign"] = _sign(cols["mu"], raw_duals)
+    return {
+        "passed": all(i["passed"] for i in items.values()),
+        "items": items,
+        "flagged_nodes": {k: int(np.sum(f)) for k, f in flags.items()},
+    }
+
+
+def _midpoints(p: np.ndarray) -> np.ndarray:
+    """p_{k+1/2}, k = 0..N-1, rebuilt from the node averages (p_0 is the first midpoint)."""
+    mid = np.empty(len(p) - 1)
+    mid[0] = p[0]
+    for k in range(1, len(mid)):
+        mid[k] = 2 * p[k] - mid[k - 1]
+    return mid
+
+
+def _recovery(mids: dict, cols: dict, states) -> dict:
+    scale = max(1.0, max(float(np.max(np.abs(cols[f"p_{s}"]))) for s in states))
+    err = max(abs(mids[s][-1] - cols[f"p_{s}"][-1]) for s in states) / scale
+    return _item(err, TOL["recovery"])
+
+
+def _flags(ocp: OCP, cols: dict) -> dict[str, np.ndarray]:
+    """Nodes not judged: next to an active phi bound; where mu jumps (contact)."""
+    n = len(cols["t"])
+    state_bound = np.zeros(n, bool)
+    for name, (lo, hi) in ocp.bounds.items():
+        if name in ocp.vehicle.states:
+            state_bound |= (cols[name] - lo < 1e-6) | (hi - cols[name] < 1e-6)
+    px, py = ocp.vehicle.position
+    h = (cols["t"][-1] - cols["t"][0]) / (n - 1)
+    contact = cols["mu"] * h > 1e-5
+    for ob in ocp.obstacles:
+        contact |= ob.clearance(cols[px], cols[py]) < 1e-5
+    return {"state_bound": _widen(state_bound), "contact": _widen(contact)}
+
+
+def _widen(mask: np.ndarray) -> np.ndarray:
+    out = mask.copy()
+    out[1:] |= mask[:-1]
+    out[:-1] |= mask[1:]
+    return out
+
+
+def _adjoint(rhs: dict, mids: dict, h: float, flags: dict, states) -> dict:
+    """Discrete adjoint residual at interior nodes, relative to max |p'|."""
+    diff = {s: np.diff(mids[s]) / h for s in states}
+    scale = max(1.0, max(float(np.max(np.abs(rhs[s][1:-1]))) for s in states))
+    res = np.max([np.abs(diff[s] - rhs[s][1:-1]) for s in states], axis=0) / scale
+    judged = ~(flags["state_bound"] | flags["contact"])[1:-1]
+    value = float(np.max(res[judged], initial=0.0))
+    at_contact = float(np.max(res[flags["contact"][1:-1]], initial=0.0))
+    out = _item(value, TOL["adjoint"], judged_nodes=int(judged.sum()), at_contact=at_contact)
+    out["passed"] = out["passed"] and bool(judged.sum() >= len(judged) // 2)
+    return out
+
+
+def _hamiltonian(ocp: OCP, cols: dict, h: float, flags: dict) -> dict:
+    """max |H - H_ref| over interior nodes off contact; H_ref = 0 (free Tf) or the mean."""
+    H = cols["H"][1:-1]
+    judged = ~flags["contact"][1:-1]
+    ref = 0.0 if ocp.cost.free_final_time else float(np.mean(H[judged])) if judged.any() else 0.0
+    dev = np.abs(H - ref)
+    tol = 1e-6 + _h_allowance(ocp, cols, h)
+    return _item(
+        float(np.max(dev[judged], initial=0.0)), tol, reference=ref, at_contact=float(np.max(dev[~judged], initial=0.0))
+    )
+
+
+def _h_allowance(ocp: OCP, cols: dict, h: float) -> float:
+    """What a control jump between two nodes may shift H by: sum_u max|dpsi| max|du| / 2."""
+    scale = max(1.0, float(np.max(np.abs(cols["H"]))))
+    total = 10 * h**2 * scale
+    for c in ocp.vehicle.controls:
+        total += float(np.max(np.abs(np.diff(cols[f"psi_{c}"])))) * float(np.max(np.abs(np.diff(cols[c])))) / 2
+    return total
+
+
+def _maximum(laws: tuple[tuple[str, str], ...], ocp: OCP, cols: dict) -> dict:
+    """Largest gap max_v H(v) - H(u) over the box (H separable in the controls)."""
+    gap = np.zeros(len(cols["t"]))
+    mismatch = 0
+    for c, kind in laws:
+        lo, hi = ocp.bounds[c]
+        psi, u = cols[f"psi_{c}"], cols[c]
+        if kind == "projection":
+            best = np.clip(psi, lo, hi)
+            gap += 0.5 * (u - psi) ** 2 - 0.5 * (best - psi) ** 2
+        else:
+            best = np.where(psi >= 0, hi, lo)
+            gap += psi * (best - u)
+            mismatch += int(np.sum((np.abs(psi) > 1e-3) & (np.abs(u - best) > 1e-3 * (hi - lo))))
+    scale = max(1.0, float(np.max(np.abs(cols["H"]))))
+    return _item(float(np.max(gap)) / scale, TOL["maximum"], sign_mismatches=mismatch)
+
+
+def _transversality(ocp: OCP, cols: dict, rhs: dict, h: float) -> dict | None:
+    """p_i(Tf) = 0 for free final states, p(Tf) = p_{N-1/2} + h/2 p'(Tf) (discretely exact)."""
+    free = [s for s in ocp.vehicle.states if s not in ocp.final]
+    if not free:
+        return None
+    scale = max(1.0, max(float(np.max(np.abs(cols[f"p_{s}"]))) for s in ocp.vehicle.states))
+    value = max(abs(cols[f"p_{s}"][-1] + h / 2 * rhs[s][-1]) for s in free) / scale
+    return _item(value, TOL["adjoint"], states=free)
+
+
+def _complementarity(ocp: OCP, cols: dict, h: float) -> dict:
+    """max |mu c| h: the node's multiplier mass (mu is a density) times its clearance."""
+    px, py = ocp.vehicle.position
+    c = np.min([ob.clearance(cols[px], cols[py]) for ob in ocp.obstacles], axis=0)
+    return _item(float(np.max(np.abs(cols["mu"] * c))) * h, TOL["complementarity"])
+
+
+def _sign(mu: np.ndarray, raw: np.ndarray | None) -> dict:
+    worst = float(np.min(raw)) if raw is not None and raw.size else float(np.min(mu))
+    return _item(max(0.0, -worst), TOL["sign"], source="raw duals" if raw is not None else "mu")
+
+
+def _raw_obstacle_duals(solution) -> np.ndarray | None:
+    """The obstacle duals z >= 0 straight from the Pyomo model, if it is attached."""
+    m = getattr(solution, "model", None)
+    if m is None or not solution.ocp.obstacles or not hasattr(m, "dual"):
+        return None
+    return np.array([m.dual[m.obstacle[i, t]] for i in range(len(solution.ocp.obstacles)) for t in m.nodes])
+
+
+__all__ = ["certify", "certify_trajectory"]

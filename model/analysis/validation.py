@@ -1,0 +1,134 @@
+"""Validation of a trajectory independent of the solver that produced it.
+
+It reads only the node values (as written to trajectory.csv) and the OCP's SymPy
+definition: trapezoid defects, bounds, boundary conditions, obstacle clearance at
+the nodes and the pass direction decide; the clearance between the nodes and the
+drift of a scipy re-integration of the controls are measured and reported.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+from model.problem.ocp import OCP
+
+TOL = {"defect": 1e-6, "bound": 1e-6, "boundary": 1e-6, "clearance": 1e-6, "grid": 1e-9}
+
+
+def dynamics_function(ocp: OCP):
+    """Numpy f(X, U) from the SymPy dynamics: arrays of shape (n_states, ...) out."""
+    v = ocp.vehicle
+    args = v.state_symbols() + v.control_symbols()
+    fn = sp.lambdify(args, v.rhs(numeric=True), "numpy")
+
+    def f(states: np.ndarray, controls: np.ndarray) -> np.ndarray:
+        out = fn(*states, *controls)
+        return np.array([np.broadcast_to(o, np.shape(states[0])) for o in out], dtype=float)
+
+    return f
+
+
+def _check(value: float, tol: float, ok: bool | None = None) -> dict:
+    passed = bool(value <= tol) if ok is None else bool(ok)
+    return {"value": float(value), "tolerance": tol, "passed": passed}
+
+
+def validate(ocp: OCP, traj: pd.DataFrame, tf: float, passing: str | None = None) -> dict:
+    """Checks (each with value, tolerance, passed) and measures of a node trajectory."""
+    v = ocp.vehicle
+    t = traj["t"].to_numpy()
+    X = np.array([traj[s].to_numpy() for s in v.states])
+    U = np.array([traj[c].to_numpy() for c in v.controls])
+    n = len(t) - 1
+    f = dynamics_function(ocp)(X, U)
+    h = tf / n
+    defects = X[:, 1:] - X[:, :-1] - h / 2 * (f[:, :-1] + f[:, 1:])
+    checks = {
+        "finite": _check(0.0, 0.0, bool(np.all(np.isfinite(traj.to_numpy())))),
+        "grid": _check(float(np.max(np.abs(t - np.arange(n + 1) * h))), TOL["grid"] * max(1.0, tf)),
+        "defects": _check(float(np.max(np.abs(defects))), TOL["defect"]),
+        "bounds": _check(_bound_violation(ocp, traj), TOL["bound"]),
+        "boundary_conditions": _check(_boundary_error(ocp, traj), TOL["boundary"]),
+    }
+    measures = {}
+    if ocp.obstacles:
+        node_clear = _clearance(ocp, X, v)
+        checks["clearance"] = _check(-min(node_clear, 0.0), TOL["clearance"])
+        measures["min_clearance"] = node_clear
+        measures["min_clearance_dense"] = _dense_clearance(ocp, X, f, h)
+        px, py = v.position
+        swept = ocp.obstacles[0].swept_angle(traj[px], traj[py])
+        measures["swept_angle"] = swept
+        if passing in ("ccw", "cw"):
+            ok = swept > 0 if passing == "ccw" else swept < 0
+            checks["pass_direction"] = _check(swept, 0.0, ok)
+    else:
+        measures["min_clearance"] = None
+    measures["reintegration"] = _reintegration_drift(ocp, t, X, U)
+    return {"passed": all(c["passed"] for c in checks.values()), "checks": checks, "measures": measures}
+
+
+def _bound_violation(ocp: OCP, traj: pd.DataFrame) -> float:
+    worst = 0.0
+    for name, (lo, hi) in ocp.bounds.items():
+        col = traj[name].to_numpy()
+        worst = max(worst, float(np.max(lo - col, initial=0.0)), float(np.max(col - hi, initial=0.0)))
+    return worst
+
+
+def _boundary_error(ocp: OCP, traj: pd.DataFrame) -> float:
+    errs = [abs(traj[s].iloc[0] - val) for s, val in ocp.initial.items()]
+    errs += [abs(traj[s].iloc[-1] - val) for s, val in ocp.final.items()]
+    return float(max(errs, default=0.0))
+
+
+def _clearance(ocp: OCP, X: np.ndarray, v) -> float:
+    ix, iy = v.states.index(v.position[0]), v.states.index(v.position[1])
+    return float(min(np.min(ob.clearance(X[ix], X[iy])) for ob in ocp.obstacles))
+
+
+def _dense_clearance(ocp: OCP, X: np.ndarray, f: np.ndarray, h: float, sub: int = 20) -> float:
+    """Clearance along the quadratic the trapezoid rule implies between nodes."""
+    v = ocp.vehicle
+    ix, iy = v.states.index(v.position[0]), v.states.index(v.position[1])
+    s = np.linspace(0.0, 1.0, sub + 1)[None, :] * h
+    worst = np.inf
+    qx = X[ix, :-1, None] + f[ix, :-1, None] * s + (f[ix, 1:, None] - f[ix, :-1, None]) * s**2 / (2 * h)
+    qy = X[iy, :-1, None] + f[iy, :-1, None] * s + (f[iy, 1:, None] - f[iy, :-1, None]) * s**2 / (2 * h)
+    for ob in ocp.obstacles:
+        worst = min(worst, float(np.min(ob.clearance(qx, qy))))
+    return worst
+
+
+def _reintegration_drift(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray) -> dict:
+    """Integrate the piecewise-linear controls from X(0) with scipy; compare at the nodes.
+
+    Interval by interval (the controls are smooth inside each), carrying the integrated
+    state across nodes, so the drift accumulates as in one long integration.
+    """
+    v = ocp.vehicle
+    fn = sp.lambdify(v.state_symbols() + v.control_symbols(), v.rhs(numeric=True), "math")
+    path = np.empty_like(X)
+    path[:, 0] = X[:, 0]
+    for k in range(len(t) - 1):
+        t0, h, u0, du = t[k], t[k + 1] - t[k], U[:, k], U[:, k + 1] - U[:, k]
+
+        def rhs(tt, x, t0=t0, h=h, u0=u0, du=du):
+            return fn(*x, *(u0 + du * ((tt - t0) / h)))
+
+        sol = solve_ivp(rhs, (t0, t[k + 1]), path[:, k], rtol=1e-9, atol=1e-11, method="DOP853")
+        if not sol.success:
+            return {"success": False, "message": sol.message}
+        path[:, k + 1] = sol.y[:, -1]
+    err = np.abs(path - X)
+    ix, iy = v.states.index(v.position[0]), v.states.index(v.position[1])
+    pos = np.hypot(path[ix] - X[ix], path[iy] - X[iy])
+    return {
+        "success": True,
+        "max_position_error": float(np.max(pos)),
+        "final_position_error": float(pos[-1]),
+        "max_state_error": {s: float(np.max(err[i])) for i, s in enumerate(v.states)},
+    }

@@ -1,0 +1,12 @@
+"""The direct method: the Pyomo.dae trapezoid transcription, one solve, costates, warm re-solves.
+
+Imports the problem definition, the engine (for H and psi), the NLP layer and the analysis
+that checks each answer.
+"""
+
+from model.direct.resolve import WARM_OPTIONS, Resolver
+from model.direct.solution import Solution
+from model.direct.solve import Start, solve_starts
+from model.direct.transcription import build_model
+
+__all__ = ["WARM_OPTIONS", "Resolver", "Solution", "Start", "build_model", "solve_starts"]

@@ -1,0 +1,99 @@
+"""A solved (or failed) problem: the node trajectory, the summary, writing to disk."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from model.problem.ocp import OCP
+
+
+@dataclass
+class Solution:
+    """The result of ``OCP.solve``; ``ok`` is True only if Ipopt converged and validation passed."""
+
+    ocp: OCP
+    intervals: int
+    status: str
+    objective: float | None
+    final_time: float
+    energy: float | None
+    iterations: int
+    solve_seconds: float
+    trajectory: pd.DataFrame
+    passing: str
+    validation: dict = field(default_factory=dict)
+    solver_message: str = ""
+    attempts: list[dict] = field(default_factory=list)
+    timings: dict = field(default_factory=dict)
+    certificate: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "optimal" and bool(self.validation.get("passed"))
+
+    def summary(self) -> dict:
+        """The contract's summary.json content (plus extra keys)."""
+        measures = self.validation.get("measures", {})
+        return {
+            "name": self.ocp.name,
+            "title": self.ocp.title,
+            "status": self.status,
+            "objective_name": self.ocp.cost.objective,
+            "objective": self.objective,
+            "final_time": self.final_time,
+            "energy": self.energy,
+            "intervals": self.intervals,
+            "iterations": self.iterations,
+            "solve_seconds": self.solve_seconds,
+            "min_clearance": measures.get("min_clearance"),
+            "min_clearance_dense": measures.get("min_clearance_dense"),
+            "pass": self.passing,
+            "swept_angle": measures.get("swept_angle"),
+            "valid": bool(self.validation.get("passed")),
+            "validation": self.validation.get("checks", {}),
+            "reintegration": measures.get("reintegration"),
+            "solver_message": self.solver_message,
+            "attempts": self.attempts,
+            "timings": self.timings,
+            "certificate": self.certificate,
+        }
+
+    def write(self, out: str | Path) -> None:
+        """Write summary.json and trajectory.csv into ``out``, each file atomically."""
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        _atomic_write(out / "trajectory.csv", self.trajectory.to_csv(index=False, float_format="%.17g"))
+        _atomic_write(out / "summary.json", json.dumps(_jsonable(self.summary()), indent=2) + "\n")
+
+
+def trapezoid_energy(t: np.ndarray, u: list[np.ndarray]) -> float:
+    """1/2 integral of sum u_i^2 by the trapezoid rule on the nodes (eq. 32)."""
+    return float(np.trapezoid(0.5 * sum(np.asarray(c) ** 2 for c in u), t))
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+
+
+def _jsonable(obj):
+    """Full-precision JSON: floats as repr (17 digits), NaN/inf as null."""
+    if isinstance(obj, dict):
+        return {k: _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj

@@ -1,0 +1,145 @@
+"""One direct solve: build the trapezoid model of a pass direction, run Ipopt from given starts.
+
+Each answer becomes a Solution: its node trajectory with costates, mu, H and the
+switching functions (from the engine's one numeric form, ``derivations.functions``),
+validated independently of the solver and carrying a PMP certificate.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gc
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import pyomo.environ as pyo
+
+from derivations.functions import pmp_functions
+from model.analysis.certificate import certify
+from model.analysis.validation import validate
+from model.direct.costates import costates, obstacle_multiplier
+from model.direct.solution import Solution, trapezoid_energy
+from model.direct.transcription import build_model, grid
+from model.nlp.casadi_nlp import CasadiNLP
+from model.nlp.ipopt import IpoptResult, run_ipopt
+from model.problem.ocp import OCP
+
+
+@dataclass
+class Start:
+    """Node values of states and controls (arrays of N + 1) and, for a free Tf, its guess."""
+
+    values: dict[str, np.ndarray]
+    final_time: float | None = None
+
+
+@contextlib.contextmanager
+def paused_gc():
+    """Suspend Python's cyclic garbage collector for a block (restores its state)."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()
+
+
+def solve_starts(
+    ocp: OCP,
+    intervals: int,
+    passing: str,
+    starts: Sequence[Start],
+    verbose: bool = False,
+    options: dict | None = None,
+) -> list[Solution]:
+    """Build the model of one pass direction once; solve it from each start in turn."""
+    t0 = time.perf_counter()
+    with paused_gc():  # Pyomo creates many small objects: collections cost 3x the build
+        m = build_model(ocp, intervals, passing)
+    nlp, sols, timings = None, [], {}
+    opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
+    for start in starts:
+        load_start(m, start)
+        if nlp is None:
+            t1 = time.perf_counter()
+            with paused_gc():
+                nlp = CasadiNLP(m)
+            timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
+        res = run_ipopt(nlp, opts, x0=nlp.init_primals())
+        sols.append(finish(ocp, m, nlp, res, passing, timings))
+    return sols
+
+
+def load_start(m: pyo.ConcreteModel, start: Start) -> None:
+    """Put a start's node values (and Tf guess, if Tf is free) into the model."""
+    load_values(m, start.values)
+    if start.final_time is not None and m.tf.is_variable_type():
+        m.tf.set_value(start.final_time)
+
+
+def finish(ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, passing: str, timings: dict) -> Solution:
+    """Load Ipopt's answer into the model and make a validated, certified Solution."""
+    nlp.load_primals(res.x)
+    nlp.load_duals(res.mult_g, res.x)
+    traj = trajectory(m, ocp)
+    tf = float(pyo.value(m.tf))
+    base = ["t", *ocp.vehicle.states, *ocp.vehicle.controls]
+    sol = Solution(
+        ocp=ocp,
+        intervals=len(m.nodes) - 1,
+        status=res.status,
+        objective=float(pyo.value(m.objective)),
+        final_time=tf,
+        energy=trapezoid_energy(traj["t"].to_numpy(), [traj[c] for c in ocp.vehicle.controls]),
+        iterations=res.iterations,
+        solve_seconds=res.seconds,
+        trajectory=traj,
+        passing=passing,
+        validation=validate(ocp, traj[base], tf, passing),
+        solver_message=res.message,
+        timings={**timings, "ipopt": res.seconds},
+    )
+    if sol.status == "optimal" and not sol.validation["passed"]:
+        sol.status = "validation_failed"
+    sol.model, sol.nlp, sol.ipopt = m, nlp, res
+    sol.certificate = _certificate(sol)
+    return sol
+
+
+def _certificate(sol: Solution) -> dict:
+    """The PMP certificate (a diagnostic): an error in it never fails a solve."""
+    try:
+        return certify(sol)
+    except Exception as exc:  # noqa: BLE001
+        return {"passed": None, "error": f"{type(exc).__name__}: {exc}"}
+
+
+def load_values(m: pyo.ConcreteModel, values: dict[str, np.ndarray]) -> None:
+    """Set node values of the named Vars (a guess or a previous solution)."""
+    for name, vals in values.items():
+        var = m.component(name)
+        for t, val in zip(m.nodes, vals, strict=True):
+            var[t].set_value(float(val), skip_validation=True)
+
+
+def trajectory(m: pyo.ConcreteModel, ocp: OCP) -> pd.DataFrame:
+    """Nodes as a DataFrame: t, states, controls, then costates, mu, H, switching functions."""
+    v = ocp.vehicle
+    cols: dict[str, np.ndarray] = {"t": np.array(grid(m))}
+    for name in v.states + v.controls:
+        var = m.component(name)
+        cols[name] = np.array([pyo.value(var[t]) for t in m.nodes], dtype=float)
+    cols.update(costates(m, ocp))
+    px, py = v.position
+    cols["mu"] = obstacle_multiplier(m, ocp, (cols[px], cols[py]))
+    derived = pmp_functions(ocp).evaluate(cols)
+    cols["H"] = derived["H"]
+    cols.update({f"psi_{c}": derived[f"psi_{c}"] for c in v.controls})
+    return pd.DataFrame(cols)
+
+
+__all__ = ["Start", "finish", "load_start", "load_values", "paused_gc", "solve_starts", "trajectory"]

@@ -1,0 +1,192 @@
+"""The Pyomo.dae model of an OCP, generated from its SymPy definition.
+
+Time is normalised, tau = t / Tf in [0, 1]; each state X has a DerivativeVar
+dX/dtau tied to Tf * f(X, U) at every node, and ``dae.trapezoid`` adds
+X_{k+1} = X_k + h/2 (f_k + f_{k+1}) (h = Tf / N). Controls live at the nodes.
+The energy objective is the paper's eq. (32), the trapezoid sum of a running-cost
+variable defined at each node as Tf L(U) (like dX, a defined variable the NLP
+presolve eliminates again); the time objective is Tf.
+"""
+
+from __future__ import annotations
+
+import functools
+import operator
+
+import pyomo.environ as pyo
+import sympy as sp
+from pyomo.dae import ContinuousSet, DerivativeVar
+
+import model.direct.trapezoid  # noqa: F401  (registers dae.trapezoid)
+from model.problem.ocp import OCP
+from model.vehicles import sym
+
+_FUNCS = {
+    sp.sin: pyo.sin,
+    sp.cos: pyo.cos,
+    sp.tan: pyo.tan,
+    sp.atan: pyo.atan,
+    sp.exp: pyo.exp,
+    sp.log: pyo.log,
+    sp.asin: pyo.asin,
+    sp.acos: pyo.acos,
+}
+
+
+def sympy_to_pyomo(expr: sp.Expr, env: dict[sp.Symbol, object]):
+    """Translate a SymPy expression into a Pyomo one, symbols looked up in ``env``."""
+    if expr.is_Symbol:
+        return env[expr]
+    if expr.is_Integer:
+        return int(expr)
+    if expr.is_Number:
+        return float(expr)
+    args = [sympy_to_pyomo(a, env) for a in expr.args]
+    if expr.is_Add:  # not sum(): Pyomo's templatize_constraint replaces it
+        return functools.reduce(operator.add, args)
+    if expr.is_Mul:
+        return functools.reduce(operator.mul, args)
+    if expr.is_Pow:
+        base, exp = args
+        return pyo.sqrt(base) if expr.exp == sp.Rational(1, 2) else base**exp
+    if expr.func in _FUNCS:
+        return _FUNCS[expr.func](args[0])
+    raise NotImplementedError(f"cannot translate {expr.func} to Pyomo")
+
+
+def build_model(ocp: OCP, intervals: int, passing: str | None = None) -> pyo.ConcreteModel:
+    """The discretised Pyomo model of ``ocp`` on ``intervals`` uniform trapezoid steps."""
+    v = ocp.vehicle
+    m = pyo.ConcreteModel(name=ocp.name)
+    m.tau = ContinuousSet(bounds=(0, 1))
+    for name in v.states + v.controls:
+        m.add_component(name, pyo.Var(m.tau, bounds=ocp.bounds.get(name, (None, None))))
+    for name in v.states:
+        m.add_component(f"d{name}", DerivativeVar(m.component(name), wrt=m.tau))
+    _add_final_time(m, ocp)
+    _add_dynamics(m, ocp)
+    _add_boundary_conditions(m, ocp)
+    pyo.TransformationFactory("dae.trapezoid").apply_to(m, wrt=m.tau, nfe=intervals)
+    m.nodes = list(m.tau)
+    _add_obstacles(m, ocp)
+    if passing in ("ccw", "cw") and ocp.obstacles:
+        _add_pass_direction(m, ocp, passing)
+    _add_objective(m, ocp)
+    return m
+
+
+def _add_final_time(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    if ocp.cost.free_final_time:
+        m.tf = pyo.Var(bounds=(1e-3, None), initialize=ocp.final_time or 1.0)
+    else:
+        m.tf = pyo.Param(mutable=True, initialize=ocp.final_time)
+
+
+def _add_dynamics(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    v = ocp.vehicle
+    params = {sym(k): val for k, val in v.parameters().items()}
+    rhs = v.rhs(numeric=False)
+
+    comps = [(sym(n), m.component(n)) for n in v.states + v.controls]
+
+    def env(t):
+        return {s: comp[t] for s, comp in comps} | params
+
+    for name, f in zip(v.states, rhs, strict=True):
+        derivative = m.component(f"d{name}")
+
+        def rule(_m, t, f=f, dv=derivative):
+            return dv[t] == m.tf * sympy_to_pyomo(f, env(t))
+
+        m.add_component(f"ode_{name}", pyo.Constraint(m.tau, rule=rule))
+
+
+def _add_boundary_conditions(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    for where, values, t in (("initial", ocp.initial, 0), ("final", ocp.final, 1)):
+        for name, val in values.items():
+            par = pyo.Param(mutable=True, initialize=float(val))
+            m.add_component(f"{where}_{name}_value", par)
+            m.add_component(f"{where}_{name}", pyo.Constraint(expr=m.component(name)[t] == par))
+
+
+def _add_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    """dist^2 >= R^2 at every node (smooth); centre and R are mutable Params."""
+    px, py = ocp.vehicle.position
+    X, Y = m.component(px), m.component(py)
+    m.obstacle_set = pyo.RangeSet(0, len(ocp.obstacles) - 1) if ocp.obstacles else pyo.Set(initialize=[])
+    m.obstacle_cx = pyo.Param(m.obstacle_set, mutable=True, initialize=lambda _m, i: ocp.obstacles[i].center[0])
+    m.obstacle_cy = pyo.Param(m.obstacle_set, mutable=True, initialize=lambda _m, i: ocp.obstacles[i].center[1])
+    m.obstacle_R = pyo.Param(m.obstacle_set, mutable=True, initialize=lambda _m, i: ocp.obstacles[i].keep_out)
+
+    def rule(_m, i, t):
+        return (X[t] - m.obstacle_cx[i]) ** 2 + (Y[t] - m.obstacle_cy[i]) ** 2 >= m.obstacle_R[i] ** 2
+
+    m.obstacle = pyo.Constraint(m.obstacle_set, m.tau, rule=rule)
+
+
+def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
+    """Signed angle swept around the first obstacle, step by step.
+
+    The half-angle form 2 atan(cross / (|a||b| + dot)) is exact in (-pi, pi), also for
+    steps wider than 90 degrees on coarse grids.
+
+    Each step's angle is a defined variable (one templated constraint per step, which
+    the NLP presolve eliminates again); their sum must be >= 0 (ccw) or <= 0 (cw).
+    """
+    px, py = ocp.vehicle.position
+    X, Y, tp = m.component(px), m.component(py), m.tau_points
+    m.steps = pyo.RangeSet(1, len(m.nodes) - 1)
+    m.sweep = pyo.Var(m.steps, initialize=0.0)
+
+    cx, cy = m.obstacle_cx[0], m.obstacle_cy[0]
+
+    def rule(_m, k):
+        ax, ay = X[tp[k - 1]] - cx, Y[tp[k - 1]] - cy
+        bx, by = X[tp[k]] - cx, Y[tp[k]] - cy
+        norms = pyo.sqrt((ax**2 + ay**2) * (bx**2 + by**2))  # > 0 outside the obstacle
+        return m.sweep[k] == 2 * pyo.atan((ax * by - ay * bx) / (norms + ax * bx + ay * by))
+
+    m.sweep_step = pyo.Constraint(m.steps, rule=rule)
+    total = pyo.quicksum(m.sweep[k] for k in m.steps)
+    m.pass_direction = pyo.Constraint(expr=(total >= 0) if passing == "ccw" else (total <= 0))
+
+
+def _add_objective(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    if ocp.cost.free_final_time:
+        m.objective = pyo.Objective(expr=m.tf + _rate_penalty(m, ocp), sense=pyo.minimize)
+        return
+    v = ocp.vehicle
+    L = ocp.cost.lagrangian(v)
+    nodes = m.nodes
+    n = len(nodes) - 1
+    m.running_cost = pyo.Var(m.tau, initialize=0.0)
+
+    def rule(_m, t):
+        return m.running_cost[t] == m.tf * sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
+
+    m.running_cost_rate = pyo.Constraint(m.tau, rule=rule)
+    rate = m.running_cost
+    total = pyo.quicksum(rate[t] for t in nodes[1:-1]) + (rate[nodes[0]] + rate[nodes[-1]]) / 2
+    m.objective = pyo.Objective(expr=total / n, sense=pyo.minimize)
+
+
+def _rate_penalty(m: pyo.ConcreteModel, ocp: OCP):
+    """eps * sum_k |u_{k+1} - u_k|^2 / h over all controls (h = Tf / N); 0 if eps = 0."""
+    eps = float(getattr(ocp.cost, "rate_penalty", 0.0) or 0.0)
+    if eps == 0.0:
+        return 0
+    nodes = m.nodes
+    n = len(nodes) - 1
+    jumps = sum(
+        (m.component(c)[b] - m.component(c)[a]) ** 2
+        for c in ocp.vehicle.controls
+        for a, b in zip(nodes[:-1], nodes[1:], strict=True)
+    )
+    return eps * n / m.tf * jumps
+
+
+def grid(m: pyo.ConcreteModel) -> list[float]:
+    """Node times in seconds, t_k = k Tf / N."""
+    n = len(m.nodes) - 1
+    tf = float(pyo.value(m.tf))
+    return [k * tf / n for k in range(n + 1)]

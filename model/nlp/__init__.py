@@ -1,0 +1,9 @@
+"""The NLP layer: a Pyomo model to CasADi templates (presolve, exact derivatives) and Ipopt.
+
+Knows no vehicle, cost or problem: it reads any Pyomo ConcreteModel.
+"""
+
+from model.nlp.casadi_nlp import CasadiNLP
+from model.nlp.ipopt import DEFAULT_OPTIONS, IpoptResult, run_ipopt
+
+__all__ = ["DEFAULT_OPTIONS", "CasadiNLP", "IpoptResult", "run_ipopt"]

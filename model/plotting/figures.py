@@ -1,0 +1,249 @@
+"""The pipeline's one figure style and its plots (matplotlib): every figure is made here."""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from matplotlib.patches import Circle as Disc  # noqa: E402
+
+from model.plotting.results import Result  # noqa: E402
+
+STYLE = {
+    "figure.dpi": 110,
+    "savefig.dpi": 150,
+    "savefig.bbox": "tight",
+    "font.size": 9,
+    "axes.titlesize": 10,
+    "axes.labelsize": 9,
+    "legend.fontsize": 8,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "lines.linewidth": 1.6,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+}
+PALETTE = plt.get_cmap("tab10").colors
+LINESTYLES = ("-", "--", "-.", ":")
+UNITS = {"u1": "m/s", "u2": "rad/s", "x": "m", "y": "m", "theta": "rad", "phi": "rad"}
+LABELS = {"u1": "$u_1$", "u2": "$u_2$", "x": "$x$", "y": "$y$", "theta": r"$\theta$", "phi": r"$\phi$"}
+
+
+def apply_style() -> None:
+    plt.rcParams.update(STYLE)
+
+
+def color_for(name: str, order: Sequence[str]) -> tuple:
+    """One colour per scenario, the same in every figure (its place in ``order``)."""
+    return PALETTE[list(order).index(name) % len(PALETTE)] if name in order else PALETTE[-1]
+
+
+def save(fig: plt.Figure, stem: str | Path, formats: Sequence[str] = ("pdf", "png")) -> list[Path]:
+    """Write ``stem.<format>`` for every format and close the figure."""
+    stem = Path(stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = [stem.with_suffix(f".{fmt}") for fmt in formats]
+    for path in paths:
+        fig.savefig(path, metadata={"CreationDate": None} if path.suffix == ".pdf" else None)
+    plt.close(fig)
+    return paths
+
+
+def cumulative_energy(frame: pd.DataFrame) -> np.ndarray:
+    """E(t) = 1/2 integral of (u1^2 + u2^2), trapezoid rule on the nodes (the paper's eq. 32)."""
+    t = frame["t"].to_numpy()
+    integrand = 0.5 * (frame["u1"].to_numpy() ** 2 + frame["u2"].to_numpy() ** 2)
+    return np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (integrand[1:] + integrand[:-1]))])
+
+
+def phase_rate(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Hypothesis 1: psi = atan2(u2, u1) and psi' = (u1 u2' - u2 u1') / (u1^2 + u2^2), by finite differences."""
+    t, u1, u2 = (frame[c].to_numpy(dtype=float) for c in ("t", "u1", "u2"))
+    du1, du2 = np.gradient(u1, t), np.gradient(u2, t)
+    norm = np.maximum(u1**2 + u2**2, 1e-12)
+    return np.arctan2(u2, u1), (u1 * du2 - u2 * du1) / norm
+
+
+def _bounds(ax: plt.Axes, bounds: dict, name: str, color) -> None:
+    for value in bounds.get(name, ()):
+        ax.axhline(value, color=color, linestyle="--", linewidth=0.9, alpha=0.8)
+
+
+def _pose_arrow(ax: plt.Axes, pose: dict, color, label: str, length: float) -> None:
+    """A pose: a dot at the position and, if the heading is fixed, an arrow along it."""
+    x, y = pose["x"], pose["y"]
+    if "theta" in pose:
+        dx, dy = length * np.cos(pose["theta"]), length * np.sin(pose["theta"])
+        ax.annotate("", xy=(x + dx, y + dy), xytext=(x, y),
+                    arrowprops={"arrowstyle": "-|>", "color": color, "lw": 2.2, "mutation_scale": 18})
+        ax.plot([x + dx], [y + dy], alpha=0.0)  # keeps the arrow's tip inside the axes
+        label = f"{label} pose"
+    ax.plot([x], [y], "o", color=color, markersize=6, label=label)
+
+
+def draw_obstacles(ax: plt.Axes, obstacles: Sequence, label: bool = True) -> None:
+    """Each obstacle as a grey disc and its safety circle (radius + safety) dashed."""
+    for i, ob in enumerate(obstacles):
+        first = label and i == 0
+        ax.add_patch(Disc(ob.center, ob.radius, facecolor="0.75", edgecolor="0.4",
+                          label="obstacle" if first else None))
+        ax.add_patch(Disc(ob.center, ob.keep_out, fill=False, edgecolor="0.3", linestyle="--",
+                          label="safety distance" if first else None))
+
+
+def controls_panel(ax: plt.Axes, frame: pd.DataFrame, bounds: dict) -> None:
+    for name, color in (("u1", PALETTE[0]), ("u2", PALETTE[3])):
+        ax.plot(frame["t"], frame[name], color=color, label=f"{LABELS[name]} ({UNITS[name]})")
+        _bounds(ax, bounds, name, color)
+    ax.set(xlabel="t (s)", ylabel="control", title="(a) controls (bounds dashed)")
+    ax.legend(loc="best")
+
+
+def states_panel(ax: plt.Axes, frame: pd.DataFrame) -> None:
+    for name, color in (("x", PALETTE[0]), ("y", PALETTE[2])):
+        ax.plot(frame["t"], frame[name], color=color, label=LABELS[name])
+    ax.set(xlabel="t (s)", ylabel="position (m)", title="(b) states")
+    ax.legend(loc="best")
+
+
+def path_panel(ax: plt.Axes, frame: pd.DataFrame, ocp, color=PALETTE[0], label: str = "path") -> None:
+    """The path in the plane with the obstacle, its safety circle, and start and goal poses."""
+    draw_obstacles(ax, ocp.obstacles)
+    ax.plot(frame["x"], frame["y"], color=color, label=label)
+    span = max(np.ptp(frame["x"]), np.ptp(frame["y"]), 0.1)
+    _pose_arrow(ax, ocp.initial, "tab:green", "start", 0.18 * span)
+    if {"x", "y"} <= set(ocp.final):
+        _pose_arrow(ax, ocp.final, "tab:red", "goal", 0.18 * span)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set(xlabel="x (m)", ylabel="y (m)", title="(c) path")
+    ax.legend(loc="best")
+
+
+def energy_panel(ax: plt.Axes, frame: pd.DataFrame) -> None:
+    ax.plot(frame["t"], cumulative_energy(frame), color=PALETTE[4])
+    ax.set(xlabel="t (s)", ylabel=r"$E(t)=\frac{1}{2}\int_0^t (u_1^2+u_2^2)\,ds$", title="(d) cumulative energy")
+
+
+def failed_figure(result: Result, title: str) -> plt.Figure:
+    """A placeholder that says the solve failed: a failed solve is never drawn as a solution."""
+    fig, ax = plt.subplots(figsize=(7.5, 2.2))
+    ax.axis("off")
+    reason = result.summary.get("failure") or result.summary.get("solver_message") or ""
+    ax.text(0.5, 0.6, f"{title}\nSOLVE FAILED ({result.status_text})", ha="center", va="center",
+            fontsize=12, color="tab:red", weight="bold")
+    ax.text(0.5, 0.15, reason[:120], ha="center", va="center", fontsize=8, wrap=True)
+    return fig
+
+
+def _solved_grid(draw):
+    """``draw(axes, frame, result, ocp) -> title`` on a 2 x 2 figure of a solved result; a
+    failed solve gets the placeholder instead: it is never drawn as a solution."""
+
+    @functools.wraps(draw)
+    def figure(result: Result, ocp) -> plt.Figure:
+        if not result.solved:
+            return failed_figure(result, ocp.title or result.name)
+        fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), layout="constrained")
+        fig.suptitle(draw(axes, result.trajectory, result, ocp))
+        return fig
+
+    return figure
+
+
+@_solved_grid
+def solution_figure(axes, frame: pd.DataFrame, result: Result, ocp) -> str:
+    """The paper's Figures 4-7: (a) controls, (b) states, (c) path, (d) cumulative energy."""
+    controls_panel(axes[0, 0], frame, ocp.bounds)
+    states_panel(axes[0, 1], frame)
+    path_panel(axes[1, 0], frame, ocp)
+    energy_panel(axes[1, 1], frame)
+    return (f"{ocp.title or result.name}  (Tf = {result.summary['final_time']:.4g} s, "
+            f"E = {result.summary['energy']:.4g})")
+
+
+@_solved_grid
+def costate_figure(axes, frame: pd.DataFrame, result: Result, ocp) -> str:
+    """Costate estimates, switching functions beside the controls (with bounds), and H and mu."""
+    ax = axes[0, 0]
+    for i, name in enumerate(c for c in frame.columns if c.startswith("p_")):
+        ax.plot(frame["t"], frame[name], color=PALETTE[i], label=f"$p_{{{name[2:]}}}$".replace("theta", r"\theta")
+                .replace("phi", r"\phi"))
+    ax.set(xlabel="t (s)", ylabel="costate estimate", title="(a) costates (from the NLP multipliers)")
+    ax.legend(loc="best", ncols=2)
+    for ax, name, tag in ((axes[0, 1], "u1", "b"), (axes[1, 0], "u2", "c")):
+        psi = f"psi_{name}"
+        ax.plot(frame["t"], frame[psi], color="0.6", linewidth=4.0, alpha=0.7,
+                label=rf"$\psi_{{{name[1]}}}$ (switching function)")
+        ax.plot(frame["t"], frame[name], color=PALETTE[0 if name == "u1" else 3], linewidth=1.4,
+                label=f"{LABELS[name]} ({UNITS[name]})")
+        _bounds(ax, ocp.bounds, name, PALETTE[0 if name == "u1" else 3])
+        ax.set(xlabel="t (s)", ylabel=f"{LABELS[name]}, " + rf"$\psi_{{{name[1]}}}$",
+               title=f"({tag}) {LABELS[name]} and its switching function (bounds dashed)")
+        ax.legend(loc="best")
+    hamiltonian_panel(axes[1, 1], frame)
+    return f"{ocp.title or result.name}: Pontryagin quantities"
+
+
+def hamiltonian_panel(ax: plt.Axes, frame: pd.DataFrame) -> None:
+    ax.plot(frame["t"], frame["H"], color=PALETTE[4], label="$H$")
+    ax.set(xlabel="t (s)", ylabel="Hamiltonian $H$", title="(d) Hamiltonian and obstacle multiplier")
+    if "mu" in frame:
+        twin = ax.twinx()
+        twin.plot(frame["t"], frame["mu"], color=PALETTE[1], linestyle=":", label=r"$\mu$")
+        twin.set_ylabel(r"obstacle multiplier $\mu$")
+        twin.grid(False)
+        lines = ax.get_lines() + twin.get_lines()
+        ax.legend(lines, [ln.get_label() for ln in lines], loc="best")
+    else:
+        ax.legend(loc="best")
+
+
+def phase_rate_figure(results: Sequence[Result], order: Sequence[str]) -> plt.Figure:
+    """The paper's Figure 8: psi = atan2(u2, u1) and its rate for each solved scenario."""
+    fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True, layout="constrained")
+    for r in results:
+        if not r.solved:
+            axes[0].plot([], [], " ", label=f"{r.name}: {r.status_text}, not plotted")
+            continue
+        psi, rate = phase_rate(r.trajectory)
+        color = color_for(r.name, order)
+        axes[0].plot(r.trajectory["t"], psi, color=color, label=r.name)
+        axes[1].plot(r.trajectory["t"], rate, color=color, label=r.name)
+    axes[0].set(ylabel=r"$\psi=\mathrm{atan2}(u_2,u_1)$ (rad)", title=r"(a) phase of the control vector")
+    axes[1].set(xlabel="t (s)", ylabel=r"$\dot\psi$ (rad/s)",
+                title=r"(b) phase rate $\dot\psi=(u_1\dot u_2-u_2\dot u_1)/(u_1^2+u_2^2)$ (finite differences)")
+    axes[1].set_yscale("symlog", linthresh=1.0)
+    axes[0].legend(loc="best")
+    fig.suptitle(r"Hypothesis 1: singular arcs have $\dot\psi = 0$")
+    return fig
+
+
+def paths_figure(results: Sequence[Result], ocps: Sequence, order: Sequence[str]) -> plt.Figure:
+    """The paper's Figure 9: several scenarios' paths in one plane."""
+    fig, ax = plt.subplots(figsize=(7, 6), layout="constrained")
+    drawn: set = set()
+    for r, ocp in zip(results, ocps, strict=True):
+        for ob in ocp.obstacles:
+            key = (tuple(ob.center), ob.radius, ob.safety)
+            if key not in drawn:
+                draw_obstacles(ax, [ob], label=not drawn)
+                drawn.add(key)
+        if not r.solved:
+            ax.plot([], [], " ", label=f"{r.name}: {r.status_text}, not plotted")
+            continue
+        style = LINESTYLES[len(ax.get_lines()) // 2 % len(LINESTYLES)]
+        ax.plot(r.trajectory["x"], r.trajectory["y"], color=color_for(r.name, order), linestyle=style,
+                linewidth=2.2 if style == "-" else 1.8, label=f"{r.name} (Tf = {r.summary['final_time']:.3g} s)")
+        ax.plot(*(r.trajectory[["x", "y"]].to_numpy()[[0, -1]].T), "o", color=color_for(r.name, order), ms=4)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set(xlabel="x (m)", ylabel="y (m)", title="Paths around the roundabout")
+    ax.legend(loc="best")
+    return fig

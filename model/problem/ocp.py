@@ -1,0 +1,160 @@
+"""The optimal control problem: vehicle, cost, bounds, obstacles, boundary conditions."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from model.errors import InputError
+from model.problem.costs import Cost, Energy
+from model.problem.methods import DEFAULT_PMP, DEFAULT_SOLVE, Method, load_method
+from model.scene.obstacles import Circle
+from model.vehicles import Vehicle
+
+if TYPE_CHECKING:
+    from derivations.pmp import PMPSystem
+    from model.direct.solution import Solution
+
+PASSES = ("auto", "ccw", "cw")
+
+
+@dataclass
+class OCP:
+    """One optimal control problem, posed once and solved or analysed from here.
+
+    ``bounds`` maps a state or control name to an inclusive (lower, upper) pair;
+    ``initial`` fixes every state; ``final`` fixes any subset (the rest are free).
+    ``final_time`` is fixed for the energy cost and a first guess for the time cost.
+    """
+
+    vehicle: Vehicle
+    cost: Cost = field(default_factory=Energy)
+    bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    initial: dict[str, float] = field(default_factory=dict)
+    final: dict[str, float] = field(default_factory=dict)
+    obstacles: list[Circle] = field(default_factory=list)
+    final_time: float | None = None
+    passing: str = "auto"
+    name: str = "problem"
+    title: str = ""
+
+    def __post_init__(self) -> None:
+        self.bounds = {k: (float(v[0]), float(v[1])) for k, v in self.bounds.items()}
+        self.validate()
+
+    # -- checks that make bad input one clear error --------------------------
+    def validate(self) -> None:
+        """Raise InputError naming the first inconsistent item."""
+        v = self.vehicle
+        names = set(v.states) | set(v.controls)
+        for key, val in v.parameters().items():
+            if not math.isfinite(val) or val <= 0:
+                raise InputError(f"vehicle.{v.parameter_keys.get(key, key)}", f"must be > 0, got {val}")
+        for key, (lo, hi) in self.bounds.items():
+            if key not in names:
+                raise InputError(f"bounds.{key}", f"unknown variable (model has {sorted(names)})")
+            if not (lo <= hi):
+                raise InputError(f"bounds.{key}", f"lower bound {lo} exceeds upper bound {hi}")
+        for c in v.controls:
+            if c not in self.bounds:
+                raise InputError(f"bounds.{c}", "required: every control needs bounds")
+        self._check_boundary("initial", self.initial, require_all=True)
+        self._check_boundary("final", self.final, require_all=False)
+        self._check_obstacles()
+        self._check_time()
+        if self.passing not in PASSES:
+            raise InputError("problem.pass", f"must be one of {PASSES}, got {self.passing!r}")
+
+    def _check_boundary(self, where: str, values: dict[str, float], require_all: bool) -> None:
+        for key, val in values.items():
+            if key not in self.vehicle.states:
+                raise InputError(f"{where}.{key}", f"not a state of the {self.vehicle.model} model")
+            if not math.isfinite(val):
+                raise InputError(f"{where}.{key}", "must be a finite number")
+            lo, hi = self.bounds.get(key, (-math.inf, math.inf))
+            if not lo <= val <= hi:
+                raise InputError(f"{where}.{key}", f"{val} lies outside bounds [{lo}, {hi}]")
+        if require_all:
+            for key in self.vehicle.states:
+                if key not in values:
+                    raise InputError(f"{where}.{key}", "missing: every state must be fixed at t = 0")
+
+    def _check_obstacles(self) -> None:
+        px, py = self.vehicle.position
+        for i, ob in enumerate(self.obstacles):
+            if ob.radius <= 0:
+                raise InputError(f"obstacles[{i}].radius", f"must be > 0, got {ob.radius}")
+            if ob.safety < 0:
+                raise InputError(f"obstacles[{i}].safety", f"must be >= 0, got {ob.safety}")
+            for where, pt in (("initial", self.initial), ("final", self.final)):
+                if px in pt and py in pt and ob.clearance(pt[px], pt[py]) < 0:
+                    raise InputError(
+                        f"{where}.{px}",
+                        f"({pt[px]}, {pt[py]}) lies inside obstacles[{i}] (radius + safety = {ob.keep_out})",
+                    )
+
+    def _check_time(self) -> None:
+        tf = self.final_time
+        if tf is None:
+            if not self.cost.free_final_time:
+                raise InputError("problem.final_time", "required for the energy objective")
+            return
+        if not math.isfinite(tf) or tf <= 0:
+            raise InputError("problem.final_time", f"must be > 0, got {tf}")
+        if self.cost.free_final_time:
+            return
+        gap = self.straight_distance()
+        speed = self.max_speed()
+        if gap is not None and speed is not None and gap > speed * tf * (1 + 1e-9):
+            raise InputError(
+                "problem.final_time",
+                f"infeasible: the goal is {gap:.4g} m away but |u1| <= {speed:g} "
+                f"covers at most {speed * tf:.4g} m in {tf:g} s",
+            )
+
+    def straight_distance(self) -> float | None:
+        """Straight-line distance start to goal, or None if the goal position is free."""
+        px, py = self.vehicle.position
+        if px in self.final and py in self.final:
+            return math.hypot(self.final[px] - self.initial[px], self.final[py] - self.initial[py])
+        return None
+
+    def max_speed(self) -> float | None:
+        """max |u1| for vehicles whose first control is the speed."""
+        if "u1" not in self.bounds:
+            return None
+        lo, hi = self.bounds["u1"]
+        return max(abs(lo), abs(hi))
+
+    # -- the two things one does with a problem ------------------------------
+    def solve(self, intervals: int = 100, method: str | Method | None = None, **options: Any) -> Solution:
+        """Transcribe with the trapezoid rule and solve with Ipopt (multi-start by default).
+
+        Parameters
+        ----------
+        intervals : int
+            N, the number of trapezoid steps.
+        method : callable or "module:function", optional
+            What solves the problem, called as ``method(ocp, intervals=N, **options)``;
+            default ``model.search.multistart:solve_ocp`` (every pass direction, several
+            cold starts, the best validated answer).
+        **options
+            Passed to the method: ``verbose`` (Ipopt log), ``options`` (Ipopt options),
+            ``guess`` (a trajectory DataFrame to start from), ``starts``, ``progress``.
+
+        Returns
+        -------
+        Solution
+            ``ok`` is True when Ipopt converged and the independent validation passed.
+
+        Examples
+        --------
+        >>> sol = ocp.solve(intervals=100)                       # doctest: +SKIP
+        >>> sol.ok, sol.objective, sol.trajectory[["t", "x", "y"]]  # doctest: +SKIP
+        """
+        return load_method(method or DEFAULT_SOLVE)(self, intervals=intervals, **options)
+
+    def pmp(self, **options: Any) -> PMPSystem:
+        """The Pontryagin system derived symbolically from this definition (``derivations.pmp.derive``)."""
+        return load_method(DEFAULT_PMP)(self, **options)

@@ -1,0 +1,170 @@
+"""Scenario files (TOML) to OCP objects, with one clear error per bad key.
+
+The format is the public contract in shared/scenario-format.md: unknown keys are
+errors, every state is fixed at t = 0, any subset at Tf.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from model.errors import InputError
+from model.problem.costs import Energy, Time
+from model.problem.ocp import OCP, PASSES
+from model.scene.obstacles import Circle
+from model.vehicles import VEHICLES, Vehicle
+
+TOP_KEYS = {"name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem"}
+PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass"}
+OBSTACLE_KEYS = {"center", "radius", "safety"}
+OBJECTIVES = {"energy": Energy, "time": Time}
+
+
+@dataclass
+class Scenario:
+    """A parsed scenario: the problem plus how to discretise it."""
+
+    ocp: OCP
+    intervals: int = 100
+    scheme: str = "trapezoid"
+    path: Path | None = None
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file; raise InputError naming the bad key."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError("", f"{path}: no such file") from None
+    except tomllib.TOMLDecodeError as err:
+        raise InputError("", f"{path}: malformed TOML: {err}") from None
+    except UnicodeDecodeError:
+        raise InputError("", f"{path}: not a UTF-8 text file") from None
+    return parse_scenario(data, default_name=path.stem, path=path)
+
+
+def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: Path | None = None) -> Scenario:
+    """Build a Scenario from the TOML document's dictionary."""
+    _no_unknown(data, TOP_KEYS, "")
+    for key in ("vehicle", "bounds", "initial", "problem"):
+        if key not in data:
+            raise InputError(key, "missing required table")
+    vehicle = _vehicle(_table(data, "vehicle"))
+    problem = _table(data, "problem")
+    _no_unknown(problem, PROBLEM_KEYS, "problem.")
+    objective = _choice(problem, "objective", OBJECTIVES, "problem.", required=True)
+    scheme = _choice(problem, "scheme", {"trapezoid": None}, "problem.", default="trapezoid")
+    passing = _choice(problem, "pass", dict.fromkeys(PASSES), "problem.", default="auto")
+    intervals = problem.get("intervals", 100)
+    if isinstance(intervals, bool) or not isinstance(intervals, int) or intervals < 1:
+        raise InputError("problem.intervals", f"must be a whole number >= 1, got {intervals!r}")
+    final_time = _number(problem, "final_time", "problem.") if "final_time" in problem else None
+    ocp = OCP(
+        vehicle=vehicle,
+        cost=OBJECTIVES[objective](),
+        bounds=_bounds(_table(data, "bounds")),
+        initial=_numbers(_table(data, "initial"), "initial."),
+        final=_numbers(_table(data, "final") if "final" in data else {}, "final."),
+        obstacles=_obstacles(data.get("obstacles", [])),
+        final_time=final_time,
+        passing=passing,
+        name=_string(data, "name", default_name),
+        title=_string(data, "title", ""),
+    )
+    return Scenario(ocp=ocp, intervals=intervals, scheme=scheme, path=path)
+
+
+def _vehicle(table: dict[str, Any]) -> Vehicle:
+    model = _choice(table, "model", VEHICLES, "vehicle.", required=True)
+    cls = VEHICLES[model]
+    fields = {f.name for f in dataclasses.fields(cls)}
+    _no_unknown(table, fields | {"model"}, "vehicle.")
+    kwargs = {k: _number(table, k, "vehicle.") for k in fields if k in table}
+    return cls(**kwargs)
+
+
+def _bounds(table: dict[str, Any]) -> dict[str, tuple[float, float]]:
+    out = {}
+    for key, val in table.items():
+        if not (isinstance(val, list) and len(val) == 2 and all(_is_number(x) for x in val)):
+            raise InputError(f"bounds.{key}", f"must be [lower, upper] (two numbers), got {val!r}")
+        out[key] = (float(val[0]), float(val[1]))
+    return out
+
+
+def _obstacles(items: Any) -> list[Circle]:
+    if not isinstance(items, list):
+        raise InputError("obstacles", "must be an array of tables ([[obstacles]])")
+    out = []
+    for i, item in enumerate(items):
+        where = f"obstacles[{i}]."
+        if not isinstance(item, dict):
+            raise InputError(f"obstacles[{i}]", "must be a table")
+        _no_unknown(item, OBSTACLE_KEYS, where)
+        center = item.get("center")
+        if not (isinstance(center, list) and len(center) == 2 and all(_is_number(x) for x in center)):
+            raise InputError(where + "center", f"must be [x, y] (two numbers), got {center!r}")
+        if "radius" not in item:
+            raise InputError(where + "radius", "missing")
+        safety = _number(item, "safety", where) if "safety" in item else 0.0
+        out.append(Circle((float(center[0]), float(center[1])), _number(item, "radius", where), safety))
+    return out
+
+
+def _table(data: dict[str, Any], key: str) -> dict[str, Any]:
+    val = data[key]
+    if not isinstance(val, dict):
+        raise InputError(key, f"must be a table ([{key}]), got {type(val).__name__}")
+    return val
+
+
+def _numbers(table: dict[str, Any], where: str) -> dict[str, float]:
+    return {k: _number(table, k, where) for k in table}
+
+
+def _is_number(val: Any) -> bool:
+    return isinstance(val, int | float) and not isinstance(val, bool)
+
+
+def _number(table: dict[str, Any], key: str, where: str) -> float:
+    val = table[key]
+    if not _is_number(val):
+        raise InputError(where + key, f"must be a number, got {val!r}")
+    return float(val)
+
+
+def _string(table: dict[str, Any], key: str, default: str) -> str:
+    val = table.get(key, default)
+    if not isinstance(val, str):
+        raise InputError(key, f"must be a string, got {val!r}")
+    return val
+
+
+def _choice(table, key, options, where, required=False, default=None) -> str:
+    if key not in table:
+        if required:
+            raise InputError(where + key, f"missing (one of {sorted(options)})")
+        return default
+    val = table[key]
+    if val not in options:
+        raise InputError(where + key, f"must be one of {sorted(options)}, got {val!r}")
+    return val
+
+
+def _no_unknown(table: dict[str, Any], allowed: set[str], where: str) -> None:
+    for key in table:
+        if key not in allowed:
+            hint = _closest(key, allowed)
+            raise InputError(where + key, "unknown key" + (f" (did you mean '{hint}'?)" if hint else ""))
+
+
+def _closest(key: str, allowed: set[str]) -> str | None:
+    import difflib
+
+    match = difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6)
+    return match[0] if match else None

@@ -1,0 +1,89 @@
+"""A first guess for the NLP: drive along a line, or around the first obstacle."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import sympy as sp
+
+from model.problem.ocp import OCP
+from model.vehicles import sym
+
+
+def guess_final_time(ocp: OCP, passing: str) -> float:
+    """The given final time, or path length over 70 % of the top speed."""
+    if ocp.final_time is not None:
+        return float(ocp.final_time)
+    s = np.linspace(0.0, 1.0, 201)
+    x, y = _path(ocp, passing, s)
+    length = float(np.sum(np.hypot(np.diff(x), np.diff(y))))
+    return max(length, 0.1) / (0.7 * (ocp.max_speed() or 1.0)) + 1.0
+
+
+def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc") -> dict[str, np.ndarray]:
+    """Node values (n + 1 of each) of every state and control.
+
+    ``route``: "arc" goes around the first obstacle in the ``passing`` direction;
+    "line" drives straight at the goal and leaves the detour to the solver.
+    """
+    v = ocp.vehicle
+    s = np.linspace(0.0, 1.0, n + 1)
+    px, py = v.position
+    x, y = _path(ocp, passing if route == "arc" else "none", s)
+    dx, dy = np.gradient(x, s), np.gradient(y, s)
+    heading = np.unwrap(np.arctan2(dy, dx))
+    theta0 = ocp.initial.get("theta", heading[0])
+    heading += 2 * math.pi * round((theta0 - heading[0]) / (2 * math.pi))
+    guess = {px: x, py: y, "theta": heading}
+    speed = np.hypot(dx, dy) / tf
+    d = v.parameters().get("d")
+    if d is not None:
+        curvature = np.gradient(heading, s) / np.maximum(np.hypot(dx, dy), 1e-9)
+        guess["phi"] = np.arctan(curvature * d)
+    for name in v.states:
+        if name not in guess:
+            a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])
+            guess[name] = a + (b - a) * s
+        guess[name] = _clip(guess[name], ocp.bounds.get(name))
+    guess.update(_controls(ocp, guess, speed, s, tf))
+    return guess
+
+
+def _controls(ocp: OCP, states: dict[str, np.ndarray], speed: np.ndarray, s: np.ndarray, tf: float):
+    """u1 is the speed; a control that is some state's derivative is that derivative."""
+    v = ocp.vehicle
+    out = {c: np.zeros_like(s) for c in v.controls}
+    if "u1" in out:
+        out["u1"] = speed
+    for name, f in zip(v.states, v.rhs(numeric=False), strict=True):
+        if isinstance(f, sp.Symbol) and f.name in out and f == sym(f.name):
+            out[f.name] = np.gradient(states[name], s) / tf
+    return {c: _clip(val, ocp.bounds.get(c)) for c, val in out.items()}
+
+
+def _path(ocp: OCP, passing: str, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    px, py = ocp.vehicle.position
+    p0 = np.array([ocp.initial[px], ocp.initial[py]])
+    if px in ocp.final and py in ocp.final:
+        p1 = np.array([ocp.final[px], ocp.final[py]])
+    else:
+        th = ocp.initial.get("theta", 0.0)
+        p1 = p0 + (ocp.max_speed() or 1.0) * (ocp.final_time or 1.0) * 0.5 * np.array([math.cos(th), math.sin(th)])
+    if not ocp.obstacles or passing not in ("ccw", "cw"):
+        return p0[0] + (p1[0] - p0[0]) * s, p0[1] + (p1[1] - p0[1]) * s
+    ob = ocp.obstacles[0]
+    c = np.array(ob.center)
+    a0 = math.atan2(*(p0 - c)[::-1])
+    a1 = math.atan2(*(p1 - c)[::-1])
+    sweep = (a1 - a0) % (2 * math.pi)
+    if passing == "cw":
+        sweep -= 2 * math.pi
+    r = (1 - s) * np.linalg.norm(p0 - c) + s * np.linalg.norm(p1 - c)
+    r = np.maximum(r, 1.2 * ob.keep_out)
+    a = a0 + sweep * s
+    return c[0] + r * np.cos(a), c[1] + r * np.sin(a)
+
+
+def _clip(values: np.ndarray, bounds: tuple[float, float] | None) -> np.ndarray:
+    return values if bounds is None else np.clip(values, bounds[0], bounds[1])

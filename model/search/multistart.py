@@ -1,0 +1,135 @@
+"""Multi-start: every pass direction asked for, several cold starts each, the best validated answer.
+
+Both objectives are nonconvex (local minima). By default the time objective tries
+TIME_STARTS, a problem with an obstacle DETOUR_STARTS; each pass direction's model is
+built once and solved from each start (``model.direct.solve_starts``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+import pandas as pd
+
+from model.direct.solution import Solution
+from model.direct.solve import Start, solve_starts
+from model.problem.ocp import OCP
+from model.search.guess import guess_final_time, initial_guess
+
+TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
+DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
+
+
+def passes_to_try(ocp: OCP) -> list[str]:
+    """'auto' with an obstacle tries both directions; without one there is no pass."""
+    if not ocp.obstacles:
+        return ["none"]
+    return ["ccw", "cw"] if ocp.passing == "auto" else [ocp.passing]
+
+
+def solve_ocp(
+    ocp: OCP,
+    intervals: int = 100,
+    verbose: bool = False,
+    options: dict | None = None,
+    guess: pd.DataFrame | None = None,
+    starts: tuple[tuple[float, str], ...] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Solution:
+    """Solve every pass direction asked for and keep the best validated solution.
+
+    Parameters
+    ----------
+    ocp : the problem.
+    intervals : N, the number of trapezoid steps.
+    verbose : show Ipopt's iteration log.
+    options : Ipopt options, e.g. ``{"mu_strategy": "adaptive"}``.
+    guess : a trajectory (t, states, controls; e.g. ``other.trajectory``) to start from
+        instead of the geometric guesses; it is resampled onto the new grid.
+    starts : cold starts as (scale of the Tf guess, route "arc" or "line").
+    progress : called with one line of text after each start (e.g. ``print``).
+
+    Returns
+    -------
+    Solution
+        The best start: validated before unvalidated, then the lowest objective;
+        ``attempts`` lists every start with its status and objective.
+    """
+    start = time.perf_counter()
+    best: Solution | None = None
+    attempts = []
+    if starts is None:
+        starts = default_starts(ocp) if guess is None else ((1.0, "arc"),)
+    for passing in passes_to_try(ocp):
+        values = [start_values(ocp, intervals, passing, guess, scale, route) for scale, route in starts]
+        for (scale, route), sol in zip(starts, solve_starts(ocp, intervals, passing, values, verbose, options),
+                                       strict=True):  # fmt: skip
+            attempts.append(
+                {"pass": passing, "tf_guess_scale": scale, "route": route, "status": sol.status, "valid": sol.ok,
+                 "objective": sol.objective}
+            )  # fmt: skip
+            if progress is not None:
+                progress(
+                    f"[{len(attempts)}] pass {passing}, start {route} x{scale:g}: {sol.status}, "
+                    f"objective {sol.objective:.8g}, {sol.iterations} iterations, {sol.timings['ipopt']:.2f} s in Ipopt"
+                )
+            if best is None or _better(sol, best):
+                best = sol
+    best.nlp.load_primals(best.ipopt.x)  # the model may hold a later start's values
+    best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
+    best.attempts = attempts
+    best.solve_seconds = time.perf_counter() - start
+    return best
+
+
+def default_starts(ocp: OCP) -> tuple[tuple[float, str], ...]:
+    """The cold starts ``solve_ocp`` tries per pass direction when none are given."""
+    if ocp.cost.free_final_time:
+        return TIME_STARTS
+    return DETOUR_STARTS if ocp.obstacles else ((1.0, "arc"),)
+
+
+def _better(a: Solution, b: Solution) -> bool:
+    if a.ok != b.ok:
+        return a.ok
+    return a.objective is not None and (b.objective is None or a.objective < b.objective)
+
+
+def solve_pass(
+    ocp: OCP,
+    intervals: int,
+    passing: str,
+    verbose: bool = False,
+    options: dict | None = None,
+    guess: pd.DataFrame | None = None,
+    tf_scale: float = 1.0,
+    route: str = "arc",
+) -> Solution:
+    """One Ipopt solve with the guess and the constraint of one pass direction."""
+    values = start_values(ocp, intervals, passing, guess, tf_scale, route)
+    return solve_starts(ocp, intervals, passing, [values], verbose, options)[0]
+
+
+def start_values(
+    ocp: OCP, intervals: int, passing: str, guess: pd.DataFrame | None, scale: float = 1.0, route: str = "arc"
+) -> Start:
+    """A start's node values: a given trajectory resampled, or the geometric guess of ``route``."""
+    free = ocp.cost.free_final_time
+    if guess is not None:
+        return Start(resample(ocp, guess, intervals), float(guess["t"].iloc[-1]) if free else None)
+    tf_guess = guess_final_time(ocp, passing) * (scale if free else 1.0)
+    return Start(initial_guess(ocp, passing, intervals, tf_guess, route), tf_guess if free else None)
+
+
+def resample(ocp: OCP, traj: pd.DataFrame, intervals: int) -> dict[str, np.ndarray]:
+    """A trajectory's states and controls on a uniform grid of ``intervals`` steps (normalised time)."""
+    s_old = traj["t"].to_numpy() / traj["t"].iloc[-1]
+    s_new = np.linspace(0.0, 1.0, intervals + 1)
+    names = ocp.vehicle.states + ocp.vehicle.controls
+    return {n: np.interp(s_new, s_old, traj[n].to_numpy()) for n in names}
+
+
+__all__ = ["DETOUR_STARTS", "TIME_STARTS", "default_starts", "passes_to_try", "resample", "solve_ocp", "solve_pass",
+           "start_values"]  # fmt: skip

@@ -1,0 +1,51 @@
+"""The vehicle base class: state and control names plus SymPy dynamics, written once.
+
+A new vehicle is one small subclass; the Pyomo transcription, the validator and
+the Pontryagin engine all read ``states``, ``controls`` and ``dynamics()``.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+
+def sym(name: str) -> sp.Symbol:
+    """The project's one way of naming a real SymPy symbol."""
+    return sp.Symbol(name, real=True)
+
+
+class Vehicle:
+    """Base class: subclasses set ``states``, ``controls`` and ``dynamics``."""
+
+    model: str = ""
+    states: tuple[str, ...] = ()
+    controls: tuple[str, ...] = ()
+    position: tuple[str, str] = ("x", "y")
+    parameter_keys: dict[str, str] = {}  # parameter symbol -> its key in a scenario's [vehicle]
+
+    def parameters(self) -> dict[str, float]:
+        """Numeric values of the model's parameters, keyed by symbol name."""
+        return {}
+
+    def dynamics(self) -> dict[str, sp.Expr]:
+        """State derivatives as SymPy expressions of state, control, parameter symbols."""
+        raise NotImplementedError
+
+    # -- derived helpers ---------------------------------------------------
+    def state_symbols(self) -> list[sp.Symbol]:
+        return [sym(s) for s in self.states]
+
+    def control_symbols(self) -> list[sp.Symbol]:
+        return [sym(c) for c in self.controls]
+
+    def parameter_symbols(self) -> dict[str, sp.Symbol]:
+        return {k: sym(k) for k in self.parameters()}
+
+    def rhs(self, numeric: bool = True) -> list[sp.Expr]:
+        """Dynamics in state order; with ``numeric`` the parameters are substituted."""
+        f = self.dynamics()
+        exprs = [f[s] for s in self.states]
+        if numeric:
+            subs = {sym(k): v for k, v in self.parameters().items()}
+            exprs = [(e if isinstance(e, sp.Basic) else sp.Float(e)).subs(subs) for e in exprs]
+        return exprs

@@ -1,0 +1,23 @@
+"""The unicycle: speed and turn rate as controls."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from model.vehicles.base import Vehicle
+
+
+@dataclass
+class Unicycle(Vehicle):
+    """Unicycle (Dubins-like without a speed floor): speed u1 and turn rate u2."""
+
+    model = "unicycle"
+    states = ("x", "y", "theta")
+    controls = ("u1", "u2")
+
+    def dynamics(self) -> dict[str, sp.Expr]:
+        x, y, theta = self.state_symbols()
+        u1, u2 = self.control_symbols()
+        return {"x": u1 * sp.cos(theta), "y": u1 * sp.sin(theta), "theta": u2}
