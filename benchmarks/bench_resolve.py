@@ -4,7 +4,7 @@ Usage: python benchmarks/bench_resolve.py [--sizes 100 400 1600] [--delta -0.1]
 
 Cold: build the model, set up derivatives, solve from the geometric guess. Warm: change
 the final-time Param of the built model and re-solve from the previous primal-dual point
-(model/resolve.py). Both include the post-processing (costates, validation, certificate);
+(model/direct/resolve.py). Both include the post-processing (costates, validation, certificate);
 the garbage of earlier solves is collected before each timing.
 """
 

@@ -12,9 +12,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
-import sympy as sp
 
-from derivations.pmp import PMPSystem, derive
+from derivations.functions import PMPFunctions, pmp_functions
+from derivations.pmp import derive
 
 if TYPE_CHECKING:
     from model.problem.ocp import OCP
@@ -41,67 +41,50 @@ class Confirmation:
         return "\n".join(f"{k}: {v:.3g}" for k, v in self.summary.items())
 
 
-def _columns(system: PMPSystem, frame: pd.DataFrame) -> dict[sp.Symbol, np.ndarray]:
-    """Node values of every symbol the system uses; missing multipliers are taken as 0."""
-    n = len(frame)
-    values: dict[sp.Symbol, np.ndarray] = {}
-    for s in [*system.states, *system.controls, *system.costates]:
-        if s.name not in frame:
-            raise KeyError(f"trajectory lacks column {s.name!r}")
-        values[s] = frame[s.name].to_numpy(dtype=float)
-    for m in system.multipliers:
-        values[m] = frame[m.name].to_numpy(dtype=float) if m.name in frame else np.zeros(n)
-    return values
-
-
-def _evaluate(system: PMPSystem, expr: sp.Expr, values: dict[sp.Symbol, np.ndarray]) -> np.ndarray:
-    expr = sp.sympify(expr).subs(system.parameters)
-    symbols = list(values)
-    f = sp.lambdify(symbols, expr, "numpy")
-    n = len(next(iter(values.values())))
-    return np.broadcast_to(np.asarray(f(*values.values()), dtype=float), (n,)).copy()
-
-
 def confirm(trajectory: pd.DataFrame, ocp: OCP, singular_tol: float = 1e-6) -> Confirmation:
     """Evaluate the derived maximiser, H, the adjoint equations and complementarity along
     ``trajectory``. For bang-singular controls, nodes with |psi| <= singular_tol are singular
     and excluded from the control residual (counted in the summary)."""
     system = derive(ocp)
-    values = _columns(system, trajectory)
-    nodes = pd.DataFrame({"t": trajectory["t"].to_numpy(dtype=float)})
+    fns = pmp_functions(ocp)
+    columns = {n: trajectory[n].to_numpy(dtype=float) for n in trajectory.columns}
+    missing = [n for n in fns.arguments[: 2 * len(fns.states) + len(fns.controls)] if n not in columns]
+    if missing:
+        raise KeyError(f"trajectory lacks column {missing[0]!r}")
+    derived = fns.evaluate(columns)
+    nodes = pd.DataFrame({"t": columns["t"]})
     summary: dict[str, float] = {}
     for law in system.laws:
-        summary.update(_control_check(system, law, values, nodes, singular_tol))
-    ham = _evaluate(system, system.hamiltonian, values)
+        summary.update(_control_check(law, columns[law.control.name], derived[f"psi_{law.control.name}"], nodes,
+                                      singular_tol))  # fmt: skip
+    ham = derived["H"]
     nodes["H_derived"] = ham
     inner = ham[1:-1] if len(ham) > 3 else ham  # end nodes carry half-step costates
     summary["H spread"] = float(np.ptp(inner))
     if system.free_final_time:
         summary["max |H| (free Tf)"] = float(np.max(np.abs(inner)))
     if "H" in trajectory:
-        summary["max |H - H column|"] = float(np.max(np.abs(ham - trajectory["H"].to_numpy(float))))
-    summary["max adjoint residual"] = _adjoint_residual(system, values, nodes["t"].to_numpy())
-    for m, c in zip(system.multipliers, system.constraints, strict=True):
-        cv = _evaluate(system, c, values)
-        summary[f"min {m}"] = float(np.min(values[m]))
-        summary[f"max |{m}*c|"] = float(np.max(np.abs(values[m] * cv)))
+        summary["max |H - H column|"] = float(np.max(np.abs(ham - columns["H"])))
+    summary["max adjoint residual"] = _adjoint_residual(fns, columns, derived)
+    for m in fns.multipliers:
+        mu = columns.get(m, np.zeros(len(ham)))
+        cv = derived[f"c_{m}"]
+        summary[f"min {m}"] = float(np.min(mu))
+        summary[f"max |{m}*c|"] = float(np.max(np.abs(mu * cv)))
         summary[f"min c ({m})"] = float(np.min(cv))
     return Confirmation(summary, nodes)
 
 
-def _control_check(system: PMPSystem, law, values, nodes: pd.DataFrame, tol: float) -> dict[str, float]:
+def _control_check(law, u: np.ndarray, psi: np.ndarray, nodes: pd.DataFrame, tol: float) -> dict[str, float]:
     """Compare u with the maximiser: clip(stationary point) or the bang value from psi."""
-    u = values[law.control]
     name = law.control.name
     if law.kind == "projection":
-        tilde = _evaluate(system, law.stationary, values)
-        predicted = law.choose(tilde)
-        nodes[f"{name}_tilde"] = tilde
+        predicted = law.choose(psi)
+        nodes[f"{name}_tilde"] = psi
         saturated = np.mean(np.isclose(np.abs(predicted - (law.lower + law.upper) / 2),
                                        (law.upper - law.lower) / 2))
         extra = {f"fraction {name} saturated": float(saturated)}
     else:
-        psi = _evaluate(system, law.switching, values)
         predicted = law.choose(psi, tol)
         nodes[f"psi_{name}"] = psi
         extra = {f"fraction {name} singular": float(np.mean(np.isnan(predicted)))}
@@ -111,20 +94,21 @@ def _control_check(system: PMPSystem, law, values, nodes: pd.DataFrame, tol: flo
     return {f"max |u - argmax| {name}": worst, **extra}
 
 
-def _adjoint_residual(system: PMPSystem, values, t: np.ndarray) -> float:
+def _adjoint_residual(fns: PMPFunctions, columns: dict, derived: dict) -> float:
     """max over interior intervals of |(p_{k+1} - p_k)/h - (a_k + a_{k+1})/2|, a = -H_x.
 
     The first and last intervals are left out when there are more than two: the solver's
-    end-node costates are the half-step midpoint values (see model/costates.py).
+    end-node costates are the half-step midpoint values (see model/direct/costates.py).
     """
+    t = columns["t"]
     if len(t) < 2:
         return 0.0
     inner = slice(1, -1) if len(t) > 3 else slice(None)
     h = np.diff(t)
     worst = 0.0
-    for p, a in zip(system.costates, system.adjoint, strict=True):
-        rate = _evaluate(system, a, values)
-        gap = np.diff(values[p]) / h - (rate[:-1] + rate[1:]) / 2
+    for s in fns.states:
+        rate = derived[f"adjoint_{s}"]
+        gap = np.diff(columns[f"p_{s}"]) / h - (rate[:-1] + rate[1:]) / 2
         worst = max(worst, float(np.max(np.abs(gap[inner]))))
     return worst
 

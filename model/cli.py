@@ -8,7 +8,9 @@ written).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import time
 from pathlib import Path
 
 from model.errors import InputError
@@ -23,6 +25,9 @@ exit codes: 0 solved and validated, 1 solver failed (summary.json says why),
             2 invalid input (one line on stderr, nothing written)."""
 
 
+STARTUP: float | None = None  # seconds from process start to the CLI's main(), set by main
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="roundabout",
@@ -35,7 +40,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("scenario", type=Path, help="scenario file (TOML)")
     s.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
     s.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals")
-    s.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log")
+    s.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log and the time of each phase")
     s.add_argument(
         "--ipopt", action="append", default=[], metavar="KEY=VALUE",
         help="an Ipopt option, e.g. mumps_pivot_order=5 or mu_strategy=adaptive (repeatable)",
@@ -49,11 +54,15 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    global STARTUP
+    STARTUP = process_seconds()
     args = parser().parse_args(argv)
+    t0 = time.perf_counter()
     from model.problem.scenario import load_scenario
 
     try:
         scenario = load_scenario(args.scenario)
+        args.load_seconds = time.perf_counter() - t0
         if getattr(args, "intervals", None) is not None and args.intervals < 1:
             raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
         options = ipopt_options(getattr(args, "ipopt", []))
@@ -96,13 +105,24 @@ def ipopt_options(pairs: list[str]) -> dict:
 def _solve(scenario, args, options: dict) -> int:
     intervals = args.intervals or scenario.intervals
     print(f"{scenario.ocp.name}: solving with N = {intervals} ...", file=sys.stderr, flush=True)
+    t0 = time.perf_counter()
+    from model.problem.methods import DEFAULT_SOLVE, load_method
+
+    method = load_method(DEFAULT_SOLVE)
+    t1 = time.perf_counter()
     sol = scenario.ocp.solve(
         intervals=intervals,
+        method=method,
         verbose=args.verbose,
         options=options,
         progress=lambda line: print("  " + line, file=sys.stderr, flush=True),
     )
+    t2 = time.perf_counter()
     sol.write(args.out)
+    if args.verbose:
+        phases = {"scenario (sympy, parse)": args.load_seconds, "solver imports": t1 - t0,
+                  **sol.timings.get("all_starts", {}), "write": time.perf_counter() - t2}  # fmt: skip
+        print(phase_report(phases), file=sys.stderr)
     line = (
         f"{scenario.ocp.name}: {sol.status}, objective {sol.objective:.10g}, Tf {sol.final_time:.6g} s, "
         f"energy {sol.energy:.6g}, {sol.iterations} iterations, {sol.solve_seconds:.2f} s"
@@ -114,6 +134,28 @@ def _solve(scenario, args, options: dict) -> int:
     reason = sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
     print(f"{line}\nroundabout: FAILED ({reason}); see {args.out / 'summary.json'}", file=sys.stderr)
     return 1
+
+
+def process_seconds() -> float | None:
+    """Seconds since this process started (Linux /proc; None elsewhere)."""
+    try:
+        start_ticks = float(Path("/proc/self/stat").read_text().rpartition(")")[2].split()[19])
+        uptime = float(Path("/proc/uptime").read_text().split()[0])
+        return uptime - start_ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def phase_report(phases: dict[str, float]) -> str:
+    """One line per phase of the process, from its start (interpreter and imports) to the write."""
+    lines = ["phases (s):"]
+    if STARTUP is not None:
+        lines.append(f"  {'python start + cli imports':28s} {STARTUP:8.3f}")
+    lines += [f"  {name.replace('_', ' '):28s} {sec:8.3f}" for name, sec in phases.items()]
+    total = process_seconds()
+    if total is not None:
+        lines.append(f"  {'process so far':28s} {total:8.3f}")
+    return "\n".join(lines)
 
 
 def _derive(scenario, latex: bool) -> int:

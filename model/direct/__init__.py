@@ -4,6 +4,7 @@ Imports the problem definition, the engine (for H and psi), the NLP layer and th
 that checks each answer.
 """
 
+import model.nlp.imports  # noqa: F401  (first: it lightens Pyomo's deferred scipy import)
 from model.direct.resolve import WARM_OPTIONS, Resolver
 from model.direct.solution import Solution
 from model.direct.solve import Start, solve_starts

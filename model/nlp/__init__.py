@@ -3,6 +3,7 @@
 Knows no vehicle, cost or problem: it reads any Pyomo ConcreteModel.
 """
 
+import model.nlp.imports  # noqa: F401  (first: it lightens Pyomo's deferred scipy import)
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import DEFAULT_OPTIONS, IpoptResult, run_ipopt
 

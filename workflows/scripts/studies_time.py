@@ -97,10 +97,10 @@ def section(rows: list[dict], reg: list[dict], fig: Path) -> str:
         "",
         "Minimum time with a free final time, at the paper's scale (d = 0.02 m, |u1| <= 1 m/s) and for a"
         " real truck (d = 5 m, |u1| <= 10 m/s, the paper's geometry scaled by 68). Each solve carries a"
-        " Pontryagin certificate (`model/certificate.py`): the adjoint residual, the deviation of H from"
+        " Pontryagin certificate (`model/analysis/certificate.py`): the adjoint residual, the deviation of H from"
         " 0 against the allowance for switches lying on the grid, the maximum condition, transversality"
         " and complementarity. Arc structure: `+`/`-` upper/lower bound, `s` strictly inside the bounds"
-        " (a singular arc or a junction), read from the controls and switching functions (`model/arcs.py`).",
+        " (a singular arc or a junction), read from the controls and switching functions (`model/analysis/arcs.py`).",
         "",
         table(
             ok,

@@ -1,0 +1,72 @@
+"""The layers of docs/architecture.md, checked on the import graph read from the source."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from tools.import_graph import ROOT, imports_of, module_name, project_modules
+
+# Each layer and the layers it may import (its own always allowed). Order: bottom to top.
+LAYERS = {
+    "model.errors": set(),
+    "model.vehicles": {"model.errors"},
+    "model.scene": {"model.errors"},
+    "model.problem": {"model.errors", "model.vehicles", "model.scene"},
+    "derivations": {"model.errors", "model.vehicles", "model.scene", "model.problem"},
+    "model.nlp": set(),
+    "model.analysis": {"model.errors", "model.vehicles", "model.scene", "model.problem", "derivations"},
+}
+LAYERS["model.direct"] = {*LAYERS["model.analysis"], "model.analysis", "model.nlp"}
+LAYERS["model.indirect"] = LAYERS["model.analysis"]
+LAYERS["model.search"] = {*LAYERS["model.direct"], "model.direct"}
+LAYERS["model.studies"] = {*LAYERS["model.search"], "model.search", "model.indirect"}
+LAYERS["model.plotting"] = {"model.errors", "model.vehicles", "model.scene", "model.problem"}
+LAYERS["derivations.paper"] = {*LAYERS["derivations"], "derivations"}
+LAYERS["model.cli"] = {*LAYERS["model.search"], "model.search"}
+LAYERS["model"] = set(LAYERS)  # the package's lazy public API may name any layer
+
+
+def layer_of(module: str) -> str:
+    """The longest layer name that is ``module`` or a prefix of it."""
+    return max((name for name in LAYERS if module == name or module.startswith(name + ".")), key=len)
+
+
+def test_every_module_belongs_to_a_layer():
+    for path in project_modules():
+        assert layer_of(module_name(path)), path
+
+
+@pytest.mark.parametrize("path", project_modules(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_module_imports_a_layer_above_its_own(path):
+    own = layer_of(module_name(path))
+    allowed = LAYERS[own] | {own}
+    wrong = [m for m in imports_of(path) if layer_of(m) not in allowed]
+    assert not wrong, f"{module_name(path)} ({own}) imports {wrong}"
+
+
+def test_the_check_catches_an_upward_import(tmp_path, monkeypatch):
+    """The rule is not vacuous: a problem-layer module that imports the solver is flagged."""
+    bad = tmp_path / "bad.py"
+    bad.write_text("def f():\n    from model.direct.solve import finish\n")
+    found = imports_of(bad)
+    assert "model.direct.solve" in found
+    assert layer_of("model.direct.solve") not in LAYERS["model.problem"]
+
+
+def test_type_checking_imports_are_annotations_only(tmp_path):
+    f = tmp_path / "typed.py"
+    f.write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from model.direct import Solution\n")
+    assert imports_of(f) == ()
+
+
+def test_checking_a_scenario_loads_no_solver():
+    """`roundabout check` and the problem layer import neither Pyomo, CasADi, pandas nor matplotlib."""
+    code = (
+        "import sys; from model.cli import main; main(['check', 'examples/format-example.toml']);"
+        "print(sorted(m for m in ('pyomo', 'casadi', 'pandas', 'matplotlib', 'scipy') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
