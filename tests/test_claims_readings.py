@@ -12,7 +12,7 @@ from derivations.paper import claims, claims_readings
 from derivations.paper.checking import CORRECTED, FAILS, compare
 from derivations.paper.claims_energy import energy
 from derivations.paper.claims_time import straight, without_obstacle
-from derivations.paper.extremals import holds_all, verify
+from derivations.paper.extremals import holds_all, on_extremal, verify
 
 IDS = ["sec57.J_CTf.from_cost", "sec57.energy_vs_time", "sec6.bang_bang_energy", "sec44.constant_phase_bang",
        "sec5.geometry.radial_projection"]
@@ -58,7 +58,7 @@ def test_constant_phase_extremals_are_not_bang():
     ext = straight(sys_t)
     time_case = claims_readings.phase_case(sys_t, ext)
     assert holds_all(time_case["pmp"]) and time_case["rate"] == 0 and not time_case["bang"]
-    assert sys_t.singular_arc("u2", max_order=4, on=claims_readings.on_extremal(sys_t, ext)).order == 4
+    assert sys_t.singular_arc("u2", max_order=4, on=on_extremal(sys_t, ext)).order == 4
 
 
 def test_radial_projection_arc_exceeds_every_reach():

@@ -58,10 +58,11 @@ def test_abnormal_energy_is_affine():
 
 
 def test_straight_singular_arc_has_order_two_and_kelley_holds():
-    from derivations.paper.claims_time import _on_arc, straight
+    from derivations.paper.claims_time import straight
+    from derivations.paper.extremals import on_extremal
 
     system = derive(toctaco())
-    arc = system.singular_arc("u2", max_order=4, on=_on_arc(straight(system), system))
+    arc = system.singular_arc("u2", max_order=4, on=on_extremal(system, straight(system)))
     assert arc.order == 4 and arc.q == 2
     assert compare(arc.kelley, -1 / d**2).equal
 

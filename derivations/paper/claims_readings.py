@@ -28,11 +28,10 @@ from derivations.paper.claims_numbers import (
     shortest_around_disc,
 )
 from derivations.paper.claims_time import straight, without_obstacle
-from derivations.paper.extremals import Extremal, T, describe, holds_all, verify
+from derivations.paper.extremals import Extremal, T, describe, holds_all, on_extremal, verify
 from derivations.paper.problems import U1MAX, U2MAX
 from derivations.paper.symbols import mu, phi, pph, pth, px, py, theta, u1, u2, x, y
 from derivations.pmp import PMPSystem
-from derivations.symbolic import derivative_symbol
 
 C, TF, L = sp.Symbol("C", positive=True), sp.Symbol("T_f", positive=True), sp.Symbol("L", positive=True)
 SCENARIO2 = [r for r in PRINTED_RESULTS if r[0].startswith("s2")]
@@ -207,15 +206,6 @@ def is_bang(system: PMPSystem, ext: Extremal) -> bool:
         v = np.broadcast_to(np.asarray(f(ts), dtype=float), ts.shape)
         out &= bool(np.all(np.isclose(np.abs(v), law.upper)))
     return out
-
-
-def on_extremal(system: PMPSystem, ext: Extremal) -> dict[sp.Symbol, sp.Expr]:
-    """Values on ``ext`` with the control and multiplier derivatives it implies (for singular_arc)."""
-    on = {s: ext.values[s] for s in [*system.states, *system.costates, *system.time_functions]}
-    for base in system.time_functions:
-        for k in range(1, 7):
-            on[derivative_symbol(base, k)] = sp.diff(ext.values[base], T, k)
-    return on
 
 
 def phase_case(system: PMPSystem, ext: Extremal) -> dict:

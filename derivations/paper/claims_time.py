@@ -7,7 +7,7 @@ from functools import cache
 import sympy as sp
 
 from derivations.paper.checking import Claim, check_expression, compare, decide, is_zero, nonvanishing
-from derivations.paper.extremals import Extremal, T, describe, holds_all, verify
+from derivations.paper.extremals import Extremal, T, describe, holds_all, on_extremal, verify
 from derivations.paper.problems import U1MAX, U2MAX, toctaco, toctpco
 from derivations.paper.symbols import DIST, PAPER_PSI1, R, d, mu, phi, pph, pth, px, py, theta, u1, u2, x, xo, y, yo
 from derivations.pmp import PMPSystem, derive
@@ -176,7 +176,7 @@ def prop1() -> list[Claim]:
                             sys_.law("u2").switching, {"ψ2 = p_φ as in (8)": pph}, "ψ2 = ∂H/∂u2")]
     out.append(prop1_case2_chain(sys_))
     straight_ok = verify(sys_, straight(sys_))
-    arc = sys_.singular_arc("u2", max_order=4, on=_on_arc(straight(sys_), sys_))
+    arc = sys_.singular_arc("u2", max_order=4, on=on_extremal(sys_, straight(sys_)))
     out.append(Claim(
         "prop1.case2.no_singular_arc", SECTION,
         "Prop. 1, Case 2: no singular arc of u2 (the proof ends with u2 = 0, a straight line)",
@@ -198,15 +198,6 @@ def prop1() -> list[Claim]:
         "(Tf = |Δφ|/u2max, the lower bound, attained only with u1 ≡ 0)",
     ))
     return out
-
-
-def _on_arc(ext: Extremal, system: PMPSystem) -> dict[sp.Symbol, sp.Expr]:
-    """Values on an extremal at t, with the control and multiplier derivatives it implies."""
-    on = {s: ext.values[s] for s in [*system.states, *system.costates, *system.time_functions]}
-    for base in system.time_functions:
-        for k in range(1, 7):
-            on[derivative_symbol(base, k)] = sp.diff(ext.values[base], T, k)
-    return on
 
 
 def prop1_case2_chain(sys_: PMPSystem) -> Claim:

@@ -9,6 +9,7 @@ import sympy as sp
 
 from derivations.paper.checking import compare
 from derivations.pmp import PMPSystem
+from derivations.symbolic import derivative_symbol
 
 T = sp.Symbol("t", real=True)
 
@@ -79,3 +80,12 @@ def holds_all(conditions: dict[str, bool]) -> bool:
 def describe(conditions: dict[str, bool]) -> str:
     """'state equations: yes, ...' for evidence text."""
     return ", ".join(f"{k}: {'yes' if v else 'NO'}" for k, v in conditions.items())
+
+
+def on_extremal(system: PMPSystem, ext: Extremal) -> dict[sp.Symbol, sp.Expr]:
+    """Values on ``ext`` with the control and multiplier derivatives it implies (for ``singular_arc``)."""
+    on = {s: ext.values[s] for s in [*system.states, *system.costates, *system.time_functions]}
+    for base in system.time_functions:
+        for k in range(1, 7):
+            on[derivative_symbol(base, k)] = sp.diff(ext.values[base], T, k)
+    return on

@@ -1,6 +1,6 @@
 """The paper: section templates (paper/sections/*.md) rendered from results into Markdown
 fragments, then every fragment in PAPER_SECTIONS assembled (sorted by file name) into one
-self-contained HTML file, and into a PDF when pandoc and a LaTeX engine are installed."""
+self-contained HTML file, and typeset as a PDF (pandoc and Typst from PyPI wheels, no LaTeX)."""
 
 from pathlib import Path
 
@@ -45,14 +45,18 @@ rule paper_html:
         "{PYTHON} {input.script} {input.sections} --css {input.css} --md {output.md} --html {output.html}"
 
 
-if shutil.which("pandoc") and any(shutil.which(e) for e in ("xelatex", "lualatex", "pdflatex")):
-    OPTIONAL_TARGETS.append("results/paper/paper.pdf")
+OPTIONAL_TARGETS.append("results/paper/paper.pdf")  # the default target builds the PDF too
 
-    rule paper_pdf:
-        input:
-            md="results/paper/paper.md",
-            figures=lambda wildcards: PAPER_FIGURES,
-        output:
-            "results/paper/paper.pdf",
-        shell:
-            "pandoc {input.md} --from markdown+tex_math_dollars --resource-path=. -o {output}"
+
+rule paper_pdf:
+    input:
+        md="results/paper/paper.md",
+        figures=lambda wildcards: PAPER_FIGURES,
+        bib=ROOT / "paper" / "references.bib",
+        script=SCRIPTS / "paper_pdf.py",
+    output:
+        pdf="results/paper/paper.pdf",
+        pages=["results/paper/paper-page1.png", "results/paper/paper-page2.png"],
+    shell:
+        "{PYTHON} {input.script} --md {input.md} --out {output.pdf} --root . --bib {input.bib}"
+        " --png {output.pages}"

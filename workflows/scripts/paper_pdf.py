@@ -27,8 +27,12 @@ import typst
 from PIL import Image
 
 # Pandoc's Markdown, less what the HTML build (Python-Markdown) reads as plain text: TeX outside $...$,
-# ^superscript^ and ~subscript~ (u1max^2+u2max^2 in a table header), @citations, YAML blocks.
-READER = "markdown+tex_math_dollars-raw_tex-superscript-subscript-citations-example_lists-yaml_metadata_block"
+# ^superscript^ and ~subscript~ (u1max^2+u2max^2 in a table header), @citations, YAML blocks; and no
+# heading labels (nothing refers to them, and pandoc < 3.7 writes labels Typst rejects, e.g. with "²").
+READER = (
+    "markdown+tex_math_dollars-raw_tex-superscript-subscript-citations-example_lists-yaml_metadata_block"
+    "-auto_identifiers"
+)
 MARK_OPEN, MARK_CLOSE = "/*m{}<*/", "/*>m{}*/"  # Typst comments around each formula, to name it on errors
 MARK = re.compile(r"/\*m(\d+)<\*/")
 # a Str that Typst would read as a list, enum, term or heading marker at the start of a table cell
@@ -36,6 +40,7 @@ MARK = re.compile(r"/\*m(\d+)<\*/")
 MARKER = re.compile(r"[-+=/]|\d+\.")
 FIGURE_WIDTH = 0.88  # of the text width (A4, 2.3 cm margins: 16.4 cm)
 TEXT_WIDTH_CM, MAX_FIGURE_HEIGHT_CM = 16.4, 16.0
+TABLE_END = re.compile(r"\n  \)\]\n  , kind: table")  # how pandoc's Typst writer closes a table
 LOCATION = re.compile(r"─ (?P<file>[^\s:]+):(?P<line>\d+):(?P<col>\d+)")
 
 PREAMBLE = r"""#set document(title: {meta})
@@ -65,13 +70,13 @@ PREAMBLE = r"""#set document(title: {meta})
 #show figure.caption: set text(size: 9pt)
 #show figure.where(kind: table): set text(size: 8pt)
 #show figure.where(kind: table): set par(justify: false)
-#set table(stroke: none, inset: (x: 3.5pt, y: 3pt))
+#show figure.where(kind: table): set block(breakable: true)
+#set table(stroke: (x, y) => if y == 0 {{ (top: 0.8pt) }}, inset: (x: 3.5pt, y: 3pt))
+#set table.hline(stroke: 0.5pt)
 #show table: set align(left)
-#show table: t => box(stroke: (top: 0.8pt, bottom: 0.8pt), t)
 #show outline.entry.where(level: 1): set text(weight: "bold")
-
-#align(center, block(below: 1.5em, text(size: 17pt, weight: "bold", {title})))
 """
+TITLE = '#align(center, block(below: 1.5em, text(size: 17pt, weight: "bold")[{title}]))\n'
 
 BIBLIOGRAPHY = '\n#bibliography(bytes({source}), title: "References", full: true, style: "ieee")\n'
 TOC = '#outline(title: "Contents", depth: 2, indent: auto)'
@@ -141,7 +146,7 @@ def plain_text(inlines: list[dict]) -> str:
         elif el["t"] in ("Space", "SoftBreak", "LineBreak"):
             parts.append(" ")
 
-    walk(inlines, lambda el: collect(el))
+    walk(inlines, collect)
     return "".join(parts).strip()
 
 
@@ -262,10 +267,11 @@ def to_typst(markdown: str, root: Path, bibliography: str | None = None) -> tupl
     formulas = prepare(ast, root)
     body, messages = run_pandoc(json.dumps(ast), "json", "typst")
     check_math_log(messages)
-    title_src = inline_typst(ast, title) if title else "Paper"
-    meta = typst_string(plain_text(title) or "Paper")
+    body = TABLE_END.sub(r"\n    table.hline(stroke: 0.8pt),\g<0>", body)  # a bottom rule under each table
+    head = PREAMBLE.format(meta=typst_string(plain_text(title)) if title else "none")
+    head += TITLE.format(title=inline_typst(ast, title)) if title else ""
     tail = BIBLIOGRAPHY.format(source=typst_string(bibliography)) if bibliography else ""
-    return PREAMBLE.format(meta=meta, title=f"[{title_src}]") + "\n" + body + tail, formulas
+    return head + "\n" + body + tail, formulas
 
 
 def inline_typst(ast: dict, inlines: list[dict]) -> str:
@@ -298,11 +304,11 @@ def compile_pdf(source: str, root: Path, formulas: list[str]) -> bytes:
     PaperError
         If Typst reports an error; the message names the formula it lies in, if any.
     """
-    stamp = os.environ.get("SOURCE_DATE_EPOCH")
+    stamp = os.environ.get("SOURCE_DATE_EPOCH")  # a reproducible creation date, if asked for
+    extra = {"timestamp": int(stamp)} if stamp else {}
     try:
         pdf, warnings = typst.compile_with_warnings(
-            source.encode(), root=str(root), format="pdf", ignore_system_fonts=True,
-            timestamp=int(stamp) if stamp else None,
+            source.encode(), root=str(root), format="pdf", ignore_system_fonts=True, **extra
         )
     except typst.TypstError as err:
         raise PaperError(describe_error(err, source, formulas)) from None
@@ -336,6 +342,9 @@ def write_atomically(data: bytes, out: Path) -> None:
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's file is private; the PDF gets the usual permissions
         os.replace(tmp, out)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -396,6 +405,7 @@ def build(md: Path, out: Path, root: Path, bibliography: Path | None = None, typ
 
 
 def main(argv: list[str] | None = None) -> None:
+    """Command line: build the PDF and render its first pages; a failure exits with one error line."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--md", type=Path, required=True, help="the assembled Markdown paper")
     ap.add_argument("--out", type=Path, required=True, help="the PDF to write")
