@@ -88,20 +88,38 @@ class PMPFunctions:
 
 
 def pmp_functions(ocp: OCP) -> PMPFunctions:
-    """The numeric PMP functions of ``ocp`` (normal case, p0 = -1), from cache when known."""
+    """The numeric PMP functions of ``ocp`` (normal case, p0 = -1), from cache when known.
+
+    Examples
+    --------
+    >>> fns = pmp_functions(ocp)                                  # doctest: +SKIP
+    >>> fns.evaluate(solution.trajectory)["H"]                    # doctest: +SKIP
+    """
     key = structure_key(ocp)
-    source = _MEMORY.get(key) or _read_cache(key)
-    if source is None:
+    namespace = _load(_MEMORY.get(key) or _read_cache(key))
+    if namespace is None:  # unknown structure, or an unreadable cache entry: derive it again
         source = generate_source(ocp)
+        namespace = _load(source)
         _write_cache(key, source)
-    _MEMORY[key] = source
-    namespace: dict = {}
-    exec(compile(source, f"<pmp {key[:12]}>", "exec"), namespace)  # noqa: S102  (our own generated code)
+    _MEMORY[key] = namespace["SOURCE"]
     return PMPFunctions(
         arguments=tuple(namespace["ARGUMENTS"]), states=tuple(namespace["STATES"]),
         controls=tuple(namespace["CONTROLS"]), multipliers=tuple(namespace["MULTIPLIERS"]),
         laws=tuple(namespace["LAWS"]), parameters=parameter_values(ocp), function=namespace["evaluate"],
     )  # fmt: skip
+
+
+def _load(source: str | None) -> dict | None:
+    """Execute generated source; None if there is none or it does not run."""
+    if source is None:
+        return None
+    namespace: dict = {"SOURCE": source}
+    try:
+        exec(compile(source, "<derivations.functions>", "exec"), namespace)  # noqa: S102  (our generated code)
+    except Exception:  # noqa: BLE001  (a damaged cache file is regenerated, never trusted)
+        return None
+    needed = ("ARGUMENTS", "STATES", "CONTROLS", "MULTIPLIERS", "LAWS", "evaluate")
+    return namespace if all(k in namespace for k in needed) else None
 
 
 def parameter_values(ocp: OCP) -> dict[str, float]:

@@ -70,3 +70,15 @@ def test_checking_a_scenario_loads_no_solver():
     )
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_a_solve_loads_no_pandas_matplotlib_or_scipy_stats(tmp_path):
+    """The solve path imports what a solve needs only (pandas comes with ``Solution.trajectory``)."""
+    code = (
+        "import sys; from model.cli import main;"
+        f"main(['solve', 'examples/format-example.toml', '--out', {str(tmp_path)!r}, '--intervals', '20']);"
+        "print(sorted(m for m in ('pandas', 'matplotlib', 'scipy.stats') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+    assert (tmp_path / "trajectory.csv").read_text().startswith("t,x,y,theta,phi,u1,u2,p_x")

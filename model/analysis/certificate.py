@@ -25,9 +25,9 @@ density. Each item is {"value", "tolerance", "passed"} plus what it measured:
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 
 from derivations.functions import pmp_functions
+from model.analysis.columns import Columns, as_arrays
 from model.problem.ocp import OCP
 
 TOL = {"recovery": 1e-7, "adjoint": 1e-5, "maximum": 1e-5, "complementarity": 1e-6, "sign": 1e-6}
@@ -39,14 +39,14 @@ def _item(value: float, tol: float, **extra) -> dict:
 
 def certify(solution) -> dict:
     """The PMP certificate of ``solution`` (a Solution): items, each with value, tolerance, passed."""
-    ocp, traj = solution.ocp, solution.trajectory
-    if not np.all(np.isfinite(traj.to_numpy())):
+    ocp, traj = solution.ocp, as_arrays(solution.columns)
+    if not all(np.all(np.isfinite(col)) for col in traj.values()):
         return {"passed": False, "items": {}, "note": "non-finite trajectory"}
     raw = _raw_obstacle_duals(solution)
     return certify_trajectory(ocp, traj, raw_duals=raw)
 
 
-def certify_trajectory(ocp: OCP, traj: pd.DataFrame, raw_duals: np.ndarray | None = None) -> dict:
+def certify_trajectory(ocp: OCP, traj: Columns, raw_duals: np.ndarray | None = None) -> dict:
     """The certificate from the node trajectory alone (e.g. a trajectory.csv).
 
     Only t, the states, controls, p_<state> and mu are read; H and the switching
@@ -54,9 +54,9 @@ def certify_trajectory(ocp: OCP, traj: pd.DataFrame, raw_duals: np.ndarray | Non
     """
     fns = pmp_functions(ocp)
     v = ocp.vehicle
-    cols = {n: traj[n].to_numpy(dtype=float) for n in traj.columns}
+    cols = as_arrays(traj)
     if "mu" not in cols or not ocp.obstacles:
-        cols["mu"] = np.zeros(len(traj))
+        cols["mu"] = np.zeros(len(cols["t"]))
     derived = fns.evaluate(cols)
     cols["H"] = derived["H"]
     cols.update({f"psi_{c}": derived[f"psi_{c}"] for c, _ in fns.laws})

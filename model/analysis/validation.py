@@ -9,10 +9,9 @@ drift of a scipy re-integration of the controls are measured and reported.
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 import sympy as sp
-from scipy.integrate import solve_ivp
 
+from model.analysis.columns import Columns, as_arrays
 from model.problem.ocp import OCP
 
 TOL = {"defect": 1e-6, "bound": 1e-6, "boundary": 1e-6, "clearance": 1e-6, "grid": 1e-9}
@@ -36,18 +35,22 @@ def _check(value: float, tol: float, ok: bool | None = None) -> dict:
     return {"value": float(value), "tolerance": tol, "passed": passed}
 
 
-def validate(ocp: OCP, traj: pd.DataFrame, tf: float, passing: str | None = None) -> dict:
-    """Checks (each with value, tolerance, passed) and measures of a node trajectory."""
+def validate(ocp: OCP, traj: Columns, tf: float, passing: str | None = None) -> dict:
+    """Checks (each with value, tolerance, passed) and measures of a node trajectory.
+
+    Only t, the states and the controls of ``traj`` (a DataFrame or a dict of arrays) are read.
+    """
     v = ocp.vehicle
-    t = traj["t"].to_numpy()
-    X = np.array([traj[s].to_numpy() for s in v.states])
-    U = np.array([traj[c].to_numpy() for c in v.controls])
+    traj = {k: a for k, a in as_arrays(traj).items() if k in ("t", *v.states, *v.controls)}
+    t = traj["t"]
+    X = np.array([traj[s] for s in v.states])
+    U = np.array([traj[c] for c in v.controls])
     n = len(t) - 1
     f = dynamics_function(ocp)(X, U)
     h = tf / n
     defects = X[:, 1:] - X[:, :-1] - h / 2 * (f[:, :-1] + f[:, 1:])
     checks = {
-        "finite": _check(0.0, 0.0, bool(np.all(np.isfinite(traj.to_numpy())))),
+        "finite": _check(0.0, 0.0, all(bool(np.all(np.isfinite(a))) for a in traj.values())),
         "grid": _check(float(np.max(np.abs(t - np.arange(n + 1) * h))), TOL["grid"] * max(1.0, tf)),
         "defects": _check(float(np.max(np.abs(defects))), TOL["defect"]),
         "bounds": _check(_bound_violation(ocp, traj), TOL["bound"]),
@@ -71,17 +74,17 @@ def validate(ocp: OCP, traj: pd.DataFrame, tf: float, passing: str | None = None
     return {"passed": all(c["passed"] for c in checks.values()), "checks": checks, "measures": measures}
 
 
-def _bound_violation(ocp: OCP, traj: pd.DataFrame) -> float:
+def _bound_violation(ocp: OCP, traj: dict[str, np.ndarray]) -> float:
     worst = 0.0
     for name, (lo, hi) in ocp.bounds.items():
-        col = traj[name].to_numpy()
+        col = traj[name]
         worst = max(worst, float(np.max(lo - col, initial=0.0)), float(np.max(col - hi, initial=0.0)))
     return worst
 
 
-def _boundary_error(ocp: OCP, traj: pd.DataFrame) -> float:
-    errs = [abs(traj[s].iloc[0] - val) for s, val in ocp.initial.items()]
-    errs += [abs(traj[s].iloc[-1] - val) for s, val in ocp.final.items()]
+def _boundary_error(ocp: OCP, traj: dict[str, np.ndarray]) -> float:
+    errs = [abs(traj[s][0] - val) for s, val in ocp.initial.items()]
+    errs += [abs(traj[s][-1] - val) for s, val in ocp.final.items()]
     return float(max(errs, default=0.0))
 
 
@@ -109,6 +112,8 @@ def _reintegration_drift(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray) 
     Interval by interval (the controls are smooth inside each), carrying the integrated
     state across nodes, so the drift accumulates as in one long integration.
     """
+    from scipy.integrate import solve_ivp  # here, not at import: see model/nlp/imports.py
+
     v = ocp.vehicle
     fn = sp.lambdify(v.state_symbols() + v.control_symbols(), v.rhs(numeric=True), "math")
     path = np.empty_like(X)

@@ -8,16 +8,24 @@ import os
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from model.problem.ocp import OCP
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 @dataclass
 class Solution:
-    """The result of ``OCP.solve``; ``ok`` is True only if Ipopt converged and validation passed."""
+    """The result of ``OCP.solve``; ``ok`` is True only if Ipopt converged and validation passed.
+
+    ``columns`` holds the node values (t, states, controls, p_<state>, mu, H, psi_<control>)
+    as arrays; ``trajectory`` is the same as a pandas DataFrame, made on first use so that a
+    solve that only writes its files never imports pandas.
+    """
 
     ocp: OCP
     intervals: int
@@ -27,13 +35,23 @@ class Solution:
     energy: float | None
     iterations: int
     solve_seconds: float
-    trajectory: pd.DataFrame
+    columns: dict[str, np.ndarray]
     passing: str
     validation: dict = field(default_factory=dict)
     solver_message: str = ""
     attempts: list[dict] = field(default_factory=list)
     timings: dict = field(default_factory=dict)
     certificate: dict = field(default_factory=dict)
+
+    @property
+    def trajectory(self) -> pd.DataFrame:
+        """The node values as a DataFrame (one column per name of ``columns``)."""
+        cached = self.__dict__.get("_frame")
+        if cached is None:
+            import pandas as pd
+
+            cached = self.__dict__["_frame"] = pd.DataFrame(self.columns)
+        return cached
 
     @property
     def ok(self) -> bool:
@@ -70,8 +88,16 @@ class Solution:
         """Write summary.json and trajectory.csv into ``out``, each file atomically."""
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
-        _atomic_write(out / "trajectory.csv", self.trajectory.to_csv(index=False, float_format="%.17g"))
+        _atomic_write(out / "trajectory.csv", csv_text(self.columns))
         _atomic_write(out / "summary.json", json.dumps(_jsonable(self.summary()), indent=2) + "\n")
+
+
+def csv_text(columns: dict[str, np.ndarray]) -> str:
+    """The columns as CSV, 17 significant digits, NaN as an empty field (as pandas writes it)."""
+    names = list(columns)
+    table = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
+    rows = [",".join("" if v != v else f"{v:.17g}" for v in row) for row in table.tolist()]
+    return "\n".join([",".join(names), *rows]) + "\n"
 
 
 def trapezoid_energy(t: np.ndarray, u: list[np.ndarray]) -> float:

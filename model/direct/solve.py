@@ -14,7 +14,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import pandas as pd
 import pyomo.environ as pyo
 
 from derivations.functions import pmp_functions
@@ -86,21 +85,20 @@ def finish(ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, pas
     t0 = time.perf_counter()
     nlp.load_primals(res.x)
     nlp.load_duals(res.mult_g, res.x)
-    traj = trajectory(m, ocp)
+    cols = node_columns(m, ocp)
     tf = float(pyo.value(m.tf))
-    base = ["t", *ocp.vehicle.states, *ocp.vehicle.controls]
     sol = Solution(
         ocp=ocp,
         intervals=len(m.nodes) - 1,
         status=res.status,
         objective=float(pyo.value(m.objective)),
         final_time=tf,
-        energy=trapezoid_energy(traj["t"].to_numpy(), [traj[c] for c in ocp.vehicle.controls]),
+        energy=trapezoid_energy(cols["t"], [cols[c] for c in ocp.vehicle.controls]),
         iterations=res.iterations,
         solve_seconds=res.seconds,
-        trajectory=traj,
+        columns=cols,
         passing=passing,
-        validation=validate(ocp, traj[base], tf, passing),
+        validation=validate(ocp, cols, tf, passing),
         solver_message=res.message,
         timings={**timings, "ipopt": res.seconds},
     )
@@ -128,8 +126,8 @@ def load_values(m: pyo.ConcreteModel, values: dict[str, np.ndarray]) -> None:
             var[t].set_value(float(val), skip_validation=True)
 
 
-def trajectory(m: pyo.ConcreteModel, ocp: OCP) -> pd.DataFrame:
-    """Nodes as a DataFrame: t, states, controls, then costates, mu, H, switching functions."""
+def node_columns(m: pyo.ConcreteModel, ocp: OCP) -> dict[str, np.ndarray]:
+    """Node arrays: t, states, controls, then costates, mu, H, switching functions."""
     v = ocp.vehicle
     cols: dict[str, np.ndarray] = {"t": np.array(grid(m))}
     for name in v.states + v.controls:
@@ -141,7 +139,7 @@ def trajectory(m: pyo.ConcreteModel, ocp: OCP) -> pd.DataFrame:
     derived = pmp_functions(ocp).evaluate(cols)
     cols["H"] = derived["H"]
     cols.update({f"psi_{c}": derived[f"psi_{c}"] for c in v.controls})
-    return pd.DataFrame(cols)
+    return cols
 
 
-__all__ = ["Start", "finish", "load_start", "load_values", "paused_gc", "solve_starts", "trajectory"]
+__all__ = ["Start", "finish", "load_start", "load_values", "node_columns", "paused_gc", "solve_starts"]

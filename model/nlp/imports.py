@@ -5,7 +5,9 @@ scipy.stats, scipy.spatial and scipy.integrate (about 0.7 s on these machines), 
 which pynumero or this project's NLP uses: cyipopt imports scipy.optimize, the bridge
 scipy.sparse. ``lighten_pyomo_scipy_import`` swaps that finaliser for one that imports
 scipy.sparse only. It changes nothing if Pyomo has already resolved scipy or if a Pyomo
-release renames the hook; a later ``import scipy.stats`` works as usual.
+release renames the hook; a later ``import scipy.stats`` works as usual. It must run before
+scipy is first imported (Pyomo resolves an already-imported scipy at once): the packages of the
+solve path import this module first, and ``model.analysis`` imports scipy only when it validates.
 """
 
 from __future__ import annotations

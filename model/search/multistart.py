@@ -11,8 +11,8 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-import pandas as pd
 
+from model.analysis.columns import Columns, as_arrays
 from model.direct.solution import Solution
 from model.direct.solve import Start, solve_starts
 from model.problem.ocp import OCP
@@ -34,7 +34,7 @@ def solve_ocp(
     intervals: int = 100,
     verbose: bool = False,
     options: dict | None = None,
-    guess: pd.DataFrame | None = None,
+    guess: Columns | None = None,
     starts: tuple[tuple[float, str], ...] | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Solution:
@@ -119,7 +119,7 @@ def solve_pass(
     passing: str,
     verbose: bool = False,
     options: dict | None = None,
-    guess: pd.DataFrame | None = None,
+    guess: Columns | None = None,
     tf_scale: float = 1.0,
     route: str = "arc",
 ) -> Solution:
@@ -129,22 +129,23 @@ def solve_pass(
 
 
 def start_values(
-    ocp: OCP, intervals: int, passing: str, guess: pd.DataFrame | None, scale: float = 1.0, route: str = "arc"
+    ocp: OCP, intervals: int, passing: str, guess: Columns | None, scale: float = 1.0, route: str = "arc"
 ) -> Start:
     """A start's node values: a given trajectory resampled, or the geometric guess of ``route``."""
     free = ocp.cost.free_final_time
     if guess is not None:
-        return Start(resample(ocp, guess, intervals), float(guess["t"].iloc[-1]) if free else None)
+        return Start(resample(ocp, guess, intervals), float(np.asarray(guess["t"])[-1]) if free else None)
     tf_guess = guess_final_time(ocp, passing) * (scale if free else 1.0)
     return Start(initial_guess(ocp, passing, intervals, tf_guess, route), tf_guess if free else None)
 
 
-def resample(ocp: OCP, traj: pd.DataFrame, intervals: int) -> dict[str, np.ndarray]:
+def resample(ocp: OCP, traj: Columns, intervals: int) -> dict[str, np.ndarray]:
     """A trajectory's states and controls on a uniform grid of ``intervals`` steps (normalised time)."""
-    s_old = traj["t"].to_numpy() / traj["t"].iloc[-1]
+    cols = as_arrays(traj)
+    s_old = cols["t"] / cols["t"][-1]
     s_new = np.linspace(0.0, 1.0, intervals + 1)
     names = ocp.vehicle.states + ocp.vehicle.controls
-    return {n: np.interp(s_new, s_old, traj[n].to_numpy()) for n in names}
+    return {n: np.interp(s_new, s_old, cols[n]) for n in names}
 
 
 __all__ = ["DETOUR_STARTS", "TIME_STARTS", "default_starts", "passes_to_try", "resample", "solve_ocp", "solve_pass",
