@@ -30,7 +30,20 @@ WARM_OPTIONS = {
 
 
 class Resolver:
-    """Re-solve a solved problem after changing its parameters, without rebuilding."""
+    """Re-solve a solved problem after changing its parameters, without rebuilding.
+
+    Parameters
+    ----------
+    solution : Solution
+        A solution returned by ``OCP.solve`` (it carries its built model and NLP).
+
+    Examples
+    --------
+    >>> first = ocp.solve(intervals=100)                          # doctest: +SKIP
+    >>> r = Resolver(first)                                       # doctest: +SKIP
+    >>> longer = r.solve(final_time=5.0)                          # warm, no rebuild  # doctest: +SKIP
+    >>> moved = r.solve(final={"y": 0.05}, obstacles={0: Circle((0.5, 0.0), 0.2)})  # doctest: +SKIP
+    """
 
     def __init__(self, solution: Solution):
         self.ocp = copy.copy(solution.ocp)
@@ -47,7 +60,27 @@ class Resolver:
         warm: bool = True,
         options: dict | None = None,
     ) -> Solution:
-        """Apply the changes, re-solve from the last solution, return a new Solution."""
+        """Apply the changes and re-solve from the last valid solution.
+
+        Parameters
+        ----------
+        final_time : float, optional
+            New fixed final time (energy objective only).
+        initial, final : dict, optional
+            New values of boundary conditions already fixed in the model.
+        obstacles : dict, optional
+            Obstacle index -> new ``Circle``.
+        warm : bool
+            Start from the previous primal-dual point (``WARM_OPTIONS``); False starts cold
+            from the previous primal point only.
+        options : dict, optional
+            Further Ipopt options.
+
+        Returns
+        -------
+        Solution
+            Validated and certified like any solve; it becomes the next start if ``ok``.
+        """
         t0 = time.perf_counter()
         self._apply(final_time, initial or {}, final or {}, obstacles or {})
         self.nlp.refresh_parameters()

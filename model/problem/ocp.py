@@ -23,9 +23,40 @@ PASSES = ("auto", "ccw", "cw")
 class OCP:
     """One optimal control problem, posed once and solved or analysed from here.
 
-    ``bounds`` maps a state or control name to an inclusive (lower, upper) pair;
-    ``initial`` fixes every state; ``final`` fixes any subset (the rest are free).
-    ``final_time`` is fixed for the energy cost and a first guess for the time cost.
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The model (``Truck``, ``Unicycle``, ...): states, controls, SymPy dynamics.
+    cost : Cost
+        ``Energy()`` (fixed final time) or ``Time()`` (free final time).
+    bounds : dict
+        State or control name -> inclusive (lower, upper); every control needs bounds.
+    initial : dict
+        Every state's value at t = 0.
+    final : dict
+        Any subset of the states at t = Tf (the rest are free).
+    obstacles : list of Circle
+        Discs to keep out of (radius + safety).
+    final_time : float, optional
+        Fixed for the energy cost; a first guess for the time cost.
+    passing : {"auto", "ccw", "cw"}
+        The side to pass the first obstacle on ("auto" tries both).
+    name, title : str
+        Used in results files.
+
+    Raises
+    ------
+    InputError
+        Naming the first inconsistent item (as the scenario key it comes from).
+
+    Examples
+    --------
+    >>> ocp = OCP(vehicle=Truck(wheelbase=0.1), cost=Energy(), final_time=4.5,
+    ...           bounds={"u1": (-1, 1), "u2": (-0.35, 0.35), "phi": (-0.6, 0.6)},
+    ...           obstacles=[Circle(center=(0.5, 0.03), radius=0.2, safety=0.05)],
+    ...           initial=dict(x=0, y=0, theta=0, phi=0), final=dict(x=1, y=0, theta=0))
+    >>> ocp.solve(intervals=100).ok                               # doctest: +SKIP
+    True
     """
 
     vehicle: Vehicle
