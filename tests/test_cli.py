@@ -49,7 +49,7 @@ def test_solver_failure_exits_1_with_summary(tmp_path):
 
 BAD = {
     "malformed": ("[vehicle\nmodel = 'truck'", "malformed TOML"),
-    "unknown_model": (('model = "truck"', 'model = "tricycle"'), "vehicle.model"),
+    "unknown_model": (('model = "truck"', 'model = "bicycle"'), "vehicle.model"),
     "negative_wheelbase": (("wheelbase = 0.1", "wheelbase = -0.1"), "vehicle.wheelbase"),
     "reversed_bounds": (("u1 = [-1.0, 1.0]", "u1 = [1.0, -1.0]"), "bounds.u1"),
     "missing_initial": (("phi = 0.0\n\n[final]", "\n[final]"), "initial.phi"),

@@ -79,8 +79,11 @@ class OCP:
         """Raise InputError naming the first inconsistent item."""
         v = self.vehicle
         names = set(v.states) | set(v.controls)
+        positive = v.positive_parameters if v.positive_parameters is not None else tuple(v.parameters())
         for key, val in v.parameters().items():
-            if not math.isfinite(val) or val <= 0:
+            if not math.isfinite(val):
+                raise InputError(f"vehicle.{v.parameter_keys.get(key, key)}", f"must be a finite number, got {val}")
+            if val <= 0 and key in positive:
                 raise InputError(f"vehicle.{v.parameter_keys.get(key, key)}", f"must be > 0, got {val}")
         for key, (lo, hi) in self.bounds.items():
             if key not in names:

@@ -22,6 +22,7 @@ class Vehicle:
     controls: tuple[str, ...] = ()
     position: tuple[str, str] = ("x", "y")
     parameter_keys: dict[str, str] = {}  # parameter symbol -> its key in a scenario's [vehicle]
+    positive_parameters: tuple[str, ...] | None = None  # symbols that must be > 0 (None: all of them)
 
     def parameters(self) -> dict[str, float]:
         """Numeric values of the model's parameters, keyed by symbol name."""

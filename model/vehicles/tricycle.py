@@ -1,0 +1,43 @@
+"""The tricycle: a driven, steered front wheel; (x, y) is the rear axle centre."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from model.vehicles.base import Vehicle, sym
+
+
+@dataclass
+class Tricycle(Vehicle):
+    """Front-wheel-driven car-like vehicle: u1 is the speed of the steered front wheel.
+
+    The rear axle centre moves at u1 cos(phi), so unlike the truck the speed along the
+    heading falls as the steering angle grows (roundabout-format.md, "Models").
+
+    Parameters
+    ----------
+    wheelbase : float
+        d, rear axle to front axle, m.
+    """
+
+    wheelbase: float = 0.1
+    model = "tricycle"
+    parameter_keys = {"d": "wheelbase"}
+    states = ("x", "y", "theta", "phi")
+    controls = ("u1", "u2")
+
+    def parameters(self) -> dict[str, float]:
+        return {"d": float(self.wheelbase)}
+
+    def dynamics(self) -> dict[str, sp.Expr]:
+        x, y, theta, phi = self.state_symbols()
+        u1, u2 = self.control_symbols()
+        d = sym("d")
+        return {
+            "x": u1 * sp.cos(phi) * sp.cos(theta),
+            "y": u1 * sp.cos(phi) * sp.sin(theta),
+            "theta": u1 * sp.sin(phi) / d,
+            "phi": u2,
+        }
