@@ -65,6 +65,9 @@ def main(argv: list[str] | None = None) -> int:
         args.load_seconds = time.perf_counter() - t0
         if getattr(args, "intervals", None) is not None and args.intervals < 1:
             raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
+        if args.command == "solve":
+            check_output_folder(args.out)
+            check_size(args.intervals or scenario.intervals, scenario.ocp, "--intervals" if args.intervals else None)
         options = ipopt_options(getattr(args, "ipopt", []))
         if options:
             from model.nlp.ipopt import IpoptOptionError, check_options
@@ -82,6 +85,42 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "derive":
         return _derive(scenario, args.latex)
     return _solve(scenario, args, options)
+
+
+# Measured peak memory of a solve (truck, 4 states + 2 controls): about 165 MB plus 70 kB per interval.
+BASE_BYTES, BYTES_PER_INTERVAL_AND_VARIABLE = 165e6, 70e3 / 6
+
+
+def check_output_folder(out: Path) -> None:
+    """``--out`` must be a folder or not exist yet, under a folder that can be written to."""
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a folder")
+    parent = next((p for p in (out, *out.parents) if p.exists()), Path("."))
+    if not os.access(parent, os.W_OK):
+        raise InputError("--out", f"cannot write under {parent}")
+
+
+def check_size(intervals: int, ocp, key: str | None) -> None:
+    """Refuse grids whose estimated memory exceeds what this machine has available."""
+    per_node = len(ocp.vehicle.states) + len(ocp.vehicle.controls)
+    need = BASE_BYTES + BYTES_PER_INTERVAL_AND_VARIABLE * per_node * intervals
+    have = available_memory()
+    if have is not None and need > have:
+        raise InputError(
+            key or "problem.intervals",
+            f"N = {intervals} needs about {need / 2**30:.1f} GiB, more than the {have / 2**30:.1f} GiB available",
+        )
+
+
+def available_memory() -> float | None:
+    """MemAvailable from /proc/meminfo in bytes (None where it cannot be read)."""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return float(line.split()[1]) * 1024
+    except OSError:
+        return None
+    return None
 
 
 def ipopt_options(pairs: list[str]) -> dict:

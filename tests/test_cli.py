@@ -60,6 +60,8 @@ BAD = {
     "wrong_type": (("radius = 0.2", 'radius = "big"'), "obstacles[0].radius"),
     "bad_pass": (("intervals = 100", 'intervals = 100\npass = "left"'), "problem.pass"),
     "too_far": (("final_time = 4.5", "final_time = 0.5"), "problem.final_time"),
+    "infinite_tf": (("final_time = 4.5", "final_time = inf"), "problem.final_time: must be a finite number"),
+    "huge_grid": (("intervals = 100", "intervals = 100000000"), "problem.intervals: N = 100000000 needs about"),
 }
 
 
@@ -121,3 +123,36 @@ def test_ipopt_options_reach_the_solver(tmp_path):
     assert run("solve", EXAMPLE, "--out", tmp_path / "ref", "--intervals", "20").returncode == 0
     objective = [json.loads((tmp_path / d / "summary.json").read_text())["objective"] for d in ("out", "ref")]
     assert objective[0] == pytest.approx(objective[1], rel=1e-7)
+
+
+def test_out_naming_a_file_is_refused_before_any_work(tmp_path):
+    existing = tmp_path / "taken"
+    existing.write_text("keep me")
+    res = run("solve", EXAMPLE, "--out", existing)
+    assert res.returncode == 2
+    expected = f"roundabout: invalid input: --out: {existing} exists and is not a folder"
+    assert res.stderr.strip().splitlines() == [expected]
+    assert existing.read_text() == "keep me"
+
+
+def test_a_huge_override_is_refused_with_the_estimate(tmp_path):
+    res = run("solve", EXAMPLE, "--out", tmp_path / "out", "--intervals", "100000000")
+    assert res.returncode == 2 and "--intervals: N = 100000000 needs about" in res.stderr and "GiB" in res.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_failed_write_leaves_no_half_written_file(tmp_path, monkeypatch):
+    """Each output is written to a temporary file and renamed: an error mid-write leaves none."""
+    import model.direct.solution as solution
+
+    sol = load_scenario(EXAMPLE).ocp.solve(intervals=20)
+    calls = []
+
+    def failing_replace(src, dst):
+        calls.append(src)
+        raise OSError("disk full")
+
+    monkeypatch.setattr(solution.os, "replace", failing_replace)
+    with pytest.raises(OSError):
+        sol.write(tmp_path / "out")
+    assert calls and list((tmp_path / "out").iterdir()) == []

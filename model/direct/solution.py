@@ -106,10 +106,15 @@ def trapezoid_energy(t: np.ndarray, u: list[np.ndarray]) -> float:
 
 
 def _atomic_write(path: Path, text: str) -> None:
+    """Write to a temporary file beside ``path``, then rename; on any error remove the temporary file."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def _jsonable(obj):

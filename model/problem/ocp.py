@@ -135,7 +135,7 @@ class OCP:
                 raise InputError("problem.final_time", "required for the energy objective")
             return
         if not math.isfinite(tf) or tf <= 0:
-            raise InputError("problem.final_time", f"must be > 0, got {tf}")
+            raise InputError("problem.final_time", f"must be a finite number > 0, got {tf}")
         if self.cost.free_final_time:
             return
         gap = self.straight_distance()
