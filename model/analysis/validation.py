@@ -13,6 +13,7 @@ import sympy as sp
 
 from model.analysis.columns import Columns, as_arrays
 from model.problem.ocp import OCP
+from model.vehicles import sym
 
 TOL = {"defect": 1e-6, "bound": 1e-6, "boundary": 1e-6, "clearance": 1e-6, "grid": 1e-9}
 
@@ -75,11 +76,24 @@ def validate(ocp: OCP, traj: Columns, tf: float, passing: str | None = None) -> 
 
 
 def _bound_violation(ocp: OCP, traj: dict[str, np.ndarray]) -> float:
+    """Largest excess over a bound, of a state, a control or a bounded output (articulation)."""
     worst = 0.0
+    outputs = _outputs(ocp, traj)
     for name, (lo, hi) in ocp.bounds.items():
-        col = traj[name]
+        col = traj[name] if name in traj else outputs[name]
         worst = max(worst, float(np.max(lo - col, initial=0.0)), float(np.max(col - hi, initial=0.0)))
     return worst
+
+
+def _outputs(ocp: OCP, traj: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The vehicle's bounded outputs evaluated at the nodes."""
+    v = ocp.vehicle
+    params = {sym(k): val for k, val in v.parameters().items()}
+    out = {}
+    for name, expr in v.outputs().items():
+        fn = sp.lambdify(v.state_symbols(), expr.subs(params), "numpy")
+        out[name] = np.broadcast_to(np.asarray(fn(*[traj[s] for s in v.states]), dtype=float), traj["t"].shape)
+    return out
 
 
 def _boundary_error(ocp: OCP, traj: dict[str, np.ndarray]) -> float:

@@ -68,6 +68,7 @@ def build_model(ocp: OCP, intervals: int, passing: str | None = None) -> pyo.Con
     _add_boundary_conditions(m, ocp)
     pyo.TransformationFactory("dae.trapezoid").apply_to(m, wrt=m.tau, nfe=intervals)
     m.nodes = list(m.tau)
+    _add_output_bounds(m, ocp)
     _add_obstacles(m, ocp)
     if passing in ("ccw", "cw") and ocp.obstacles:
         _add_pass_direction(m, ocp, passing)
@@ -107,6 +108,22 @@ def _add_boundary_conditions(m: pyo.ConcreteModel, ocp: OCP) -> None:
             par = pyo.Param(mutable=True, initialize=float(val))
             m.add_component(f"{where}_{name}_value", par)
             m.add_component(f"{where}_{name}", pyo.Constraint(expr=m.component(name)[t] == par))
+
+
+def _add_output_bounds(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    """lower <= g(x) <= upper at every node for each bounded output g (e.g. the articulation angle)."""
+    v = ocp.vehicle
+    comps = [(sym(n), m.component(n)) for n in v.states]
+    params = {sym(k): val for k, val in v.parameters().items()}
+    for name, expr in v.outputs().items():
+        if name not in ocp.bounds:
+            continue
+        lo, hi = ocp.bounds[name]
+
+        def rule(_m, t, expr=expr, lo=lo, hi=hi):
+            return pyo.inequality(lo, sympy_to_pyomo(expr, {s: c[t] for s, c in comps} | params), hi)
+
+        m.add_component(f"bound_{name}", pyo.Constraint(m.tau, rule=rule))
 
 
 def _add_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:

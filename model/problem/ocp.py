@@ -10,7 +10,7 @@ from model.errors import InputError
 from model.problem.costs import Cost, Energy
 from model.problem.methods import DEFAULT_PMP, DEFAULT_SOLVE, Method, load_method
 from model.scene.obstacles import Circle
-from model.vehicles import Vehicle
+from model.vehicles import Body, Vehicle
 
 if TYPE_CHECKING:
     from derivations.pmp import PMPSystem
@@ -41,6 +41,9 @@ class OCP:
         Fixed for the energy cost; a first guess for the time cost.
     passing : {"auto", "ccw", "cw"}
         The side to pass the first obstacle on ("auto" tries both).
+    bodies : dict
+        Body name ("vehicle", "trailer") -> ``Body``, a rectangle on that body's reference
+        axle; without one the vehicle is a point.
     name, title : str
         Used in results files.
 
@@ -67,6 +70,7 @@ class OCP:
     obstacles: list[Circle] = field(default_factory=list)
     final_time: float | None = None
     passing: str = "auto"
+    bodies: dict[str, Body] = field(default_factory=dict)
     name: str = "problem"
     title: str = ""
 
@@ -78,7 +82,7 @@ class OCP:
     def validate(self) -> None:
         """Raise InputError naming the first inconsistent item."""
         v = self.vehicle
-        names = set(v.states) | set(v.controls)
+        names = set(v.states) | set(v.controls) | set(v.outputs())
         positive = v.positive_parameters if v.positive_parameters is not None else tuple(v.parameters())
         for key, val in v.parameters().items():
             if not math.isfinite(val):
@@ -96,6 +100,7 @@ class OCP:
         self._check_boundary("initial", self.initial, require_all=True)
         self._check_boundary("final", self.final, require_all=False)
         self._check_obstacles()
+        self._check_bodies()
         self._check_time()
         if self.passing not in PASSES:
             raise InputError("problem.pass", f"must be one of {PASSES}, got {self.passing!r}")
@@ -127,6 +132,13 @@ class OCP:
                         f"{where}.{px}",
                         f"({pt[px]}, {pt[py]}) lies inside obstacles[{i}] (radius + safety = {ob.keep_out})",
                     )
+
+    def _check_bodies(self) -> None:
+        poses = self.vehicle.body_poses()
+        for name in self.bodies:
+            if name not in poses:
+                key = "vehicle.trailer_body" if name == "trailer" else f"vehicle.{name}"
+                raise InputError(key, f"the {self.vehicle.model} model has no {name} (bodies: {sorted(poses)})")
 
     def _check_time(self) -> None:
         tf = self.final_time

@@ -16,7 +16,7 @@ from model.errors import InputError
 from model.problem.costs import Energy, Time
 from model.problem.ocp import OCP, PASSES
 from model.scene.obstacles import Circle
-from model.vehicles import VEHICLES, Vehicle
+from model.vehicles import VEHICLES, Body, Vehicle, preset
 
 TOP_KEYS = {"name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem"}
 PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass"}
@@ -54,7 +54,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     for key in ("vehicle", "bounds", "initial", "problem"):
         if key not in data:
             raise InputError(key, "missing required table")
-    vehicle = _vehicle(_table(data, "vehicle"))
+    vehicle, bodies, preset_bounds = _vehicle(_table(data, "vehicle"))
     problem = _table(data, "problem")
     _no_unknown(problem, PROBLEM_KEYS, "problem.")
     objective = _choice(problem, "objective", OBJECTIVES, "problem.", required=True)
@@ -67,25 +67,64 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     ocp = OCP(
         vehicle=vehicle,
         cost=OBJECTIVES[objective](),
-        bounds=_bounds(_table(data, "bounds")),
+        bounds={**preset_bounds, **_bounds(_table(data, "bounds"))},
         initial=_numbers(_table(data, "initial"), "initial."),
         final=_numbers(_table(data, "final") if "final" in data else {}, "final."),
         obstacles=_obstacles(data.get("obstacles", [])),
         final_time=final_time,
         passing=passing,
+        bodies=bodies,
         name=_string(data, "name", default_name),
         title=_string(data, "title", ""),
     )
     return Scenario(ocp=ocp, intervals=intervals, scheme=scheme, path=path)
 
 
-def _vehicle(table: dict[str, Any]) -> Vehicle:
-    model = _choice(table, "model", VEHICLES, "vehicle.", required=True)
+BODY_TABLES = {"body": "vehicle", "trailer_body": "trailer"}  # [vehicle.<table>] -> body name
+
+
+def _vehicle(table: dict[str, Any]) -> tuple[Vehicle, dict[str, Body], dict[str, tuple[float, float]]]:
+    """The vehicle, its bodies and the bounds its preset gives (the file's keys override the preset's)."""
+    base, preset_bounds = _preset(table)
+    merged = {**base, **table}
+    model = _choice(merged, "model", VEHICLES, "vehicle.", required=True)
     cls = VEHICLES[model]
     fields = {f.name for f in dataclasses.fields(cls)}
-    _no_unknown(table, fields | {"model"}, "vehicle.")
-    kwargs = {k: _number(table, k, "vehicle.") for k in fields if k in table}
-    return cls(**kwargs)
+    _no_unknown(table, fields | {"model", "preset"} | set(BODY_TABLES), "vehicle.")
+    kwargs = {k: _number(merged, k, "vehicle.") for k in fields if k in merged}
+    bodies = {}
+    for key, name in BODY_TABLES.items():
+        if key in merged:
+            bodies[name] = _body({**base.get(key, {}), **_subtable(table, key, "vehicle.")}, f"vehicle.{key}")
+    return cls(**kwargs), bodies, preset_bounds
+
+
+def _preset(table: dict[str, Any]) -> tuple[dict[str, Any], dict[str, tuple[float, float]]]:
+    """The named preset's [vehicle] keys and bounds, or nothing."""
+    if "preset" not in table:
+        return {}, {}
+    name = table["preset"]
+    if not isinstance(name, str):
+        raise InputError("vehicle.preset", f"must be a name (string), got {name!r}")
+    data = preset(name)
+    keys = {k: v for k, v in data.items() if k in {"model", "wheelbase", "hitch_offset", "trailer_wheelbase"}}
+    keys.update({k: data[k] for k in BODY_TABLES if data.get(k)})
+    return keys, {k: (float(lo), float(hi)) for k, (lo, hi) in data.get("bounds", {}).items()}
+
+
+def _subtable(table: dict[str, Any], key: str, where: str) -> dict[str, Any]:
+    val = table.get(key, {})
+    if not isinstance(val, dict):
+        raise InputError(where + key, f"must be a table ([{where}{key}]), got {type(val).__name__}")
+    return val
+
+
+def _body(table: dict[str, Any], key: str) -> Body:
+    _no_unknown(table, {"length", "width", "rear_overhang"}, key + ".")
+    for name in ("length", "width", "rear_overhang"):
+        if name not in table:
+            raise InputError(f"{key}.{name}", "missing")
+    return Body(*(_number(table, k, key + ".") for k in ("length", "width", "rear_overhang")), key=key)
 
 
 def _bounds(table: dict[str, Any]) -> dict[str, tuple[float, float]]:

@@ -32,6 +32,15 @@ class Vehicle:
         """State derivatives as SymPy expressions of state, control, parameter symbols."""
         raise NotImplementedError
 
+    def outputs(self) -> dict[str, sp.Expr]:
+        """Named functions of the state that ``[bounds]`` may limit (e.g. the articulation angle)."""
+        return {}
+
+    def body_poses(self) -> dict[str, tuple[sp.Expr, sp.Expr, sp.Expr]]:
+        """Reference point (x, y) and heading of each body that can be attached, by body name."""
+        px, py = self.position
+        return {"vehicle": (sym(px), sym(py), sym("theta"))}
+
     # -- derived helpers ---------------------------------------------------
     def state_symbols(self) -> list[sp.Symbol]:
         return [sym(s) for s in self.states]

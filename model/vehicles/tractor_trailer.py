@@ -53,3 +53,14 @@ class TractorTrailer(Vehicle):
             "phi": u2,
             "theta1": (u1 / L) * (sp.sin(beta) + (h / d) * sp.tan(phi) * sp.cos(beta)),
         }
+
+    def outputs(self) -> dict[str, sp.Expr]:
+        """``articulation`` = theta - theta1, the angle a jackknife limit bounds."""
+        return {"articulation": sym("theta") - sym("theta1")}
+
+    def body_poses(self) -> dict[str, tuple[sp.Expr, sp.Expr, sp.Expr]]:
+        """The tractor's body on its rear axle; the trailer's on the trailer axle, heading theta1."""
+        x, y, theta, _, theta1 = self.state_symbols()
+        h, L = sym("h"), sym("L")
+        trailer = (x + h * sp.cos(theta) - L * sp.cos(theta1), y + h * sp.sin(theta) - L * sp.sin(theta1), theta1)
+        return {"vehicle": (x, y, theta), "trailer": trailer}
