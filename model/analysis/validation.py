@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
+from model.analysis.bodies import road_measures
 from model.analysis.columns import Columns, as_arrays
 from model.problem.ocp import OCP
 from model.vehicles import sym
@@ -69,6 +70,11 @@ def validate(ocp: OCP, traj: Columns, tf: float, passing: str | None = None) -> 
         if passing in ("ccw", "cw"):
             ok = swept > 0 if passing == "ccw" else swept < 0
             checks["pass_direction"] = _check(swept, 0.0, ok)
+    elif ocp.road is not None:
+        measures.update(road_measures(ocp, traj))
+        if ocp.bodies:
+            checks["body_clearance"] = _check(-min(measures["min_clearance"], 0.0), TOL["clearance"])
+        checks["exit_taken"] = _check(0.0, 0.0, measures["exit_taken"] == ocp.road.route.exit)
     else:
         measures["min_clearance"] = None
     measures["reintegration"] = _reintegration_drift(ocp, t, X, U)

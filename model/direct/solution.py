@@ -74,6 +74,7 @@ class Solution:
             "min_clearance": measures.get("min_clearance"),
             "min_clearance_dense": measures.get("min_clearance_dense"),
             "pass": self.passing,
+            **({"exit_taken": measures.get("exit_taken")} if self.ocp.road is not None else {}),
             "swept_angle": measures.get("swept_angle"),
             "valid": bool(self.validation.get("passed")),
             "validation": self.validation.get("checks", {}),
@@ -89,7 +90,20 @@ class Solution:
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         _atomic_write(out / "trajectory.csv", csv_text(self.columns))
+        if self.ocp.road is not None and self.ocp.bodies:
+            _atomic_write(out / "swept_path.geojson", json.dumps(self.swept_path()) + "\n")
         _atomic_write(out / "summary.json", json.dumps(_jsonable(self.summary()), indent=2) + "\n")
+
+    def swept_path(self) -> dict:
+        """GeoJSON FeatureCollection: the area each body sweeps, in the scenario's metric coordinates."""
+        import shapely
+
+        from model.analysis.bodies import swept_polygons
+
+        polygons = swept_polygons(self.ocp, self.columns)
+        features = [{"type": "Feature", "properties": {"body": name}, "geometry": shapely.geometry.mapping(poly)}
+                    for name, poly in polygons.items()]  # fmt: skip
+        return {"type": "FeatureCollection", "features": features}
 
 
 def csv_text(columns: dict[str, np.ndarray]) -> str:

@@ -10,48 +10,14 @@ presolve eliminates again); the time objective is Tf.
 
 from __future__ import annotations
 
-import functools
-import operator
-
 import pyomo.environ as pyo
-import sympy as sp
 from pyomo.dae import ContinuousSet, DerivativeVar
 
 import model.direct.trapezoid  # noqa: F401  (registers dae.trapezoid)
+from model.direct.bodies import add_body_constraints
+from model.direct.expressions import sympy_to_pyomo
 from model.problem.ocp import OCP
 from model.vehicles import sym
-
-_FUNCS = {
-    sp.sin: pyo.sin,
-    sp.cos: pyo.cos,
-    sp.tan: pyo.tan,
-    sp.atan: pyo.atan,
-    sp.exp: pyo.exp,
-    sp.log: pyo.log,
-    sp.asin: pyo.asin,
-    sp.acos: pyo.acos,
-}
-
-
-def sympy_to_pyomo(expr: sp.Expr, env: dict[sp.Symbol, object]):
-    """Translate a SymPy expression into a Pyomo one, symbols looked up in ``env``."""
-    if expr.is_Symbol:
-        return env[expr]
-    if expr.is_Integer:
-        return int(expr)
-    if expr.is_Number:
-        return float(expr)
-    args = [sympy_to_pyomo(a, env) for a in expr.args]
-    if expr.is_Add:  # not sum(): Pyomo's templatize_constraint replaces it
-        return functools.reduce(operator.add, args)
-    if expr.is_Mul:
-        return functools.reduce(operator.mul, args)
-    if expr.is_Pow:
-        base, exp = args
-        return pyo.sqrt(base) if expr.exp == sp.Rational(1, 2) else base**exp
-    if expr.func in _FUNCS:
-        return _FUNCS[expr.func](args[0])
-    raise NotImplementedError(f"cannot translate {expr.func} to Pyomo")
 
 
 def build_model(ocp: OCP, intervals: int, passing: str | None = None) -> pyo.ConcreteModel:
@@ -70,6 +36,7 @@ def build_model(ocp: OCP, intervals: int, passing: str | None = None) -> pyo.Con
     m.nodes = list(m.tau)
     _add_output_bounds(m, ocp)
     _add_obstacles(m, ocp)
+    add_body_constraints(m, ocp)
     if passing in ("ccw", "cw") and ocp.obstacles:
         _add_pass_direction(m, ocp, passing)
     _add_objective(m, ocp)

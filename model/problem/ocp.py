@@ -10,6 +10,7 @@ from model.errors import InputError
 from model.problem.costs import Cost, Energy
 from model.problem.methods import DEFAULT_PMP, DEFAULT_SOLVE, Method, load_method
 from model.scene.obstacles import Circle
+from model.scene.road import Road
 from model.vehicles import Body, Vehicle
 
 if TYPE_CHECKING:
@@ -44,6 +45,9 @@ class OCP:
     bodies : dict
         Body name ("vehicle", "trailer") -> ``Body``, a rectangle on that body's reference
         axle; without one the vehicle is a point.
+    road : Road, optional
+        A roundabout and a route through it (instead of ``obstacles``): every body stays in the
+        route's corridor.
     name, title : str
         Used in results files.
 
@@ -71,6 +75,7 @@ class OCP:
     final_time: float | None = None
     passing: str = "auto"
     bodies: dict[str, Body] = field(default_factory=dict)
+    road: Road | None = None
     name: str = "problem"
     title: str = ""
 

@@ -15,10 +15,11 @@ from typing import Any
 from model.errors import InputError
 from model.problem.costs import Energy, Time
 from model.problem.ocp import OCP, PASSES
+from model.problem.roads import check_bodies_fit, parse_road, road_boundary_values
 from model.scene.obstacles import Circle
 from model.vehicles import VEHICLES, Body, Vehicle, preset
 
-TOP_KEYS = {"name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem"}
+TOP_KEYS = {"name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route"}
 PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
 OBJECTIVES = {"energy": Energy, "time": Time}
@@ -51,7 +52,8 @@ def load_scenario(path: str | Path) -> Scenario:
 def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: Path | None = None) -> Scenario:
     """Build a Scenario from the TOML document's dictionary."""
     _no_unknown(data, TOP_KEYS, "")
-    for key in ("vehicle", "bounds", "initial", "problem"):
+    required = ("vehicle", "bounds", "problem") if "route" in data else ("vehicle", "bounds", "initial", "problem")
+    for key in required:
         if key not in data:
             raise InputError(key, "missing required table")
     vehicle, bodies, preset_bounds = _vehicle(_table(data, "vehicle"))
@@ -64,16 +66,23 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     if isinstance(intervals, bool) or not isinstance(intervals, int) or intervals < 1:
         raise InputError("problem.intervals", f"must be a whole number >= 1, got {intervals!r}")
     final_time = _number(problem, "final_time", "problem.") if "final_time" in problem else None
+    road = parse_road(data, _no_unknown)
+    initial = _numbers(_table(data, "initial") if "initial" in data or road is None else {}, "initial.")
+    final = _numbers(_table(data, "final") if "final" in data else {}, "final.")
+    if road is not None:
+        check_bodies_fit(road, bodies)
+        initial, final = road_boundary_values(road, initial, final, vehicle.states)
     ocp = OCP(
         vehicle=vehicle,
         cost=OBJECTIVES[objective](),
         bounds={**preset_bounds, **_bounds(_table(data, "bounds"))},
-        initial=_numbers(_table(data, "initial"), "initial."),
-        final=_numbers(_table(data, "final") if "final" in data else {}, "final."),
+        initial=initial,
+        final=final,
         obstacles=_obstacles(data.get("obstacles", [])),
         final_time=final_time,
         passing=passing,
         bodies=bodies,
+        road=road,
         name=_string(data, "name", default_name),
         title=_string(data, "title", ""),
     )

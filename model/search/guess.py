@@ -41,6 +41,8 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
     if d is not None:
         curvature = np.gradient(heading, s) / np.maximum(np.hypot(dx, dy), 1e-9)
         guess["phi"] = np.arctan(curvature * d)
+    if "theta1" in v.states:
+        guess["theta1"] = heading.copy()  # the trailer follows the tractor's heading
     for name in v.states:
         if name not in guess:
             a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])
@@ -63,6 +65,8 @@ def _controls(ocp: OCP, states: dict[str, np.ndarray], speed: np.ndarray, s: np.
 
 
 def _path(ocp: OCP, passing: str, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    if ocp.road is not None:
+        return _road_path(ocp, s)
     px, py = ocp.vehicle.position
     p0 = np.array([ocp.initial[px], ocp.initial[py]])
     if px in ocp.final and py in ocp.final:
@@ -83,6 +87,23 @@ def _path(ocp: OCP, passing: str, s: np.ndarray) -> tuple[np.ndarray, np.ndarray
     r = np.maximum(r, 1.2 * ob.keep_out)
     a = a0 + sweep * s
     return c[0] + r * np.cos(a), c[1] + r * np.sin(a)
+
+
+def _road_path(ocp: OCP, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """In along the entry lane to the ring's middle, round in the circulation direction, out along the exit lane."""
+    rb = ocp.road.roundabout
+    c = np.asarray(rb.center)
+    p0, p1 = np.array(ocp.road.start()[:2]), np.array(ocp.road.goal()[:2])
+    mid = (rb.inner_radius + rb.outer_radius) / 2
+    a0 = math.atan2(*(p0 - c)[::-1])
+    a1 = math.atan2(*(p1 - c)[::-1])
+    sweep = rb.circulation * ((rb.circulation * (a1 - a0)) % (2 * math.pi) or 2 * math.pi)
+    arc = np.linspace(0.0, 1.0, 60)
+    ring = c + mid * np.column_stack([np.cos(a0 + sweep * arc), np.sin(a0 + sweep * arc)])
+    points = np.vstack([p0, ring, p1])
+    length = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+    at = s * length[-1]
+    return np.interp(at, length, points[:, 0]), np.interp(at, length, points[:, 1])
 
 
 def _clip(values: np.ndarray, bounds: tuple[float, float] | None) -> np.ndarray:

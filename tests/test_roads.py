@@ -1,0 +1,118 @@
+"""Road scenarios: the [roundabout] and [route] tables, a solve that keeps exact rectangles in the corridor."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import tomllib
+
+import numpy as np
+import pytest
+
+from model import InputError
+from model.analysis.bodies import clearances
+from model.problem.scenario import load_scenario, parse_scenario
+from tests.conftest import ROOT
+
+EXAMPLE = ROOT / "examples" / "roundabout-truck.toml"
+
+
+@pytest.fixture
+def doc():
+    return tomllib.loads(EXAMPLE.read_text())
+
+
+def energy(doc, final_time=20.0, intervals=60):
+    out = copy.deepcopy(doc)
+    out["problem"] = {"objective": "energy", "final_time": final_time, "intervals": intervals}
+    return out
+
+
+def test_the_route_sets_start_and_goal(doc):
+    ocp = parse_scenario(doc).ocp
+    assert (ocp.initial["x"], ocp.initial["y"], ocp.initial["theta"]) == pytest.approx((-50.0, -2.0, 0.0))
+    assert (ocp.final["x"], ocp.final["y"], ocp.final["theta"]) == pytest.approx((50.0, -2.0, 0.0))
+    assert ocp.road.exit_leg == 2
+
+
+def mutate(doc, path, value):
+    out = copy.deepcopy(doc)
+    target = out
+    for key in path[:-1]:
+        target = target[key]
+    if value is None:
+        del target[path[-1]]
+    else:
+        target[path[-1]] = value
+    return out
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "key"),
+    [
+        (("roundabout", "legs", 1, "lane_width"), 2.4, "roundabout.legs[1].lane_width"),
+        (("route", "exit"), 5, "route.exit"),
+        (("roundabout", "legs", 0, "lane_widht"), 4.0, "roundabout.legs[0].lane_widht"),
+        (("obstacles",), [{"center": [0.0, 0.0], "radius": 1.0}], "obstacles"),
+        (("initial",), {"x": 1.0}, "initial.x"),
+        (("roundabout", "traffic"), "middle", "roundabout.traffic"),
+        (("vehicle", "body", "width"), 4.5, "roundabout.legs[0].lane_width"),
+    ],
+)
+def test_bad_road_files_name_the_key(doc, path, value, key):
+    with pytest.raises(InputError) as err:
+        parse_scenario(mutate(doc, path, value))
+    assert err.value.key == key
+    assert "\n" not in str(err.value)
+
+
+def test_a_misspelled_leg_key_gets_a_suggestion(doc):
+    with pytest.raises(InputError, match="did you mean 'lane_width'"):
+        parse_scenario(mutate(doc, ("roundabout", "legs", 0, "lane_widht"), 4.0))
+
+
+def test_a_truck_goes_straight_on_with_its_rectangle_inside_the_corridor(doc):
+    sol = parse_scenario(energy(doc)).ocp.solve(intervals=60)
+    assert sol.ok, (sol.status, sol.validation["checks"])
+    measures = sol.validation["measures"]
+    assert measures["exit_taken"] == 2
+    exact = clearances(sol.ocp, sol.columns)["vehicle"]
+    assert exact.min() >= -1e-6 and measures["min_clearance"] == pytest.approx(exact.min())
+    # the discs reach 10 % of the half-width beyond the body: the exact clearance is about that, not much more
+    assert exact.min() < 0.3
+
+
+def test_the_validation_rejects_a_body_over_the_island(doc):
+    """Not vacuous: the same trajectory with a body twice as wide fails the exact-rectangle check."""
+    from model.analysis.validation import validate
+    from model.vehicles import Body
+
+    sol = parse_scenario(energy(doc)).ocp.solve(intervals=60)
+    wide = copy.copy(sol.ocp)
+    wide.bodies = {"vehicle": Body(8.0, 5.0, 1.5)}
+    base = {k: sol.columns[k] for k in ("t", *sol.ocp.vehicle.states, *sol.ocp.vehicle.controls)}
+    result = validate(wide, base, sol.final_time)
+    assert not result["checks"]["body_clearance"]["passed"]
+    assert result["measures"]["min_clearance"] < -0.5
+
+
+def test_solve_writes_the_swept_path(tmp_path, doc):
+    from model.cli import main
+
+    path = tmp_path / "r.toml"
+    text = EXAMPLE.read_text().replace('objective = "time"', 'objective = "energy"\nfinal_time = 20.0')
+    path.write_text(text.replace("intervals = 100", "intervals = 60"))
+    assert main(["solve", str(path), "--out", str(tmp_path / "out")]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["exit_taken"] == 2 and summary["min_clearance"] >= 0
+    swept = json.loads((tmp_path / "out" / "swept_path.geojson").read_text())
+    (feature,) = swept["features"]
+    assert feature["properties"]["body"] == "vehicle" and feature["geometry"]["type"] in ("Polygon", "MultiPolygon")
+    ring = np.array(feature["geometry"]["coordinates"][0] if feature["geometry"]["type"] == "Polygon"
+                    else feature["geometry"]["coordinates"][0][0])  # fmt: skip
+    assert math.isclose(ring[:, 0].min(), -50.0 - 1.5, abs_tol=0.2)  # the rear bumper at the start
+
+
+def test_load_example():
+    assert load_scenario(EXAMPLE).ocp.road is not None
