@@ -11,7 +11,7 @@ import shapely.affinity
 from shapely.geometry import Polygon
 
 from model.errors import InputError
-from model.scene.geometry import Arc, Segment, clearance
+from model.scene.geometry import Arc, Segment, clearance, clearance_detail
 from model.scene.roundabout import (
     Leg,
     Roundabout,
@@ -110,6 +110,21 @@ def test_fillet_arc_is_an_edge_of_the_corridor_between_its_two_tangent_points():
     assert edge.kind == "halfplane" and edge.normal == pytest.approx((0.0, 1.0)) and edge.offset == pytest.approx(-4.0)
     (seg,) = edge.pieces
     assert {tuple(np.round(seg.start, 9)), tuple(np.round(seg.end, 9))} == {(round(ax, 9), -4.0), (-80.0, -4.0)}
+
+
+def test_outer_curb_and_apron_arcs():
+    rb = make()
+    found = {e.name: e for e in edges(rb, Route(0, 1))}
+    (apron,) = found["apron"].pieces
+    assert (apron.radius, apron.inside, apron.end - apron.start) == (14.0, False, pytest.approx(2 * PI))
+    curb = sorted(found["outer curb"].pieces, key=lambda a: a.end - a.start)
+    assert len(curb) == 2 and all(a.inside for a in curb)
+    # closed from leg 1's centre line (270 deg) counter-clockwise past 0 deg to leg 0's centre line (180 deg)
+    assert (curb[1].start, curb[1].end) == (pytest.approx(1.5 * PI), pytest.approx(3 * PI))
+    # and between the two fillets' tangent points
+    t_entry = math.atan2(-19.0, -math.sqrt(35.0**2 - 19.0**2)) % (2 * PI)  # leg 0 entry fillet centre direction
+    t_exit = math.atan2(-math.sqrt(40.0**2 - 24.0**2), -24.0) % (2 * PI)  # leg 1 exit fillet centre direction
+    assert (curb[0].start, curb[0].end) == (pytest.approx(t_entry), pytest.approx(t_exit))
 
 
 # --------------------------------------------------------------------------- exits, sweeps, poses
@@ -262,6 +277,31 @@ def test_polygon_agrees_with_the_exact_test_away_from_the_boundary(angles, traff
     assert (poly == region.contains(pts[far])).all()
 
 
+def exact_length(region) -> float:
+    return sum(
+        math.dist(p.start, p.end) if isinstance(p, Segment) else p.radius * (p.end - p.start) for _, p in region.pieces
+    )
+
+
+@pytest.mark.parametrize(
+    "rb, route",
+    [
+        (make(), Route(0, 2)),
+        # opposite legs: collinear centre lines
+        (make((98.5, 278.5), "left", icd=65.5, ring=5.0, apron=0.0, w=3.5, r_in=27.2, r_out=13.7), Route(0, 1)),
+        # one leg, a U-turn: both lanes, both fillets (an overlay of polygons left slits here)
+        (make((95.3,), "left", icd=59.0, ring=5.9, apron=0.0, w=3.1, r_in=7.24, r_out=29.76, length=70.5), Route(0, 1)),
+    ],
+)
+def test_polygon_is_traced_along_the_exact_boundary(rb, route):
+    region = corridor(rb, route)
+    poly = region.polygon
+    assert poly.geom_type == "Polygon" and len(poly.interiors) == 1  # the island (here: the apron edge)
+    assert poly.length == pytest.approx(exact_length(region), abs=1e-3)
+    v = np.asarray(poly.exterior.coords)
+    assert region.boundary_distance(v).max() < 1e-9  # every vertex on the exact boundary
+
+
 def test_ring_polygon_within_its_tolerance():
     rb = make()
     ring = ring_region(rb)
@@ -401,6 +441,18 @@ def test_clearance_at_the_start_pose_is_the_gap_to_the_lane_edges():
     assert clearance(region, body) == pytest.approx((4.0 - 2.5) / 2, abs=1e-12)
     plain = clearance(region.polygon, body)  # a shapely geometry is measured on its polygon
     assert plain == pytest.approx(0.75, abs=1e-3)
+
+
+def test_clearance_detail_names_the_edge():
+    rb = make()
+    region = corridor(rb, Route(0, 1))
+    over, _ = tangential_body(rb, 45.0, 20.2)
+    onto, _ = tangential_body(rb, 45.0, 16.5)
+    near_end = rectangle(-78.4, -2.0, 0.0, 8.0, 2.5, 1.5)
+    assert clearance_detail(region, over)[:2] == (pytest.approx(-0.2), "outer curb")
+    assert clearance_detail(region, onto)[1] == "apron"
+    value, name, point = clearance_detail(region, near_end)
+    assert (value, name) == (pytest.approx(0.1), "leg 0 end") and point[0] == pytest.approx(-79.9)
 
 
 def test_rectangle_reference_point_is_the_rear_axle():

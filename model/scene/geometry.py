@@ -4,8 +4,9 @@ A region is a CSG ``Shape`` (discs and convex polygons joined by ``Union`` and `
 an exact point test. Its boundary is found exactly, once, as ``Edge`` objects: each a named
 primitive (a half-plane or a circle with its inside/outside sense) with the ``Segment`` and ``Arc``
 pieces along which that primitive is the region's boundary. Distances are computed on these exact
-pieces, never on polygons: ``Region.polygon`` (a shapely polygon whose circles are inscribed
-polygons within ``CIRCLE_TOL`` of the circle) is for drawing, export and overlap checks only.
+pieces, never on polygons. ``Region.polygon`` is traced along those pieces (arcs as inscribed
+polylines within ``CIRCLE_TOL``), for drawing and export; ``Shape.polygon`` (an overlay of the
+shape's polygons) serves the overlap checks.
 """
 
 from __future__ import annotations
@@ -523,8 +524,14 @@ class Region:
 
     @cached_property
     def polygon(self) -> BaseGeometry:
-        """The shapely polygon (circles as inscribed polygons within ``tol``)."""
-        return self.shape.polygon(self.tol)
+        """The shapely polygon traced along the exact boundary (arcs as inscribed polylines within ``tol``).
+
+        Falls back on the overlay of the shape's polygons (without slivers) if the pieces do not close.
+        """
+        rings = _trace_rings([(_directed_points(piece, self.tol)) for _, piece in self.pieces])
+        if rings is None:
+            return _drop_slivers(self.shape.polygon(self.tol), 1e-6)
+        return _polygon_from_rings(rings)
 
     def contains(self, xy: np.ndarray) -> np.ndarray:
         """Exact membership of the points ``xy`` (n, 2)."""
@@ -551,27 +558,34 @@ class Region:
 
     def body_distance(self, corners: np.ndarray) -> float:
         """Exact distance between the polygon ``corners`` (n, 2) and the boundary (0 where they meet)."""
+        return self.nearest_to_body(corners)[0]
+
+    def nearest_to_body(self, corners: np.ndarray) -> tuple[float, Edge | None]:
+        """``body_distance`` and the edge that attains it (the first one met when the body crosses several)."""
         v = np.asarray(corners, float)
         if not self.pieces:
-            return math.inf
-        if shapely.contains_xy(Polygon(v), self._starts[:, 0], self._starts[:, 1]).any():
-            return 0.0
+            return math.inf, None
+        inside = shapely.contains_xy(Polygon(v), self._starts[:, 0], self._starts[:, 1])
+        if inside.any():
+            return 0.0, self.pieces[int(np.argmax(inside))][0]
         mid = v.mean(axis=0)
         reach = float(np.hypot(*(v - mid).T).max())
         near = [_point_piece(float(mid[0]), float(mid[1]), piece) for _, piece in self.pieces]
         sides = [(tuple(a), tuple(b)) for a, b in zip(v.tolist(), np.roll(v, -1, axis=0).tolist(), strict=True)]
-        best = math.inf
-        for lower, (_, piece) in sorted(zip(near, self.pieces, strict=True), key=lambda item: item[0]):
+        best, which = math.inf, None
+        for lower, (edge, piece) in sorted(zip(near, self.pieces, strict=True), key=lambda item: item[0]):
             if lower - reach >= best:
                 break
             for a, b in sides:
                 if isinstance(piece, Segment):
-                    best = min(best, segment_segment_distance(a, b, piece.start, piece.end))
+                    d = segment_segment_distance(a, b, piece.start, piece.end)
                 else:
-                    best = min(best, segment_arc_distance(a, b, piece))
+                    d = segment_arc_distance(a, b, piece)
+                if d < best:
+                    best, which = d, edge
             if best == 0.0:
-                return 0.0
-        return best
+                break
+        return best, which
 
     @cached_property
     def _starts(self) -> np.ndarray:
@@ -581,9 +595,11 @@ class Region:
         """Largest distance from the region of a point of the body ``corners`` lying outside it.
 
         Measured on the corners, on the edges every ``SAMPLE_STEP`` and at the edge points nearest
-        to every circle's centre (and the centre itself when the body covers it): exact when the
-        deepest point is one of these, as for a convex curb, a straight edge or a disc (island,
-        fillet), otherwise low by at most SAMPLE_STEP / 2. Returns (depth, deepest point).
+        to every circle's centre (and the centre itself when the body covers it). Exact when the
+        deepest point is one of these, which it is whenever a single edge is crossed: over a convex
+        curb or a straight edge (a corner), onto a disc such as the island or a fillet (the point
+        nearest its centre). Where two edges are crossed at once the deepest point may lie between
+        samples or inside the body, and the value is a lower bound. Returns (depth, deepest point).
         """
         pts = _body_samples(np.asarray(corners, float), self.edges)
         out = ~self.contains(pts)
@@ -592,6 +608,61 @@ class Region:
         d = self.boundary_distance(pts[out])
         k = int(np.argmax(d))
         return float(d[k]), pts[out][k]
+
+
+def _directed_points(piece: Segment | Arc, tol: float) -> np.ndarray:
+    """The piece as a polyline with the region on its left (arcs within ``tol``, ends exact)."""
+    if isinstance(piece, Segment):
+        return np.array([piece.start, piece.end], float)
+    step = 2.0 * math.acos(max(-1.0, 1.0 - tol / piece.radius)) if tol < piece.radius else math.pi / 4
+    n = max(1, math.ceil((piece.end - piece.start) / step))
+    phi = np.linspace(piece.start, piece.end, n + 1)
+    pts = np.asarray(piece.center) + piece.radius * np.column_stack([np.cos(phi), np.sin(phi)])
+    return pts if piece.inside else pts[::-1]
+
+
+def _trace_rings(chains: list[np.ndarray], gap: float = 1e-6) -> list[np.ndarray] | None:
+    """Closed rings made by joining each polyline's end to the start of the next; None if they do not close."""
+    unused = list(range(len(chains)))
+    rings = []
+    while unused:
+        first = unused.pop(0)
+        ring = [chains[first]]
+        while np.hypot(*(ring[-1][-1] - ring[0][0])) > gap:
+            if not unused:
+                return None
+            d = [float(np.hypot(*(chains[k][0] - ring[-1][-1]))) for k in unused]
+            k = int(np.argmin(d))
+            if d[k] > gap:
+                return None
+            ring.append(chains[unused.pop(k)][1:])
+        rings.append(np.concatenate(ring)[:-1] if len(ring) > 1 else ring[0])
+    return rings
+
+
+def _polygon_from_rings(rings: list[np.ndarray]) -> BaseGeometry:
+    """Counter-clockwise rings as shells, clockwise ones as holes of the shell that contains them."""
+    area = [float(np.sum(_cross(r, np.roll(r, -1, axis=0)))) / 2.0 for r in rings]
+    shells = [Polygon(r) for r, a in zip(rings, area, strict=True) if a > 0.0]
+    holes: list[list] = [[] for _ in shells]
+    for r, a in zip(rings, area, strict=True):
+        if a < 0.0:
+            k = next((i for i, sh in enumerate(shells) if sh.contains(shapely.Point(r[0]))), None)
+            if k is not None:
+                holes[k].append(r)
+    polys = [Polygon(sh.exterior, h) for sh, h in zip(shells, holes, strict=True)]
+    if not polys:
+        return Polygon()
+    return polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
+
+
+def _drop_slivers(geom: BaseGeometry, min_area: float) -> BaseGeometry:
+    """``geom`` without the holes and parts smaller than ``min_area`` that polygon overlays leave."""
+    parts = [p for p in shapely.get_parts(geom) if isinstance(p, Polygon) and p.area >= min_area]
+    kept = [Polygon(p.exterior, [h for h in p.interiors if Polygon(h).area >= min_area]) for p in parts]
+    if not kept:
+        return Polygon()
+    return kept[0] if len(kept) == 1 else shapely.MultiPolygon(kept)
 
 
 def _piece_start(piece: Segment | Arc) -> Point2:
@@ -630,22 +701,35 @@ def clearance(region: Region | BaseGeometry, body: Polygon | np.ndarray) -> floa
     the region's boundary (exact, on the exact circles and lines). ``< 0``: part of the body lies
     outside, and this is minus the largest distance of a body point from the region (the
     encroachment depth, see ``Region.encroachment``). A plain shapely geometry as ``region`` is
-    measured on its polygon instead (approximate by its polygon error).
+    measured on its polygon instead (approximate by its polygon error and 5 cm edge samples).
     """
     if not isinstance(region, Region):
         return _polygon_clearance(region, body)
+    return clearance_detail(region, body)[0]
+
+
+def clearance_detail(region: Region, body: Polygon | np.ndarray) -> tuple[float, str | None, np.ndarray]:
+    """``clearance`` with the name of the edge that sets it and the body point where it is set.
+
+    Inside: the edge nearest to the body and the body corner nearest to the boundary. Outside: the edge
+    nearest to the deepest point and that point. For ``diagnosis``: "0.42 m over the island".
+    """
     corners = body_corners(body)
-    d = region.body_distance(corners)
+    d, edge = region.nearest_to_body(corners)
     if d > 0.0 and bool(region.contains(corners[:1])[0]):
-        return float(d)
-    depth, _ = region.encroachment(corners)
-    return -depth if depth > 0.0 else 0.0
+        k = int(np.argmin(region.boundary_distance(corners)))
+        return float(d), edge.name if edge else None, corners[k]
+    depth, point = region.encroachment(corners)
+    if depth <= 0.0:
+        return 0.0, edge.name if edge else None, point
+    deepest = region.nearest_edge(point)
+    return -depth, deepest.name if deepest else None, point
 
 
 def _polygon_clearance(region: BaseGeometry, body: Polygon | np.ndarray) -> float:
     poly = body if isinstance(body, Polygon) else Polygon(body)
     if region.covers(poly):
         return float(region.boundary.distance(poly))
-    outside = shapely.segmentize(poly.difference(region), SAMPLE_STEP)
+    outside = shapely.segmentize(poly.difference(region), 5 * SAMPLE_STEP)
     pts = shapely.get_coordinates(outside)
     return -float(max(shapely.distance(region, shapely.points(pts)).max(), 0.0))

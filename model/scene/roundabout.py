@@ -14,6 +14,7 @@ drawing whose circles lie within 0.1 mm of the true circles.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -30,18 +31,28 @@ from model.scene.geometry import (
     Region,
     Shape,
     Union,
+    clearance,
+    clearance_detail,
     wrap_angle,
 )
+
+__all__ = [
+    "Leg", "Roundabout", "Route", "Edge", "Region", "clearance", "clearance_detail", "rectangle",
+    "rectangle_corners", "exit_leg", "exit_order", "exit_taken", "sweep", "heading_change", "start_pose",
+    "goal_pose", "corridor", "edges", "ring_region", "apron_region", "island_region", "lane_region",
+    "fillet_region", "fillet_geometry", "lane_side", "leg_point", "check_lane_width", "apron_allowed",
+]  # fmt: skip
 
 TRAFFIC = ("right", "left")
 APRON_USE = ("trailer", "all", "none")
 LANES = ("entry", "exit")
 BODIES = ("vehicle", "trailer")
 OVERLAP_AREA = 1e-6  # m^2: a fillet sharing more than this with another leg overlaps it
+OVERLAP_TOL = 1e-3  # m: circle polygon tolerance of the fillet overlap check
 
 
 def _finite(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
 
 
 @dataclass(frozen=True)
@@ -232,7 +243,8 @@ def fillet_geometry(roundabout: Roundabout, leg: int, lane: str) -> dict:
     dict
         ``center``, ``radius``, ``axial`` (the centre's distance along the axis),
         ``edge_point`` (tangent point on the edge line), ``curb_point`` (tangent point on the outer
-        curb), ``corner`` (where the edge line meets the outer curb).
+        curb), ``corner`` (where the edge line meets the outer curb), ``inner_corner`` (a point of the
+        edge line inside the outer curb, half way from the centre's foot to ``corner``).
     """
     g = roundabout.legs[leg]
     ro, w, r = roundabout.outer_radius, g.lane_width, g.radius(lane)
@@ -247,6 +259,7 @@ def fillet_geometry(roundabout: Roundabout, leg: int, lane: str) -> dict:
         "edge_point": leg_point(roundabout, leg, axial, side * w),
         "curb_point": c + (center - c) * (ro / (ro + r)),
         "corner": leg_point(roundabout, leg, math.sqrt(ro * ro - w * w), side * w),
+        "inner_corner": leg_point(roundabout, leg, math.sqrt(ro * ro - w * w) / 2.0, side * w),
     }
 
 
@@ -276,10 +289,15 @@ def lane_shape(roundabout: Roundabout, leg: int, lane: str) -> Shape:
 
 
 def fillet_shape(roundabout: Roundabout, leg: int, lane: str) -> Shape:
-    """The exact region between a lane's outer edge, the outer curb and the fillet arc."""
+    """The exact region between a lane's outer edge, the outer curb and the fillet arc.
+
+    It is the triangle (edge point, curb point, a point of the edge line inside the curb) without
+    the curb's disc and the fillet's disc. Starting the triangle inside the curb rather than at the
+    corner changes nothing exactly and leaves no slivers between the polygons near the corner.
+    """
     f, names = fillet_geometry(roundabout, leg, lane), _lane_names(leg, lane)
     triangle = ConvexPolygon(
-        (tuple(f["corner"]), tuple(f["edge_point"]), tuple(f["curb_point"])),
+        (tuple(f["inner_corner"]), tuple(f["edge_point"]), tuple(f["curb_point"])),
         (names["outer"], f"{names['fillet']} chord", f"{names['fillet']} curb chord"),
     )
     curb = Disc(roundabout.center, roundabout.outer_radius, "outer curb")
@@ -332,7 +350,7 @@ def _leg_outside_shape(roundabout: Roundabout, leg: int) -> Shape:
 
 
 def _check_overlaps(roundabout: Roundabout) -> None:
-    """Legs must not overlap outside Ro: strips exactly, fillets on their 0.1 mm polygons."""
+    """Legs must not overlap outside Ro: strips exactly, fillets on polygons within OVERLAP_TOL."""
     legs, ro = roundabout.legs, roundabout.outer_radius
     strips = [_strip(roundabout, i, -g.lane_width, g.lane_width, "abcd").polygon() for i, g in enumerate(legs)]
     c = np.asarray(roundabout.center)
@@ -345,10 +363,10 @@ def _check_overlaps(roundabout: Roundabout) -> None:
                     f"leg {j} (angle {legs[j].angle_deg:g} deg) "
                     f"overlaps leg {i} (angle {legs[i].angle_deg:g} deg) outside the outer curb",
                 )
-    outside = [_leg_outside_shape(roundabout, i).polygon() for i in range(len(legs))]
+    outside = [_leg_outside_shape(roundabout, i).polygon(OVERLAP_TOL) for i in range(len(legs))]
     for i in range(len(legs)):
         for lane in LANES:
-            fillet = fillet_shape(roundabout, i, lane).polygon()
+            fillet = fillet_shape(roundabout, i, lane).polygon(OVERLAP_TOL)
             for j in range(len(legs)):
                 if j != i and fillet.intersection(outside[j]).area > OVERLAP_AREA:
                     raise InputError(
