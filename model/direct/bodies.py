@@ -70,10 +70,11 @@ def add_body_constraints(m: pyo.ConcreteModel, ocp: OCP) -> None:
             _add_disc(m, ocp, f"body_{name}_{j}", centre, float(radius), apron_allowed(ocp.road.roundabout, name))
 
 
-def _add_disc(m: pyo.ConcreteModel, ocp: OCP, tag: str, centre, r: float, apron: bool) -> None:
+def _add_disc(m: pyo.ConcreteModel, ocp: OCP, tag: str, position, r: float, apron: bool) -> None:
     rb, road = ocp.road.roundabout, ocp.road
     cx, cy = rb.center
     inner = rb.island_radius if apron else rb.inner_radius
+    centre = _centre_variables(m, tag, position, rb)
 
     def island(_m, t):
         x, y = centre(t)
@@ -88,6 +89,26 @@ def _add_disc(m: pyo.ConcreteModel, ocp: OCP, tag: str, centre, r: float, apron:
 
     m.add_component(f"{tag}_island", pyo.Constraint(m.tau, rule=island))
     m.add_component(f"{tag}_corridor", pyo.Constraint(m.tau, rule=corridor))
+
+
+def _centre_variables(m: pyo.ConcreteModel, tag: str, position, rb):
+    """The disc centre as two NLP variables tied to the state (x_c = x + o cos h, ...).
+
+    Bounded (by the roundabout's extent), so the NLP presolve keeps them: the corridor rows
+    then depend on two variables each, and their derivatives stay small.
+    """
+    reach = rb.outer_radius + max(g.length for g in rb.legs) + 100.0
+    for k, name in enumerate(("x", "y")):
+        lo, hi = rb.center[k] - reach, rb.center[k] + reach
+        var = pyo.Var(m.tau, bounds=(lo, hi), initialize=rb.center[k])
+        m.add_component(f"{tag}_{name}", var)
+        rule = lambda _m, t, k=k, var=var: var[t] == position(t)[k]  # noqa: E731
+        m.add_component(f"{tag}_{name}_def", pyo.Constraint(m.tau, rule=rule))
+        derived = getattr(m, "derived_values", [])
+        derived.append((var, lambda t, k=k: position(t)[k]))
+        m.derived_values = derived
+    x, y = m.component(f"{tag}_x"), m.component(f"{tag}_y")
+    return lambda t: (x[t], y[t])
 
 
 def _lane_margin(rb, leg: int, lane: str, x, y, r: float):

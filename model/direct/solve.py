@@ -78,6 +78,9 @@ def load_start(m: pyo.ConcreteModel, start: Start) -> None:
     load_values(m, start.values)
     if start.final_time is not None and m.tf.is_variable_type():
         m.tf.set_value(start.final_time)
+    for var, expression in getattr(m, "derived_values", []):  # auxiliary variables follow the start
+        for t in m.nodes:
+            var[t].set_value(float(pyo.value(expression(t))), skip_validation=True)
 
 
 def finish(ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, passing: str, timings: dict) -> Solution:
