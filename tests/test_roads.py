@@ -116,3 +116,19 @@ def test_solve_writes_the_swept_path(tmp_path, doc):
 
 def test_load_example():
     assert load_scenario(EXAMPLE).ocp.road is not None
+
+
+def test_the_road_figure_draws_the_roundabout_and_the_bodies(tmp_path, doc):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from PIL import Image
+
+    from model.plotting.roads import road_figure
+
+    sol = parse_scenario(energy(doc)).ocp.solve(intervals=60)
+    fig = road_figure(sol.ocp, sol.columns)
+    fig.savefig(tmp_path / "road.png", dpi=60)
+    pixels = np.asarray(Image.open(tmp_path / "road.png").convert("L"), float)
+    assert pixels.std() > 10  # not blank
+    assert len(fig.axes) == 4  # the plan and u1, phi, u2
