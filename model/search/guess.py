@@ -42,7 +42,7 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
         curvature = np.gradient(heading, s) / np.maximum(np.hypot(dx, dy), 1e-9)
         guess["phi"] = np.arctan(curvature * d)
     if "theta1" in v.states:
-        guess["theta1"] = heading.copy()  # the trailer follows the tractor's heading
+        guess["theta1"] = _trailer_heading(ocp, heading, np.hypot(dx, dy), s)
     for name in v.states:
         if name not in guess:
             a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])
@@ -50,6 +50,25 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
         guess[name] = _clip(guess[name], ocp.bounds.get(name))
     guess.update(_controls(ocp, guess, speed, s, tf))
     return guess
+
+
+def _trailer_heading(ocp: OCP, heading: np.ndarray, ds: np.ndarray, s: np.ndarray, substeps: int = 20) -> np.ndarray:
+    """theta1 integrated along the guess path (forward drive): d theta1 / d path = sin(theta - theta1) / L.
+
+    The off-axle term is left out (it needs phi, which the guess only approximates); the hitch
+    offset changes the trailer's heading little next to its lag behind the tractor.
+    """
+    L = ocp.vehicle.parameters()["L"]
+    out = np.empty_like(heading)
+    out[0] = ocp.initial.get("theta1", heading[0])
+    for k in range(len(s) - 1):
+        step = (s[k + 1] - s[k]) * (ds[k] + ds[k + 1]) / 2 / substeps
+        th1 = out[k]
+        for i in range(substeps):
+            th = heading[k] + (heading[k + 1] - heading[k]) * (i + 0.5) / substeps
+            th1 += step * math.sin(th - th1) / L
+        out[k + 1] = th1
+    return out
 
 
 def _controls(ocp: OCP, states: dict[str, np.ndarray], speed: np.ndarray, s: np.ndarray, tf: float):
