@@ -132,3 +132,29 @@ def test_the_road_figure_draws_the_roundabout_and_the_bodies(tmp_path, doc):
     pixels = np.asarray(Image.open(tmp_path / "road.png").convert("L"), float)
     assert pixels.std() > 10  # not blank
     assert len(fig.axes) == 4  # the plan and u1, phi, u2
+
+
+def test_a_ring_too_narrow_for_the_truck_fails_with_a_diagnosis(tmp_path, doc):
+    """3.2 m of ring for a 2.5 m wide, 8 m long truck (no apron for it): exit 1 and which edge gives way."""
+
+    narrow = energy(mutate(doc, ("roundabout", "circulatory_width"), 3.2), intervals=40)
+    sol = parse_scenario(narrow).ocp.solve(intervals=40)
+    assert not sol.ok
+    diagnosis = sol.diagnosis
+    assert diagnosis["kind"] == "minimal violation" and diagnosis["body"] == "vehicle"
+    assert diagnosis["edge"] in ("outer curb", "apron") and diagnosis["encroachment_m"] > 0.05
+    assert "\n" not in diagnosis["message"] and f"{diagnosis['encroachment_m']:.2f} m" in diagnosis["message"]
+    assert sol.attempts[-1]["route"] == "minimal violation"
+
+
+def test_the_lane_strip_ends_at_the_centre(doc):
+    """A disc beyond the far side of the ring is in no piece (the strip must not run through the centre)."""
+    import pyomo.environ as pyo
+
+    from model.direct.bodies import _lane_margin
+
+    ocp = parse_scenario(doc).ocp
+    rb = ocp.road.roundabout
+    far_side = _lane_margin(rb, 0, "entry", 25.0, -2.0, 1.0)  # leg 0 points west; (25, -2) is east of the ring
+    near = _lane_margin(rb, 0, "entry", -30.0, -2.0, 1.0)
+    assert pyo.value(far_side) < 0 < pyo.value(near)

@@ -3,7 +3,7 @@
 Formulation ("union of pieces"): each rectangular body is covered by ``n`` equal discs along
 its axis (``Body.cover``: they contain the rectangle exactly). For every disc, at every node:
 
-- outside the island: ``|p - c|^2 >= (R_in + r)^2``, ``R_in`` the inner edge of the ring
+- outside the island: ``|p - c| >= R_in + r``, ``R_in`` the inner edge of the ring
   roadway (Ri), or of the apron where the body may use it;
 - inside the union of five pieces: the disc ``|p - c| <= Ro - r`` (the ring roadway inside the
   outer curb), the entry lane strip and the exit lane strip (between the leg's centre line and
@@ -49,8 +49,12 @@ def disc_count(length: float, width: float, slack: float = COVER_SLACK) -> int:
     return max(1, math.ceil(length / (2 * reach)))
 
 
-def add_body_constraints(m: pyo.ConcreteModel, ocp: OCP) -> None:
-    """Add, for each body and cover disc, the island and corridor constraints at every node."""
+def add_body_constraints(m: pyo.ConcreteModel, ocp: OCP, relax: bool = False) -> None:
+    """Add, for each body and cover disc, the island and corridor constraints at every node.
+
+    With ``relax`` each row gets a slack ``s >= 0`` (metres, on the disc's margin) and the model's
+    objective becomes the sum of the slacks: the minimal-violation problem behind ``diagnosis``.
+    """
     if ocp.road is None or not ocp.bodies:
         return
     v = ocp.vehicle
@@ -67,28 +71,43 @@ def add_body_constraints(m: pyo.ConcreteModel, ocp: OCP) -> None:
                 x, y, h = (sympy_to_pyomo(e, env) for e in pose)
                 return x + offset * pyo.cos(h), y + offset * pyo.sin(h)
 
-            _add_disc(m, ocp, f"body_{name}_{j}", centre, float(radius), apron_allowed(ocp.road.roundabout, name))
+            _add_disc(m, ocp, f"body_{name}_{j}", centre, float(radius), apron_allowed(ocp.road.roundabout, name),
+                      relax)  # fmt: skip
 
 
-def _add_disc(m: pyo.ConcreteModel, ocp: OCP, tag: str, position, r: float, apron: bool) -> None:
+def _add_disc(m: pyo.ConcreteModel, ocp: OCP, tag: str, position, r: float, apron: bool, relax: bool) -> None:
     rb, road = ocp.road.roundabout, ocp.road
     cx, cy = rb.center
     inner = rb.island_radius if apron else rb.inner_radius
     centre = _centre_variables(m, tag, position, rb)
+    slack = _slacks(m, tag, relax)
 
     def island(_m, t):
         x, y = centre(t)
-        return (x - cx) ** 2 + (y - cy) ** 2 >= (inner + r) ** 2
+        return pyo.sqrt((x - cx) ** 2 + (y - cy) ** 2) + slack["island"](t) >= inner + r
 
     def corridor(_m, t):
         x, y = centre(t)
         pieces = [rb.outer_radius - r - pyo.sqrt((x - cx) ** 2 + (y - cy) ** 2)]
         for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit")):
             pieces += [_lane_margin(rb, leg, lane, x, y, r), _fillet_margin(rb, leg, lane, x, y, r)]
-        return _smooth_max(pieces) >= math.log(len(pieces)) / SHARPNESS
+        return _smooth_max(pieces) + slack["corridor"](t) >= math.log(len(pieces)) / SHARPNESS
 
     m.add_component(f"{tag}_island", pyo.Constraint(m.tau, rule=island))
     m.add_component(f"{tag}_corridor", pyo.Constraint(m.tau, rule=corridor))
+
+
+def _slacks(m: pyo.ConcreteModel, tag: str, relax: bool) -> dict:
+    """Per-row slack variables (relaxed model) or zero."""
+    if not relax:
+        return {"island": lambda t: 0, "corridor": lambda t: 0}
+    out = {}
+    for kind in ("island", "corridor"):
+        var = pyo.Var(m.tau, bounds=(0.0, None), initialize=0.0)
+        m.add_component(f"{tag}_{kind}_slack", var)
+        m.slacks = [*getattr(m, "slacks", []), var]
+        out[kind] = lambda t, var=var: var[t]
+    return out
 
 
 def _centre_variables(m: pyo.ConcreteModel, tag: str, position, rb):
@@ -112,7 +131,10 @@ def _centre_variables(m: pyo.ConcreteModel, tag: str, position, rb):
 
 
 def _lane_margin(rb, leg: int, lane: str, x, y, r: float):
-    """Smooth minimum of a disc's margins to the lane's centre line, outer edge and end."""
+    """Smooth minimum of a disc's margins in the lane's strip: centre line, outer edge, and from the centre to its end.
+
+    Without ``along >= r`` the strip would continue through the centre and past the opposite curb.
+    """
     g = rb.legs[leg]
     side = lane_side(rb, lane)
     ux, uy = g.axis
@@ -120,7 +142,7 @@ def _lane_margin(rb, leg: int, lane: str, x, y, r: float):
     dx, dy = x - rb.center[0], y - rb.center[1]
     across = side * (nx * dx + ny * dy)
     along = ux * dx + uy * dy
-    margins = [across - r, g.lane_width - across - r, rb.outer_radius + g.length - along - r]
+    margins = [across - r, g.lane_width - across - r, along - r, rb.outer_radius + g.length - along - r]
     return -_smooth_max([-mi for mi in margins])
 
 

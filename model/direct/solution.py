@@ -42,6 +42,7 @@ class Solution:
     attempts: list[dict] = field(default_factory=list)
     timings: dict = field(default_factory=dict)
     certificate: dict = field(default_factory=dict)
+    diagnosis: dict | None = None
 
     @property
     def trajectory(self) -> pd.DataFrame:
@@ -83,6 +84,7 @@ class Solution:
             "attempts": self.attempts,
             "timings": self.timings,
             "certificate": self.certificate,
+            **({"diagnosis": self.diagnosis} if self.diagnosis is not None else {}),
         }
 
     def write(self, out: str | Path) -> None:

@@ -54,11 +54,15 @@ def solve_starts(
     starts: Sequence[Start],
     verbose: bool = False,
     options: dict | None = None,
+    relax: bool = False,
 ) -> list[Solution]:
-    """Build the model of one pass direction once; solve it from each start in turn."""
+    """Build the model of one pass direction once; solve it from each start in turn.
+
+    ``relax``: solve the minimal-violation model instead (``build_model(..., relax=True)``).
+    """
     t0 = time.perf_counter()
     with paused_gc():  # Pyomo creates many small objects: collections cost 3x the build
-        m = build_model(ocp, intervals, passing)
+        m = build_model(ocp, intervals, passing, relax)
     nlp, sols, timings = None, [], {}
     opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
     for start in starts:

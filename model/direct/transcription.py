@@ -20,8 +20,12 @@ from model.problem.ocp import OCP
 from model.vehicles import sym
 
 
-def build_model(ocp: OCP, intervals: int, passing: str | None = None) -> pyo.ConcreteModel:
-    """The discretised Pyomo model of ``ocp`` on ``intervals`` uniform trapezoid steps."""
+def build_model(ocp: OCP, intervals: int, passing: str | None = None, relax: bool = False) -> pyo.ConcreteModel:
+    """The discretised Pyomo model of ``ocp`` on ``intervals`` uniform trapezoid steps.
+
+    ``relax``: the minimal-violation model of a road problem: the body constraints get slacks and
+    the objective is their sum (see ``model.direct.bodies``).
+    """
     v = ocp.vehicle
     m = pyo.ConcreteModel(name=ocp.name)
     m.tau = ContinuousSet(bounds=(0, 1))
@@ -36,10 +40,13 @@ def build_model(ocp: OCP, intervals: int, passing: str | None = None) -> pyo.Con
     m.nodes = list(m.tau)
     _add_output_bounds(m, ocp)
     _add_obstacles(m, ocp)
-    add_body_constraints(m, ocp)
+    add_body_constraints(m, ocp, relax)
     if passing in ("ccw", "cw") and ocp.obstacles:
         _add_pass_direction(m, ocp, passing)
     _add_objective(m, ocp)
+    if relax and getattr(m, "slacks", None):
+        m.objective.deactivate()
+        m.violation = pyo.Objective(expr=pyo.quicksum(v[t] for v in m.slacks for t in m.nodes), sense=pyo.minimize)
     return m
 
 

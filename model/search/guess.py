@@ -43,6 +43,9 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
         guess["phi"] = np.arctan(curvature * d)
     if "theta1" in v.states:
         guess["theta1"] = _trailer_heading(ocp, heading, np.hypot(dx, dy), s)
+        if "articulation" in ocp.bounds:  # keep the guess inside the jackknife limit
+            lo, hi = ocp.bounds["articulation"]
+            guess["theta1"] = heading - np.clip(heading - guess["theta1"], lo, hi)
     for name in v.states:
         if name not in guess:
             a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])

@@ -78,6 +78,13 @@ def solve_ocp(
             solutions.append(sol)
             if best is None or _better(sol, best):
                 best = sol
+    if not best.ok and ocp.road is not None and ocp.bodies:
+        from model.search.diagnosis import failed_road, finite
+
+        guess_from = best.columns if finite(best.columns) else None
+        best = failed_road(ocp, intervals, best, start_values(ocp, intervals, "none", guess_from), options)
+        attempts.append({"pass": "none", "route": "minimal violation", "status": best.status, "valid": best.ok,
+                         "objective": best.objective})  # fmt: skip
     best.nlp.load_primals(best.ipopt.x)  # the model may hold a later start's values
     best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
     best.attempts = attempts
