@@ -158,3 +158,4 @@ def test_the_lane_strip_ends_at_the_centre(doc):
     far_side = _lane_margin(rb, 0, "entry", 25.0, -2.0, 1.0)  # leg 0 points west; (25, -2) is east of the ring
     near = _lane_margin(rb, 0, "entry", -30.0, -2.0, 1.0)
     assert pyo.value(far_side) < 0 < pyo.value(near)
+

@@ -1,4 +1,8 @@
-"""Why a road problem failed, with evidence: the smallest violation a slack-minimising solve reaches.
+"""Why a problem failed, with evidence: a proven bound, or the smallest violation a slack-minimising solve reaches.
+
+Proven bound: for a fixed final time, the obstacle-free Reeds-Shepp length over the top speed
+is a lower bound on the time any admissible trajectory needs (``paths.reeds_shepp_time``); a
+final time below it is infeasible whatever the solver does.
 
 When no start gives a valid solution of a road problem with bodies, the body constraints get
 slacks and their sum is minimised (``build_model(..., relax=True)``), started from the best
@@ -73,6 +77,47 @@ def failed_road(ocp: OCP, intervals: int, best: Solution, start, options: dict |
             return again
     best.diagnosis = road_diagnosis(ocp, relaxed, violation)
     return best
+
+
+def bound_diagnosis(ocp: OCP) -> dict | None:
+    """A proof of infeasibility from the Reeds-Shepp lower bound on the minimum time, if it applies."""
+    from model.search.paths import min_turning_radius, reeds_shepp_time
+
+    if ocp.cost.free_final_time or ocp.final_time is None or ocp.max_speed() is None:
+        return None
+    if not all(k in ocp.final and k in ocp.initial for k in ("x", "y", "theta")):
+        return None
+    rho = min_turning_radius(ocp.vehicle, ocp.bounds)
+    start = tuple(ocp.initial[k] for k in ("x", "y", "theta"))
+    goal = tuple(ocp.final[k] for k in ("x", "y", "theta"))
+    bound = reeds_shepp_time(start, goal, rho, ocp.max_speed())
+    if not ocp.final_time < bound:
+        return None
+    return {
+        "kind": "proven bound",
+        "constraint": "problem.final_time",
+        "final_time_s": ocp.final_time,
+        "minimum_time_lower_bound_s": bound,
+        "turning_radius_m": rho,
+        "message": (
+            f"infeasible: the final time {ocp.final_time:g} s is below {bound:.4g} s, the shortest Reeds-Shepp path "
+            f"(turning radius {rho or 0:.4g} m) driven at the top speed {ocp.max_speed():g} m/s"
+        ),
+    }
+
+
+def solver_diagnosis(best: Solution) -> dict:
+    """No proof: what the solver ended with (status, last primal infeasibility) and the failed checks."""
+    log = getattr(getattr(best, "ipopt", None), "log", None) or []
+    failed = [k for k, c in best.validation.get("checks", {}).items() if not c["passed"]]
+    return {
+        "kind": "solver",
+        "status": best.status,
+        "last_primal_infeasibility": log[-1][2] if log else None,
+        "failed_checks": failed,
+        "message": f"no start gave a valid solution (best: {best.status}"
+        + (f", checks failed: {', '.join(failed)}" if failed else "") + "); no infeasibility proof",
+    }
 
 
 def finite(columns) -> bool:

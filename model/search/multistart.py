@@ -85,6 +85,10 @@ def solve_ocp(
         best = failed_road(ocp, intervals, best, start_values(ocp, intervals, "none", guess_from), options)
         attempts.append({"pass": "none", "route": "minimal violation", "status": best.status, "valid": best.ok,
                          "objective": best.objective})  # fmt: skip
+    elif not best.ok:
+        from model.search.diagnosis import bound_diagnosis, solver_diagnosis
+
+        best.diagnosis = bound_diagnosis(ocp) or solver_diagnosis(best)
     best.nlp.load_primals(best.ipopt.x)  # the model may hold a later start's values
     best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
     best.attempts = attempts
