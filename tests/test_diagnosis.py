@@ -22,7 +22,8 @@ def test_a_final_time_below_the_reeds_shepp_bound_is_proven_infeasible():
 
 def test_without_a_proof_the_diagnosis_says_so(tmp_path):
     """Tf = 1.2 s clears the obstacle-free bound (1 m at 1 m/s) but not the detour: no proof, the solver's evidence."""
-    text = EXAMPLE.read_text().replace("final_time = 4.5", "final_time = 1.2").replace("intervals = 100", "intervals = 30")
+    text = EXAMPLE.read_text().replace("final_time = 4.5", "final_time = 1.2")
+    text = text.replace("intervals = 100", "intervals = 30")
     path = tmp_path / "short.toml"
     path.write_text(text)
     sol = load_scenario(path).ocp.solve(intervals=30)
