@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from model.errors import InputError
+from model.problem.tables import array_of_tables, no_unknown, number
 from model.scene.road import Road
 from model.scene.roundabout import Leg, Roundabout, Route, check_lane_width
 
@@ -14,8 +15,8 @@ ROUTE_KEYS = {"enter", "exit", "start_distance", "goal_distance"}
 FREE_AT_START = ("phi", "theta1")  # the only states [initial] / [final] may set beside a route
 
 
-def parse_road(data: dict[str, Any], check_keys) -> Road | None:
-    """The Road of a scenario document, or None without a [roundabout]; ``check_keys(table, allowed, where)``."""
+def parse_road(data: dict[str, Any]) -> Road | None:
+    """The Road of a scenario document, or None without a [roundabout]."""
     if "roundabout" not in data and "route" not in data:
         return None
     if "obstacles" in data and "roundabout" in data:
@@ -26,54 +27,43 @@ def parse_road(data: dict[str, Any], check_keys) -> Road | None:
         if not isinstance(data[key], dict):
             raise InputError(key, f"must be a table ([{key}])")
     table = data["roundabout"]
-    check_keys(table, ROUNDABOUT_KEYS, "roundabout.")
+    no_unknown(table, ROUNDABOUT_KEYS, "roundabout.")
     for key in ("center", "inscribed_diameter", "circulatory_width", "legs"):
         if key not in table:
             raise InputError(f"roundabout.{key}", "missing")
     roundabout = Roundabout(
         center=table["center"],
-        inscribed_diameter=_number(table, "inscribed_diameter", "roundabout."),
-        circulatory_width=_number(table, "circulatory_width", "roundabout."),
-        apron_width=_number(table, "apron_width", "roundabout.", 0.0),
+        inscribed_diameter=number(table, "inscribed_diameter", "roundabout."),
+        circulatory_width=number(table, "circulatory_width", "roundabout."),
+        apron_width=number(table, "apron_width", "roundabout.", 0.0),
         apron_use=table.get("apron_use", "trailer"),
         traffic=table.get("traffic", "right"),
-        legs=_legs(table["legs"], check_keys),
+        legs=_legs(table["legs"]),
     )
     route = data["route"]
-    check_keys(route, ROUTE_KEYS, "route.")
+    no_unknown(route, ROUTE_KEYS, "route.")
     for key in ("enter", "exit"):
         if key not in route:
             raise InputError(f"route.{key}", "missing")
-    road = Road(roundabout, Route(route["enter"], route["exit"], _number(route, "start_distance", "route.", 30.0),
-                                  _number(route, "goal_distance", "route.", 30.0)))  # fmt: skip
+    road = Road(roundabout, Route(route["enter"], route["exit"], number(route, "start_distance", "route.", 30.0),
+                                  number(route, "goal_distance", "route.", 30.0)))  # fmt: skip
     road.start(), road.goal()  # checks the route's indices and distances
     return road
 
 
-def _legs(items: Any, check_keys) -> list[Leg]:
-    if not isinstance(items, list) or not items:
+def _legs(items: Any) -> list[Leg]:
+    if not items:
         raise InputError("roundabout.legs", "must be one or more [[roundabout.legs]] tables")
     legs = []
-    for i, item in enumerate(items):
-        where = f"roundabout.legs[{i}]."
-        if not isinstance(item, dict):
-            raise InputError(f"roundabout.legs[{i}]", "must be a table")
-        check_keys(item, LEG_KEYS, where)
+    for _, where, item in array_of_tables(items, "roundabout.legs"):
+        no_unknown(item, LEG_KEYS, where)
         for key in ("angle", "lane_width", "entry_radius", "exit_radius"):
             if key not in item:
                 raise InputError(where + key, "missing")
-        values = {k: _number(item, k, where) for k in LEG_KEYS if k in item}
+        values = {k: number(item, k, where) for k in LEG_KEYS if k in item}
         legs.append(Leg(values.pop("angle"), **values))
     return legs
 
-
-def _number(table: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
-    if key not in table and default is not None:
-        return default
-    val = table[key]
-    if not isinstance(val, int | float) or isinstance(val, bool):
-        raise InputError(where + key, f"must be a number, got {val!r}")
-    return float(val)
 
 
 def road_boundary_values(road: Road, initial: dict[str, float], final: dict[str, float], states) -> tuple[dict, dict]:

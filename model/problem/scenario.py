@@ -16,6 +16,16 @@ from model.errors import InputError
 from model.problem.costs import Energy, Time
 from model.problem.ocp import OCP, PASSES
 from model.problem.roads import check_bodies_fit, parse_road, road_boundary_values
+from model.problem.tables import (
+    array_of_tables,
+    choice,
+    is_number,
+    no_unknown,
+    number,
+    numbers,
+    string,
+    table_of,
+)
 from model.scene.obstacles import Circle
 from model.vehicles import VEHICLES, Body, Vehicle, preset
 
@@ -51,31 +61,31 @@ def load_scenario(path: str | Path) -> Scenario:
 
 def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: Path | None = None) -> Scenario:
     """Build a Scenario from the TOML document's dictionary."""
-    _no_unknown(data, TOP_KEYS, "")
+    no_unknown(data, TOP_KEYS, "")
     required = ("vehicle", "bounds", "problem") if "route" in data else ("vehicle", "bounds", "initial", "problem")
     for key in required:
         if key not in data:
             raise InputError(key, "missing required table")
-    vehicle, bodies, preset_bounds = _vehicle(_table(data, "vehicle"))
-    problem = _table(data, "problem")
-    _no_unknown(problem, PROBLEM_KEYS, "problem.")
-    objective = _choice(problem, "objective", OBJECTIVES, "problem.", required=True)
-    scheme = _choice(problem, "scheme", {"trapezoid": None}, "problem.", default="trapezoid")
-    passing = _choice(problem, "pass", dict.fromkeys(PASSES), "problem.", default="auto")
+    vehicle, bodies, preset_bounds = _vehicle(table_of(data, "vehicle"))
+    problem = table_of(data, "problem")
+    no_unknown(problem, PROBLEM_KEYS, "problem.")
+    objective = choice(problem, "objective", OBJECTIVES, "problem.", required=True)
+    scheme = choice(problem, "scheme", {"trapezoid": None}, "problem.", default="trapezoid")
+    passing = choice(problem, "pass", dict.fromkeys(PASSES), "problem.", default="auto")
     intervals = problem.get("intervals", 100)
     if isinstance(intervals, bool) or not isinstance(intervals, int) or intervals < 1:
         raise InputError("problem.intervals", f"must be a whole number >= 1, got {intervals!r}")
-    final_time = _number(problem, "final_time", "problem.") if "final_time" in problem else None
-    road = parse_road(data, _no_unknown)
-    initial = _numbers(_table(data, "initial") if "initial" in data or road is None else {}, "initial.")
-    final = _numbers(_table(data, "final") if "final" in data else {}, "final.")
+    final_time = number(problem, "final_time", "problem.") if "final_time" in problem else None
+    road = parse_road(data)
+    initial = numbers(table_of(data, "initial") if "initial" in data or road is None else {}, "initial.")
+    final = numbers(table_of(data, "final") if "final" in data else {}, "final.")
     if road is not None:
         check_bodies_fit(road, bodies)
         initial, final = road_boundary_values(road, initial, final, vehicle.states)
     ocp = OCP(
         vehicle=vehicle,
         cost=OBJECTIVES[objective](),
-        bounds={**preset_bounds, **_bounds(_table(data, "bounds"))},
+        bounds={**preset_bounds, **_bounds(table_of(data, "bounds"))},
         initial=initial,
         final=final,
         obstacles=_obstacles(data.get("obstacles", [])),
@@ -83,8 +93,8 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         passing=passing,
         bodies=bodies,
         road=road,
-        name=_string(data, "name", default_name),
-        title=_string(data, "title", ""),
+        name=string(data, "name", default_name),
+        title=string(data, "title", ""),
     )
     return Scenario(ocp=ocp, intervals=intervals, scheme=scheme, path=path)
 
@@ -96,11 +106,11 @@ def _vehicle(table: dict[str, Any]) -> tuple[Vehicle, dict[str, Body], dict[str,
     """The vehicle, its bodies and the bounds its preset gives (the file's keys override the preset's)."""
     base, preset_bounds = _preset(table)
     merged = {**base, **table}
-    model = _choice(merged, "model", VEHICLES, "vehicle.", required=True)
+    model = choice(merged, "model", VEHICLES, "vehicle.", required=True)
     cls = VEHICLES[model]
     fields = {f.name for f in dataclasses.fields(cls)}
-    _no_unknown(table, fields | {"model", "preset"} | set(BODY_TABLES), "vehicle.")
-    kwargs = {k: _number(merged, k, "vehicle.") for k in fields if k in merged}
+    no_unknown(table, fields | {"model", "preset"} | set(BODY_TABLES), "vehicle.")
+    kwargs = {k: number(merged, k, "vehicle.") for k in fields if k in merged}
     bodies = {}
     for key, name in BODY_TABLES.items():
         if key in merged:
@@ -129,90 +139,31 @@ def _subtable(table: dict[str, Any], key: str, where: str) -> dict[str, Any]:
 
 
 def _body(table: dict[str, Any], key: str) -> Body:
-    _no_unknown(table, {"length", "width", "rear_overhang"}, key + ".")
+    no_unknown(table, {"length", "width", "rear_overhang"}, key + ".")
     for name in ("length", "width", "rear_overhang"):
         if name not in table:
             raise InputError(f"{key}.{name}", "missing")
-    return Body(*(_number(table, k, key + ".") for k in ("length", "width", "rear_overhang")), key=key)
+    return Body(*(number(table, k, key + ".") for k in ("length", "width", "rear_overhang")), key=key)
 
 
 def _bounds(table: dict[str, Any]) -> dict[str, tuple[float, float]]:
     out = {}
     for key, val in table.items():
-        if not (isinstance(val, list) and len(val) == 2 and all(_is_number(x) for x in val)):
+        if not (isinstance(val, list) and len(val) == 2 and all(is_number(x) for x in val)):
             raise InputError(f"bounds.{key}", f"must be [lower, upper] (two numbers), got {val!r}")
         out[key] = (float(val[0]), float(val[1]))
     return out
 
 
 def _obstacles(items: Any) -> list[Circle]:
-    if not isinstance(items, list):
-        raise InputError("obstacles", "must be an array of tables ([[obstacles]])")
     out = []
-    for i, item in enumerate(items):
-        where = f"obstacles[{i}]."
-        if not isinstance(item, dict):
-            raise InputError(f"obstacles[{i}]", "must be a table")
-        _no_unknown(item, OBSTACLE_KEYS, where)
+    for _, where, item in array_of_tables(items, "obstacles"):
+        no_unknown(item, OBSTACLE_KEYS, where)
         center = item.get("center")
-        if not (isinstance(center, list) and len(center) == 2 and all(_is_number(x) for x in center)):
+        if not (isinstance(center, list) and len(center) == 2 and all(is_number(x) for x in center)):
             raise InputError(where + "center", f"must be [x, y] (two numbers), got {center!r}")
         if "radius" not in item:
             raise InputError(where + "radius", "missing")
-        safety = _number(item, "safety", where) if "safety" in item else 0.0
-        out.append(Circle((float(center[0]), float(center[1])), _number(item, "radius", where), safety))
+        safety = number(item, "safety", where) if "safety" in item else 0.0
+        out.append(Circle((float(center[0]), float(center[1])), number(item, "radius", where), safety))
     return out
-
-
-def _table(data: dict[str, Any], key: str) -> dict[str, Any]:
-    val = data[key]
-    if not isinstance(val, dict):
-        raise InputError(key, f"must be a table ([{key}]), got {type(val).__name__}")
-    return val
-
-
-def _numbers(table: dict[str, Any], where: str) -> dict[str, float]:
-    return {k: _number(table, k, where) for k in table}
-
-
-def _is_number(val: Any) -> bool:
-    return isinstance(val, int | float) and not isinstance(val, bool)
-
-
-def _number(table: dict[str, Any], key: str, where: str) -> float:
-    val = table[key]
-    if not _is_number(val):
-        raise InputError(where + key, f"must be a number, got {val!r}")
-    return float(val)
-
-
-def _string(table: dict[str, Any], key: str, default: str) -> str:
-    val = table.get(key, default)
-    if not isinstance(val, str):
-        raise InputError(key, f"must be a string, got {val!r}")
-    return val
-
-
-def _choice(table, key, options, where, required=False, default=None) -> str:
-    if key not in table:
-        if required:
-            raise InputError(where + key, f"missing (one of {sorted(options)})")
-        return default
-    val = table[key]
-    if val not in options:
-        raise InputError(where + key, f"must be one of {sorted(options)}, got {val!r}")
-    return val
-
-
-def _no_unknown(table: dict[str, Any], allowed: set[str], where: str) -> None:
-    for key in table:
-        if key not in allowed:
-            hint = _closest(key, allowed)
-            raise InputError(where + key, "unknown key" + (f" (did you mean '{hint}'?)" if hint else ""))
-
-
-def _closest(key: str, allowed: set[str]) -> str | None:
-    import difflib
-
-    match = difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6)
-    return match[0] if match else None

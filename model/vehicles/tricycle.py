@@ -6,11 +6,12 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from model.vehicles.base import Vehicle, sym
+from model.vehicles.base import sym
+from model.vehicles.truck import Truck
 
 
 @dataclass
-class Tricycle(Vehicle):
+class Tricycle(Truck):
     """Front-wheel-driven car-like vehicle: u1 is the speed of the steered front wheel.
 
     The rear axle centre moves at u1 cos(phi), so unlike the truck the speed along the
@@ -22,14 +23,7 @@ class Tricycle(Vehicle):
         d, rear axle to front axle, m.
     """
 
-    wheelbase: float = 0.1
-    model = "tricycle"
-    parameter_keys = {"d": "wheelbase"}
-    states = ("x", "y", "theta", "phi")
-    controls = ("u1", "u2")
-
-    def parameters(self) -> dict[str, float]:
-        return {"d": float(self.wheelbase)}
+    model = "tricycle"  # states, controls, wheelbase and its parameter as the truck's
 
     def dynamics(self) -> dict[str, sp.Expr]:
         x, y, theta, phi = self.state_symbols()

@@ -1,0 +1,74 @@
+"""Reading TOML tables with one clear error per bad key (InputError naming the dotted key)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from model.errors import InputError
+
+
+def table_of(data: dict[str, Any], key: str) -> dict[str, Any]:
+    val = data[key]
+    if not isinstance(val, dict):
+        raise InputError(key, f"must be a table ([{key}]), got {type(val).__name__}")
+    return val
+
+
+def numbers(table: dict[str, Any], where: str) -> dict[str, float]:
+    return {k: number(table, k, where) for k in table}
+
+
+def is_number(val: Any) -> bool:
+    return isinstance(val, int | float) and not isinstance(val, bool)
+
+
+def number(table: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
+    """``table[key]`` as a float; ``default`` when the key is absent (if given)."""
+    if key not in table and default is not None:
+        return default
+    val = table[key]
+    if not is_number(val):
+        raise InputError(where + key, f"must be a number, got {val!r}")
+    return float(val)
+
+
+def string(table: dict[str, Any], key: str, default: str) -> str:
+    val = table.get(key, default)
+    if not isinstance(val, str):
+        raise InputError(key, f"must be a string, got {val!r}")
+    return val
+
+
+def choice(table, key, options, where, required=False, default=None) -> str:
+    if key not in table:
+        if required:
+            raise InputError(where + key, f"missing (one of {sorted(options)})")
+        return default
+    val = table[key]
+    if val not in options:
+        raise InputError(where + key, f"must be one of {sorted(options)}, got {val!r}")
+    return val
+
+
+def no_unknown(table: dict[str, Any], allowed: set[str], where: str) -> None:
+    for key in table:
+        if key not in allowed:
+            hint = closest(key, allowed)
+            raise InputError(where + key, "unknown key" + (f" (did you mean '{hint}'?)" if hint else ""))
+
+
+def closest(key: str, allowed: set[str]) -> str | None:
+    import difflib
+
+    match = difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6)
+    return match[0] if match else None
+
+
+def array_of_tables(items: Any, key: str):
+    """Yield (index, "key[i].", table) for a TOML array of tables, each checked to be a table."""
+    if not isinstance(items, list):
+        raise InputError(key, f"must be an array of tables ([[{key}]])")
+    for i, item in enumerate(items):
+        if not isinstance(item, dict):
+            raise InputError(f"{key}[{i}]", "must be a table")
+        yield i, f"{key}[{i}].", item
