@@ -4,9 +4,12 @@ Any TOML document, any mutation of a valid scenario file and any file content is
 scenario or an ``InputError`` whose key names a place in the document and whose text is one
 line; ``roundabout check`` then exits 0 or 2, and on 2 writes exactly one line to stderr.
 
-Known parser bugs are pinned by the ``xfail(strict=True)`` tests below, each with its minimal
-input; ``_known_bug`` keeps their triggers out of the green properties. When a bug is fixed,
-its xfail test passes and fails as strict: delete the marker and the bug's clause in ``_known_bug``.
+The same holds for mutations of the roundabout example ([roundabout], [[roundabout.legs]], [route]).
+
+The bugs these properties found (B1-B8: choice keys of any type, integers beyond 64 bits, quoted
+keys, deeply nested arrays, a folder as the file, warnings beside the error line, non-finite
+obstacle numbers, over-long integers; R1: roundabout sizes beyond 10 km) are fixed; the tests
+named after them keep their minimal inputs as regression tests.
 """
 
 from __future__ import annotations
@@ -28,7 +31,6 @@ from typing import Any
 import pytest
 from hypothesis import HealthCheck, assume, currently_in_test_context, event, example, given, settings
 from hypothesis import strategies as st
-from shapely.errors import GEOSException
 
 from model.errors import InputError
 from model.problem.roads import LEG_KEYS, ROUNDABOUT_KEYS, ROUTE_KEYS
@@ -43,11 +45,19 @@ EXAMPLE = VALID["format-example.toml"]
 ROAD_FILE = ROOT / "examples" / "roundabout-truck.toml"  # the first file with a [roundabout] and a [route]
 ROAD = {ROAD_FILE.name: tomllib.loads(ROAD_FILE.read_bytes().decode("utf-8"))}
 
-COMMON = {"deadline": None, "derandomize": True, "database": None}
-FAST = settings(max_examples=300, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much], **COMMON)
-BUG = settings(max_examples=50, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much], **COMMON)
-ROADS = settings(max_examples=80, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much], **COMMON)
-CLI = settings(max_examples=20, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much], **COMMON)
+
+def _settings(examples: int) -> settings:
+    """Reproducible in CI (derandomize, no example database) and without deadlines (the CLI starts Python)."""
+    return settings(
+        max_examples=examples,
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+    )
+
+
+DOCS, FAST, BUG, ROADS, CLI = _settings(250), _settings(300), _settings(50), _settings(80), _settings(20)  # ~25 s
 
 # -- documents ------------------------------------------------------------------------------
 BARE_CHARS = string.ascii_letters + string.digits + "_-"  # the characters of a bare TOML key
@@ -296,25 +306,6 @@ def _leaves(node: Any) -> list:
     return [_at(node, p) for p in _paths(node)]
 
 
-def _known_bug(doc: dict, cli: bool = False) -> str | None:
-    """The open bug ``doc`` would hit (delete a clause with its fix and its xfail marker)."""
-    for table, keys in CHOICES.items():
-        section = doc.get(table)
-        if isinstance(section, dict) and any(isinstance(section.get(k), list | dict) for k in keys):
-            return "B1"
-    road = [doc.get("roundabout"), doc.get("route")]
-    if any(_is_number(v) and math.isfinite(v) and abs(v) > 1e6 for v in _leaves(road)):
-        return "R1"
-    if cli:  # numpy RuntimeWarnings reach stderr; in-process the green properties do not look at warnings
-        obstacles = doc.get("obstacles")
-        if isinstance(obstacles, list) and any(
-            isinstance(v, float) and not math.isfinite(v) for v in _leaves(obstacles)
-        ):
-            return "B6"
-        if any(_is_number(v) and abs(v) > 1e307 for v in _leaves(doc)):
-            return "B6"
-    return None
-
 
 # -- sanity of the helpers: the valid files are valid, the key reader reads keys ---------------
 @pytest.mark.parametrize("name", sorted(VALID | ROAD))
@@ -336,17 +327,15 @@ def test_error_keys_are_read_as_places():
 
 
 # -- 1. in-process properties ---------------------------------------------------------------
-@FAST
+@DOCS
 @given(DOCUMENTS)
 def test_arbitrary_documents_parse_or_raise_one_input_error(doc):
-    assume(_known_bug(doc) is None)
     _outcome(doc)
 
 
 @FAST
 @given(mutated())
 def test_mutated_valid_files_parse_or_raise_one_input_error(doc):
-    assume(_known_bug(doc) is None)
     _outcome(doc)
 
 
@@ -376,7 +365,7 @@ def _edit(data: bytes, edits: list) -> bytes:
     return bytes(out)
 
 
-@settings(max_examples=300, **COMMON)
+@_settings(300)
 @given(BYTES)
 def test_load_scenario_on_arbitrary_bytes(content):
     with tempfile.TemporaryDirectory() as folder:
@@ -413,13 +402,6 @@ INF_RADIUS = _doc({("obstacles", 0, "center"): [math.inf, 0.03], ("obstacles", 0
 HUGE_GAP = _doc({("obstacles", 0, "center"): [-1e308, 0.03], ("initial", "x"): 1e308})
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=TypeError,
-    reason="B1: a list or table where a choice is expected (vehicle.model, problem.objective, problem.scheme, "
-    "problem.pass) raises TypeError: unhashable type (_choice tests `val not in options` on a dict); "
-    "minimal: [vehicle] model = []",
-)
 @BUG
 @given(st.sampled_from(CHOICE_PLACES), VALUES)
 @example(("vehicle", "model"), [])
@@ -427,13 +409,6 @@ def test_b1_choice_keys_of_any_type(place, value):
     _outcome(_set(EXAMPLE, place, value))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=OverflowError,
-    reason="B2: an integer beyond 64 bits (tomllib does not check the TOML limit) raises OverflowError in float() "
-    "(or, beyond 4300 digits, ValueError in the message's repr; problem.intervals is accepted); "
-    "minimal: [vehicle] wheelbase = 1 followed by 309 zeros",
-)
 @BUG
 @given(st.sampled_from([*NUMBER_PLACES, ("name",)]), st.integers(2**63, 2**1100) | st.just(16**4000))
 @example(("vehicle", "wheelbase"), 10**309)
@@ -441,12 +416,6 @@ def test_b2_integers_beyond_64_bits_are_an_input_error(path, value):
     assert isinstance(_outcome(_set(EXAMPLE, path, value)), InputError)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason='B3: keys go into error keys unquoted: "a\\nb" = 0 gives a two-line message, "" = 0 a message naming '
-    'no key, "a.b" = 0 a key naming a path the file does not have; minimal: "a\\nb" = 0',
-)
 @BUG
 @given(st.sampled_from(TABLE_PLACES), st.text(max_size=6))
 @example((), "a\nb")
@@ -454,30 +423,17 @@ def test_b3_any_key_text_is_named_as_a_toml_key(table, name):
     _outcome(_set(EXAMPLE, (*table, name), 0))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="B6: numpy RuntimeWarnings from Circle.clearance in OCP._check_obstacles (inf - inf, or an overflow) "
-    "reach stderr beside the error line; minimal: obstacles[0] center = [inf, 0.03], radius = inf",
-)
 @BUG
 @given(mutated(("inf", "huge", "nan", "negative")))
 @example(INF_RADIUS)
 @example(HUGE_GAP)
 def test_b6_parsing_emits_no_warning(doc):
-    assume(_known_bug(doc) is None)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         _outcome(doc)
     assert not caught, [str(w.message) for w in caught]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="B7: obstacle numbers are not checked for finiteness (a nan radius, a nan or inf centre, a nan safety "
-    "are accepted, while vehicle, initial, final and final_time values must be finite); minimal: radius = nan",
-)
 @BUG
 @given(st.sampled_from([("center", 0), ("center", 1), ("radius",), ("safety",)]), st.sampled_from([math.nan, math.inf]))
 @example(("radius",), math.nan)
@@ -491,19 +447,9 @@ def _deep(depth: int) -> bytes:
 
 
 LOAD_BUGS = [
-    pytest.param(_deep(1000), id="B4-nested-arrays", marks=pytest.mark.xfail(
-        strict=True, raises=RecursionError,
-        reason="B4: arrays (or inline tables) nested about 500 deep: RecursionError from tomllib",
-    )),
-    pytest.param(b"a = 1" + b"0" * 4300, id="B8-long-integer", marks=pytest.mark.xfail(
-        strict=True, raises=ValueError,
-        reason="B8: a decimal integer of more than 4300 digits: ValueError (int_max_str_digits) from tomllib, "
-        "which load_scenario does not catch (it is not a TOMLDecodeError)",
-    )),
-    pytest.param(None, id="B5-folder", marks=pytest.mark.xfail(
-        strict=True, raises=IsADirectoryError,
-        reason="B5: the path is a folder: IsADirectoryError (load_scenario catches FileNotFoundError only)",
-    )),
+    pytest.param(_deep(1000), id="B4-nested-arrays"),
+    pytest.param(b"a = 1" + b"0" * 4300, id="B8-long-integer"),
+    pytest.param(None, id="B5-folder"),
 ]  # fmt: skip
 
 
@@ -520,25 +466,16 @@ def test_load_scenario_known_bad_files(tmp_path, content):
 @ROADS
 @given(mutated(bases=ROAD))
 def test_mutated_roundabout_file_parses_or_raises_one_input_error(doc):
-    assume(_known_bug(doc) is None)
     _outcome(doc)
 
 
 ROAD_DOC = ROAD["roundabout-truck.toml"]
 R1 = "R1: roundabout lengths and coordinates have no upper bound; {} in the road geometry"
 ROAD_BUGS = [
-    pytest.param(("roundabout", "inscribed_diameter"), 1e15, id="R1-diameter-1e15", marks=pytest.mark.xfail(
-        strict=True, raises=ZeroDivisionError, reason=R1.format("ZeroDivisionError in circle_points (acos(1) = 0)"),
-    )),
-    pytest.param(("roundabout", "inscribed_diameter"), 1e300, id="R1-diameter-1e300", marks=pytest.mark.xfail(
-        strict=True, raises=OverflowError, reason=R1.format("OverflowError in fillet_geometry ((ro + r) ** 2)"),
-    )),
-    pytest.param(("roundabout", "center", 0), 1e15, id="R1-center-1e15", marks=pytest.mark.xfail(
-        strict=True, raises=GEOSException, reason=R1.format("GEOSException (found two shells) in a shapely union"),
-    )),
-    pytest.param(("roundabout", "center", 0), 1e300, id="R1-center-1e300", marks=pytest.mark.xfail(
-        strict=True, raises=GEOSException, reason=R1.format("GEOSException (mixed-dimension) in a shapely difference"),
-    )),
+    pytest.param(("roundabout", "inscribed_diameter"), 1e15, id="R1-diameter-1e15"),
+    pytest.param(("roundabout", "inscribed_diameter"), 1e300, id="R1-diameter-1e300"),
+    pytest.param(("roundabout", "center", 0), 1e15, id="R1-center-1e15"),
+    pytest.param(("roundabout", "center", 0), 1e300, id="R1-center-1e300"),
 ]  # fmt: skip
 
 
@@ -591,7 +528,8 @@ def _same(a: Any, b: Any) -> bool:
     return type(a) is type(b) and a == b
 
 
-def _check(content: bytes) -> subprocess.CompletedProcess:
+def _check(content: bytes | None) -> subprocess.CompletedProcess:
+    """``roundabout check`` on a file with ``content`` (None: a folder in its place)."""
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "scenario.toml"
         path.mkdir() if content is None else path.write_bytes(content)
@@ -622,7 +560,6 @@ def test_dumps_writes_what_tomllib_reads():
 @CLI
 @given(mutated())
 def test_cli_check_on_mutated_files_exits_0_or_2_with_one_line(doc):
-    assume(_known_bug(doc, cli=True) is None)
     text = _dumps(doc)
     assert _same(tomllib.loads(text), doc)  # the file says what the property is about
     res = _check(text.encode())
@@ -630,22 +567,16 @@ def test_cli_check_on_mutated_files_exits_0_or_2_with_one_line(doc):
     assert res.returncode == (0 if isinstance(_outcome(doc), Scenario) else 2), res.stderr
 
 
-@settings(max_examples=6, **COMMON)
+@_settings(5)
 @given(BYTES)
 def test_cli_check_on_arbitrary_bytes_exits_0_or_2_with_one_line(content):
     _assert_contract(_check(content))
 
 
 CLI_BUGS = [
-    pytest.param(_dumps(HUGE_GAP).encode(), id="B6-exit-2-three-lines", marks=pytest.mark.xfail(
-        strict=True, raises=AssertionError, reason="B6: a RuntimeWarning (2 lines) before the error line",
-    )),
-    pytest.param(_dumps(INF_RADIUS).encode(), id="B6-exit-0-warnings", marks=pytest.mark.xfail(
-        strict=True, raises=AssertionError, reason="B6 and B7: accepted, with RuntimeWarnings on stderr",
-    )),
-    pytest.param(None, id="B5-folder", marks=pytest.mark.xfail(
-        strict=True, raises=AssertionError, reason="B5: a traceback, exit 1",
-    )),
+    pytest.param(_dumps(HUGE_GAP).encode(), id="B6-exit-2-three-lines"),
+    pytest.param(_dumps(INF_RADIUS).encode(), id="B6-exit-0-warnings"),
+    pytest.param(None, id="B5-folder"),
 ]  # fmt: skip
 
 

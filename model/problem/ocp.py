@@ -127,12 +127,15 @@ class OCP:
     def _check_obstacles(self) -> None:
         px, py = self.vehicle.position
         for i, ob in enumerate(self.obstacles):
-            if ob.radius <= 0:
-                raise InputError(f"obstacles[{i}].radius", f"must be > 0, got {ob.radius}")
-            if ob.safety < 0:
-                raise InputError(f"obstacles[{i}].safety", f"must be >= 0, got {ob.safety}")
+            if not all(map(math.isfinite, ob.center)):
+                raise InputError(f"obstacles[{i}].center", f"must be two finite numbers, got {list(ob.center)}")
+            if not (math.isfinite(ob.radius) and ob.radius > 0):
+                raise InputError(f"obstacles[{i}].radius", f"must be a finite number > 0, got {ob.radius}")
+            if not (math.isfinite(ob.safety) and ob.safety >= 0):
+                raise InputError(f"obstacles[{i}].safety", f"must be a finite number >= 0, got {ob.safety}")
             for where, pt in (("initial", self.initial), ("final", self.final)):
-                if px in pt and py in pt and ob.clearance(pt[px], pt[py]) < 0:
+                # math, not numpy: huge coordinates must not print a RuntimeWarning beside the one error line
+                if px in pt and py in pt and math.hypot(pt[px] - ob.center[0], pt[py] - ob.center[1]) < ob.keep_out:
                     raise InputError(
                         f"{where}.{px}",
                         f"({pt[px]}, {pt[py]}) lies inside obstacles[{i}] (radius + safety = {ob.keep_out})",

@@ -18,6 +18,7 @@ from model.problem.ocp import OCP, PASSES
 from model.problem.roads import check_bodies_fit, parse_road, road_boundary_values
 from model.problem.tables import (
     array_of_tables,
+    check_document,
     choice,
     is_number,
     no_unknown,
@@ -49,18 +50,25 @@ def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario file; raise InputError naming the bad key."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))  # TOML is UTF-8 whatever the locale
     except FileNotFoundError:
         raise InputError("", f"{path}: no such file") from None
-    except tomllib.TOMLDecodeError as err:
-        raise InputError("", f"{path}: malformed TOML: {err}") from None
+    except OSError as err:  # a folder, no permission, ...
+        raise InputError("", f"{path}: cannot be read ({err.strerror or err})") from None
     except UnicodeDecodeError:
         raise InputError("", f"{path}: not a UTF-8 text file") from None
+    except tomllib.TOMLDecodeError as err:
+        raise InputError("", f"{path}: malformed TOML: {err}") from None
+    except ValueError:  # tomllib lets int() refuse a literal of more than 4300 digits
+        raise InputError("", f"{path}: malformed TOML: an integer with too many digits") from None
+    except RecursionError:
+        raise InputError("", f"{path}: malformed TOML: arrays or tables nested too deeply") from None
     return parse_scenario(data, default_name=path.stem, path=path)
 
 
 def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: Path | None = None) -> Scenario:
     """Build a Scenario from the TOML document's dictionary."""
+    check_document(data)
     no_unknown(data, TOP_KEYS, "")
     required = ("vehicle", "bounds", "problem") if "route" in data else ("vehicle", "bounds", "initial", "problem")
     for key in required:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 from model.errors import InputError
@@ -45,7 +46,7 @@ def choice(table, key, options, where, required=False, default=None) -> str:
             raise InputError(where + key, f"missing (one of {sorted(options)})")
         return default
     val = table[key]
-    if val not in options:
+    if not isinstance(val, str) or val not in options:
         raise InputError(where + key, f"must be one of {sorted(options)}, got {val!r}")
     return val
 
@@ -72,3 +73,29 @@ def array_of_tables(items: Any, key: str):
         if not isinstance(item, dict):
             raise InputError(f"{key}[{i}]", "must be a table")
         yield i, f"{key}[{i}].", item
+
+
+BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")  # every key of the format is one; TOML allows any text quoted
+
+
+def check_document(value: Any, where: str = "") -> None:
+    """Refuse what the per-key checks cannot report on one line: quoted keys, integers beyond 64 bits."""
+    if isinstance(value, dict):
+        for key, val in value.items():
+            path = f"{where}.{toml_key(key)}" if where else toml_key(key)
+            if not BARE_KEY.fullmatch(key):
+                raise InputError(path, "unknown key")
+            check_document(val, path)
+    elif isinstance(value, list):
+        for i, val in enumerate(value):
+            check_document(val, f"{where}[{i}]")
+    elif isinstance(value, int) and not isinstance(value, bool) and not -(2**63) <= value < 2**63:
+        raise InputError(where, "integer out of range (TOML integers are 64-bit)")
+
+
+def toml_key(key: str) -> str:
+    """``key`` as a TOML dotted key writes it: bare, or quoted with escapes so that it stays one line."""
+    if BARE_KEY.fullmatch(key):
+        return key
+    body = "".join("\\" + c if c in '"\\' else c if c.isprintable() else f"\\U{ord(c):08X}" for c in key)
+    return f'"{body}"'

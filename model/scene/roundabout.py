@@ -48,6 +48,8 @@ APRON_USE = ("trailer", "all", "none")
 LANES = ("entry", "exit")
 BODIES = ("vehicle", "trailer")
 OVERLAP_AREA = 1e-6  # m^2: a fillet sharing more than this with another leg overlaps it
+MAX_SIZE = 1e4  # m: lengths of a roundabout (diameter, widths, radii, legs) beyond this are refused
+MAX_COORDINATE = 1e6  # m: a centre further from the origin loses the 0.1 mm the geometry works to
 OVERLAP_TOL = 1e-3  # m: circle polygon tolerance of the fillet overlap check
 
 
@@ -136,6 +138,8 @@ class Roundabout:
         center = self.center
         if not (isinstance(center, Sequence) and len(center) == 2 and all(_finite(v) for v in center)):
             raise InputError("roundabout.center", f"must be two finite numbers [x, y], got {center!r}")
+        if max(abs(v) for v in center) > MAX_COORDINATE:
+            raise InputError("roundabout.center", f"must lie within {MAX_COORDINATE:g} m of the origin, got {center!r}")
         object.__setattr__(self, "center", (float(center[0]), float(center[1])))
         object.__setattr__(self, "legs", tuple(self.legs))
         self.check()
@@ -169,8 +173,9 @@ class Roundabout:
 
     def _check_ring(self) -> None:
         ro = self.inscribed_diameter / 2.0 if _finite(self.inscribed_diameter) else math.nan
-        if not ro > 0.0:
-            raise InputError("roundabout.inscribed_diameter", f"must be > 0, got {self.inscribed_diameter!r}")
+        if not 0.0 < ro <= MAX_SIZE / 2:
+            limit = f"must be > 0 and at most {MAX_SIZE:g} m"
+            raise InputError("roundabout.inscribed_diameter", f"{limit}, got {self.inscribed_diameter!r}")
         if not (_finite(self.circulatory_width) and 0.0 < self.circulatory_width < ro):
             raise InputError(
                 "roundabout.circulatory_width",
@@ -198,8 +203,8 @@ class Roundabout:
             raise InputError(f"{key}.angle", f"must be a finite number of degrees, got {leg.angle_deg!r}")
         for name in ("lane_width", "entry_radius", "exit_radius", "length"):
             value = getattr(leg, name)
-            if not (_finite(value) and value > 0.0):
-                raise InputError(f"{key}.{name}", f"must be > 0, got {value!r}")
+            if not (_finite(value) and 0.0 < value <= MAX_SIZE):
+                raise InputError(f"{key}.{name}", f"must be > 0 and at most {MAX_SIZE:g} m, got {value!r}")
         if leg.lane_width >= self.outer_radius:
             raise InputError(
                 f"{key}.lane_width",
