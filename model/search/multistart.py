@@ -37,6 +37,7 @@ def solve_ocp(
     guess: Columns | None = None,
     starts: tuple[tuple[float, str], ...] | None = None,
     progress: Callable[[str], None] | None = None,
+    continuation: bool = True,
 ) -> Solution:
     """Solve every pass direction asked for and keep the best validated solution.
 
@@ -50,6 +51,8 @@ def solve_ocp(
         instead of the geometric guesses; it is resampled onto the new grid.
     starts : cold starts as (scale of the Tf guess, route "arc" or "line").
     progress : called with one line of text after each start (e.g. ``print``).
+    continuation : when no start validates, try a homotopy in the final time
+        (``model.search.continuation``) before reporting a diagnosis.
 
     Returns
     -------
@@ -86,14 +89,31 @@ def solve_ocp(
         attempts.append({"pass": "none", "route": "minimal violation", "status": best.status, "valid": best.ok,
                          "objective": best.objective})  # fmt: skip
     elif not best.ok:
-        from model.search.diagnosis import bound_diagnosis, solver_diagnosis
-
-        best.diagnosis = bound_diagnosis(ocp) or solver_diagnosis(best)
+        best = _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, progress, continuation)
     best.nlp.load_primals(best.ipopt.x)  # the model may hold a later start's values
     best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
     best.attempts = attempts
     best.solve_seconds = time.perf_counter() - start
     best.timings = {**best.timings, "all_starts": phase_totals(solutions)}
+    return best
+
+
+def _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, progress, continuation) -> Solution:
+    """A proven bound ends the search; else a homotopy in Tf may find a solution; else the solver's evidence."""
+    from model.search.continuation import final_time_homotopy
+    from model.search.diagnosis import bound_diagnosis, solver_diagnosis
+
+    proof = bound_diagnosis(ocp)
+    if proof is None and continuation:
+        found = final_time_homotopy(
+            ocp, lambda easy: solve_ocp(easy, intervals, verbose, options, continuation=False), progress
+        )
+        status, objective = (found.status, found.objective) if found else ("failed", None)
+        attempts.append({"pass": "best", "route": "final-time homotopy", "status": status,
+                         "valid": bool(found and found.ok), "objective": objective})  # fmt: skip
+        if found is not None and found.ok:
+            return found
+    best.diagnosis = proof or solver_diagnosis(best)
     return best
 
 
