@@ -1,0 +1,49 @@
+"""Road scenarios: a roundabout, a route and vehicle bodies; one solve, one figure each, one paper section."""
+
+_road_globs = [config.get("roads", "workflows/roads/*.toml")]
+ROAD_FILES = {Path(f).stem: f for g in _road_globs for f in sorted(glob(str(repo_path(g))))}
+ROADS = sorted(ROAD_FILES)
+ROAD_FIGURE_CODE = closure(SCRIPTS / "roads_figure.py")
+
+if ROADS:
+    PAPER_SECTIONS += ["results/sections/70-roads.md"]
+    PAPER_FIGURES += expand("results/figures/roads/{road}.png", road=ROADS)
+
+
+rule road_solve:
+    input:
+        scenario=lambda wc: ROAD_FILES[wc.road],
+        wrapper=SCRIPTS / "solve.py",
+        code=SOLVE_CODE,
+    output:
+        summary="results/roads/{road}/summary.json",
+        trajectory="results/roads/{road}/trajectory.csv",
+    log:
+        "results/logs/roads/{road}.log",
+    shell:
+        "{PYTHON} {input.wrapper} {input.scenario} --out results/roads/{wildcards.road} > {log} 2>&1"
+
+
+rule road_figure:
+    input:
+        scenario=lambda wc: ROAD_FILES[wc.road],
+        summary="results/roads/{road}/summary.json",
+        trajectory="results/roads/{road}/trajectory.csv",
+        script=SCRIPTS / "roads_figure.py",
+        code=ROAD_FIGURE_CODE,
+    output:
+        expand("results/figures/roads/{{road}}.{ext}", ext=FORMATS),
+    shell:
+        "{PYTHON} {input.script} {input.scenario} --result results/roads/{wildcards.road}"
+        " --out results/figures/roads/{wildcards.road} --formats {FORMATS}"
+
+
+rule road_section:
+    input:
+        summaries=expand("results/roads/{road}/summary.json", road=ROADS),
+        scenarios=[ROAD_FILES[r] for r in ROADS],
+        script=SCRIPTS / "roads_section.py",
+    output:
+        "results/sections/70-roads.md",
+    shell:
+        "{PYTHON} {input.script} --scenarios {input.scenarios} --results results/roads --out {output}"

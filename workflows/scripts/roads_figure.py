@@ -1,0 +1,41 @@
+"""One road scenario's figure: the manoeuvre to scale with its bodies (or the failure, written as such)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from model.plotting.figures import save  # noqa: E402
+from model.plotting.roads import road_figure  # noqa: E402
+from model.problem.scenario import load_scenario  # noqa: E402
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("scenario", type=Path)
+    ap.add_argument("--result", type=Path, required=True)
+    ap.add_argument("--out", type=Path, required=True, help="output stem")
+    ap.add_argument("--formats", nargs="+", default=["pdf", "png"])
+    args = ap.parse_args()
+    ocp = load_scenario(args.scenario).ocp
+    summary = json.loads((args.result / "summary.json").read_text())
+    if summary.get("valid"):
+        fig = road_figure(ocp, pd.read_csv(args.result / "trajectory.csv"))
+    else:
+        fig, ax = plt.subplots(figsize=(6, 2))
+        ax.axis("off")
+        reason = (summary.get("diagnosis") or {}).get("message", summary.get("status"))
+        ax.text(0.5, 0.5, f"{ocp.name}: FAILED\n{reason}", ha="center", va="center", wrap=True)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    save(fig, args.out, args.formats)
+
+
+if __name__ == "__main__":
+    main()
