@@ -30,3 +30,18 @@ def test_no_homotopy_for_a_free_final_time():
 
     ocp = dataclasses.replace(load_scenario(EXAMPLE).ocp, cost=Time(), final_time=None)
     assert final_time_homotopy(ocp, lambda easy: pytest.fail("must not solve")) is None
+
+
+def test_a_minimum_time_solution_slowed_down_is_a_feasible_energy_start():
+    """Driftless models: the time-optimal trajectory driven slower reaches the goal at any Tf >= T_min."""
+    from model.search.continuation import slowed_minimum_time
+
+    ocp = dataclasses.replace(load_scenario(EXAMPLE).ocp, final_time=3.6, passing="ccw")
+    found, least = slowed_minimum_time(ocp, lambda problem, guess=None: solve_ocp(problem, 40, guess=guess,
+                                                                                 continuation=False))  # fmt: skip
+    assert least is not None and least < 3.6
+    assert found is not None and found.ok and found.final_time == pytest.approx(3.6)
+    too_short = dataclasses.replace(ocp, final_time=0.95 * least)
+    none, least_again = slowed_minimum_time(too_short, lambda problem, guess=None: solve_ocp(
+        problem, 40, guess=guess, continuation=False))  # fmt: skip
+    assert none is None and least_again == pytest.approx(least, rel=1e-6)

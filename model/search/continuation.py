@@ -1,4 +1,9 @@
-"""Continuation where every cold start fails: a homotopy in the final time.
+"""Continuation where every cold start fails: a slowed-down minimum-time solution, or a homotopy in the final time.
+
+The vehicle models are driftless (x' = f(x) u): a trajectory driven in time T is also driven in any
+Tf >= T with the controls scaled by T / Tf. So an energy problem whose cold starts fail is first
+solved for minimum time; if that time is at most Tf, the minimum-time trajectory slowed down to Tf
+is an exactly feasible start.
 
 An energy problem whose final time is tight may defeat every cold start although a trajectory
 exists. Solved first with a generous final time (2x, then 4x the requested one), the solution
@@ -18,6 +23,32 @@ from model.problem.ocp import OCP
 FACTORS = (2.0, 4.0)  # generous final times tried, as multiples of the requested one
 STEPS = 6  # re-solves from the generous to the requested final time
 MAX_HALVINGS = 4
+
+
+def slowed_minimum_time(
+    ocp: OCP, solve: Callable[..., Solution], progress: Callable[[str], None] | None = None
+) -> tuple[Solution | None, float | None]:
+    """The energy problem solved from its minimum-time solution slowed down to Tf; and that minimum time.
+
+    ``solve(problem, guess=None)`` solves a problem from cold starts (without continuation).
+    """
+    if ocp.cost.free_final_time or ocp.final_time is None or ocp.road is not None:
+        return None, None
+    from model.problem.costs import Time
+
+    fastest = solve(dataclasses.replace(ocp, cost=Time(), final_time=None))
+    if progress is not None:
+        progress(f"continuation: minimum time {fastest.final_time:.6g} s ({fastest.status})")
+    if not fastest.ok:
+        return None, None
+    if fastest.final_time > ocp.final_time:
+        return None, fastest.final_time
+    stretch = ocp.final_time / fastest.final_time
+    v = ocp.vehicle
+    guess = {"t": fastest.columns["t"] * stretch, **{s: fastest.columns[s] for s in v.states},
+             **{c: fastest.columns[c] / stretch for c in v.controls}}  # fmt: skip
+    found = solve(ocp, guess=guess)
+    return (found if found.ok else None), fastest.final_time
 
 
 def final_time_homotopy(

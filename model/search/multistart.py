@@ -99,21 +99,32 @@ def solve_ocp(
 
 
 def _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, progress, continuation) -> Solution:
-    """A proven bound ends the search; else a homotopy in Tf may find a solution; else the solver's evidence."""
-    from model.search.continuation import final_time_homotopy
+    """A proven bound ends the search; else a slowed-down minimum-time solution or a homotopy in Tf may
+    find a solution; else the solver's evidence (with the least time found, if above Tf)."""
+    from model.search.continuation import final_time_homotopy, slowed_minimum_time
     from model.search.diagnosis import bound_diagnosis, solver_diagnosis
 
     proof = bound_diagnosis(ocp)
+    least_time = None
     if proof is None and continuation:
-        found = final_time_homotopy(
-            ocp, lambda easy: solve_ocp(easy, intervals, verbose, options, continuation=False), progress
-        )
-        status, objective = (found.status, found.objective) if found else ("failed", None)
-        attempts.append({"pass": "best", "route": "final-time homotopy", "status": status,
-                         "valid": bool(found and found.ok), "objective": objective})  # fmt: skip
-        if found is not None and found.ok:
-            return found
+
+        def solve(problem, guess=None):
+            return solve_ocp(problem, intervals, verbose, options, guess=guess, continuation=False)
+
+        for route, method in (("slowed minimum time", slowed_minimum_time), ("final-time homotopy", None)):
+            if method is not None:
+                found, least_time = method(ocp, solve, progress)
+            else:
+                found = final_time_homotopy(ocp, lambda easy: solve(easy), progress)
+            status, objective = (found.status, found.objective) if found else ("failed", None)
+            attempts.append({"pass": "best", "route": route, "status": status,
+                             "valid": bool(found and found.ok), "objective": objective})  # fmt: skip
+            if found is not None and found.ok:
+                return found
     best.diagnosis = proof or solver_diagnosis(best)
+    if least_time is not None and not proof:
+        best.diagnosis["least_time_found_s"] = least_time
+        best.diagnosis["message"] += f"; the least time found is {least_time:.4g} s > Tf = {ocp.final_time:g} s"
     return best
 
 
