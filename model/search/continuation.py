@@ -16,6 +16,8 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
+import numpy as np
+
 from model.direct.resolve import Resolver
 from model.direct.solution import Solution
 from model.problem.ocp import OCP
@@ -36,7 +38,11 @@ def slowed_minimum_time(
         return None, None
     from model.problem.costs import Time
 
-    fastest = solve(dataclasses.replace(ocp, cost=Time(), final_time=None))
+    timed = dataclasses.replace(ocp, cost=Time(), final_time=None)
+    fastest = solve(timed)
+    shortest = _reeds_shepp_start(timed, solve)
+    if shortest is not None and shortest.ok and (not fastest.ok or shortest.objective < fastest.objective):
+        fastest = shortest
     if progress is not None:
         progress(f"continuation: minimum time {fastest.final_time:.6g} s ({fastest.status})")
     if not fastest.ok:
@@ -49,6 +55,21 @@ def slowed_minimum_time(
              **{c: fastest.columns[c] / stretch for c in v.controls}}  # fmt: skip
     found = solve(ocp, guess=guess)
     return (found if found.ok else None), fastest.final_time
+
+
+def _reeds_shepp_start(timed: OCP, solve: Callable[..., Solution]) -> Solution | None:
+    """The time problem solved from the shortest Reeds-Shepp path (cusps, reversing) driven at 70 % speed."""
+    from model.search.paths import min_turning_radius, path_guess, reeds_shepp
+
+    rho = min_turning_radius(timed.vehicle, timed.bounds, both_ways=True)
+    keys = ("x", "y", "theta")
+    if rho is None or not all(k in timed.final for k in keys) or timed.max_speed() is None:
+        return None
+    path = reeds_shepp(tuple(timed.initial[k] for k in keys), tuple(timed.final[k] for k in keys), rho)
+    tf = max(path.length, 1e-3) / (0.7 * timed.max_speed())
+    guess = path_guess(timed.vehicle, path, tf, 200, initial=timed.initial)
+    guess["t"] = np.linspace(0.0, tf, 201)
+    return solve(timed, guess=guess)
 
 
 def final_time_homotopy(
