@@ -8,6 +8,7 @@ import numpy as np
 import sympy as sp
 
 from model.problem.ocp import OCP
+from model.search.paths import trailer_angle
 from model.vehicles import sym
 
 
@@ -42,7 +43,7 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
         curvature = np.gradient(heading, s) / np.maximum(np.hypot(dx, dy), 1e-9)
         guess["phi"] = np.arctan(curvature * d)
     if "theta1" in v.states:
-        guess["theta1"] = _trailer_heading(ocp, heading, np.hypot(dx, dy), s)
+        guess["theta1"] = _trailer_heading(ocp, heading, np.hypot(dx, dy) * np.gradient(s))
         if "articulation" in ocp.bounds:  # keep the guess inside the jackknife limit
             lo, hi = ocp.bounds["articulation"]
             guess["theta1"] = heading - np.clip(heading - guess["theta1"], lo, hi)
@@ -55,23 +56,19 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
     return guess
 
 
-def _trailer_heading(ocp: OCP, heading: np.ndarray, ds: np.ndarray, s: np.ndarray, substeps: int = 20) -> np.ndarray:
-    """theta1 integrated along the guess path (forward drive): d theta1 / d path = sin(theta - theta1) / L.
+def _trailer_heading(ocp: OCP, heading: np.ndarray, ds: np.ndarray, substeps: int = 10) -> np.ndarray:
+    """theta1 integrated along the guess path driven forwards (``paths.trailer_angle``, RK4 in arc length).
 
-    The off-axle term is left out (it needs phi, which the guess only approximates); the hitch
-    offset changes the trailer's heading little next to its lag behind the tractor.
+    ``ds`` is the path length per node step; the heading is interpolated linearly between nodes,
+    at ``substeps`` RK4 steps per node step.
     """
-    L = ocp.vehicle.parameters()["L"]
-    out = np.empty_like(heading)
-    out[0] = ocp.initial.get("theta1", heading[0])
-    for k in range(len(s) - 1):
-        step = (s[k + 1] - s[k]) * (ds[k] + ds[k + 1]) / 2 / substeps
-        th1 = out[k]
-        for i in range(substeps):
-            th = heading[k] + (heading[k + 1] - heading[k]) * (i + 0.5) / substeps
-            th1 += step * math.sin(th - th1) / L
-        out[k + 1] = th1
-    return out
+    length = np.concatenate([[0.0], np.cumsum((ds[:-1] + ds[1:]) / 2)])
+    fine = np.linspace(0.0, length[-1], 2 * substeps * (len(heading) - 1) + 1)
+    theta = np.interp(fine, length, heading)
+    kappa = np.gradient(theta, fine) if length[-1] > 0 else np.zeros_like(fine)
+    step = length[-1] / (substeps * (len(heading) - 1))
+    values = trailer_angle(ocp.vehicle, theta, kappa, np.ones_like(fine), step, ocp.initial.get("theta1", heading[0]))
+    return np.interp(length, fine[::2], values)
 
 
 def _controls(ocp: OCP, states: dict[str, np.ndarray], speed: np.ndarray, s: np.ndarray, tf: float):

@@ -295,8 +295,13 @@ def reeds_shepp(start: Pose, goal: Pose, rho: float) -> Path:
     'S-'
     """
     rho = _check_rho(rho)
+    return _shortest(start, rho, _rs_candidates(*_local(start, goal, rho)))
+
+
+def _shortest(start: Pose, rho: float, candidates) -> Path:
+    """The path of the shortest (word, signed lengths) candidate; the first of equal ones."""
     best_len, best = math.inf, ("S", (0.0,))
-    for kinds, params in _rs_candidates(*_local(start, goal, rho)):
+    for kinds, params in candidates:
         total = sum(abs(p) for p in params)
         if total < best_len - 1e-12:
             best_len, best = total, (kinds, params)
@@ -363,14 +368,16 @@ def dubins(start: Pose, goal: Pose, rho: float) -> Path:
     True
     """
     rho = _check_rho(rho)
-    x, y, phi = _local(start, goal, rho)
-    best_len, best = math.inf, ("S", (0.0,))
+    return _shortest(start, rho, _dubins_candidates(*_local(start, goal, rho)))
+
+
+def _dubins_candidates(x: float, y: float, phi: float):
+    """(word, lengths) of every Dubins word that exists; RSR, RSL, RLR by reflecting LSL, LSR, LRL."""
     for base, kinds in _DUBINS_BASES:
         for reflect in (False, True):
             params = base(x, -y, -phi) if reflect else base(x, y, phi)
-            if params is not None and sum(params) < best_len - 1e-12:
-                best_len, best = sum(params), (kinds.translate(_SWAP) if reflect else kinds, params)
-    return _make_path(start, rho, *best)
+            if params is not None:
+                yield (kinds.translate(_SWAP) if reflect else kinds), params
 
 
 # -- sampling ---------------------------------------------------------------------------------
@@ -496,30 +503,40 @@ def _path_controls(
 
 
 def _trailer_angle(vehicle: Vehicle, path: Path, n: int, theta1_0: float) -> np.ndarray:
-    """theta1 along the path: d(theta1)/ds = direction (sin b + h kappa cos b) / L, b = theta - theta1."""
-    p = vehicle.parameters()
-    h, trailer = p.get("h", 0.0), p["L"]
-    scale = min(path.rho, trailer)
+    """theta1 at the n + 1 equal arc-length nodes of ``path`` (RK4 with steps of at most 2 % of min(rho, L))."""
+    scale = min(path.rho, vehicle.parameters()["L"])
     m = max(2, math.ceil(path.length / (n * 0.02 * scale))) if path.length > 0 else 1
     fine = _evaluate(path, np.linspace(0.0, path.length, 2 * n * m + 1))
-    th, k, sgn = fine["theta"], fine["kappa"], fine["direction"]
-    step = 2.0 * path.length / (2 * n * m)
+    values = trailer_angle(vehicle, fine["theta"], fine["kappa"], fine["direction"], path.length / (n * m), theta1_0)
+    return values[::m]
+
+
+def trailer_angle(
+    vehicle: Vehicle, theta: np.ndarray, kappa: np.ndarray, direction: np.ndarray, step: float, theta1_0: float
+) -> np.ndarray:
+    """The trailer heading along a sampled tractor path, by RK4 in arc length.
+
+    d(theta1)/ds = direction (sin b + h kappa cos b) / L with b = theta - theta1 (the tractor-trailer's
+    equation divided by |u1|). ``theta``, ``kappa`` and ``direction`` are given at 2 k + 1 points half a
+    ``step`` apart; the result holds theta1 at the k + 1 whole steps.
+    """
+    p = vehicle.parameters()
+    h, trailer = p.get("h", 0.0), p["L"]
 
     def rate(j: int, th1: float) -> float:
-        b = th[j] - th1
-        return sgn[j] * (math.sin(b) + h * k[j] * math.cos(b)) / trailer
+        b = theta[j] - th1
+        return direction[j] * (math.sin(b) + h * kappa[j] * math.cos(b)) / trailer
 
-    values = np.empty(n * m + 1)
+    values = np.empty((len(theta) - 1) // 2 + 1)
     values[0] = theta1_0
-    for i in range(n * m):
-        j = 2 * i
-        a = values[i]
+    for i in range(len(values) - 1):
+        j, a = 2 * i, values[i]
         k1 = rate(j, a)
         k2 = rate(j + 1, a + 0.5 * step * k1)
         k3 = rate(j + 1, a + 0.5 * step * k2)
         k4 = rate(j + 2, a + step * k3)
         values[i + 1] = a + step * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
-    return values[::m]
+    return values
 
 
 def min_turning_radius(
