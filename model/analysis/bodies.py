@@ -12,28 +12,19 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-import sympy as sp
 
 from model.problem.ocp import OCP
 from model.scene.geometry import clearance
 from model.scene.roundabout import exit_taken
-from model.vehicles import sym
 
 SUBSTEPS = 4
 
 
 def body_corners(ocp: OCP, states: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Corners (n, 4, 2) of each body at the given state samples."""
-    v = ocp.vehicle
-    params = {sym(k): val for k, val in v.parameters().items()}
-    poses = v.body_poses()
-    out = {}
-    for name, body in ocp.bodies.items():
-        fn = sp.lambdify(v.state_symbols(), [e.subs(params) for e in poses[name]], "numpy")
-        x, y, heading = (np.broadcast_to(np.asarray(a, float), states[v.states[0]].shape)
-                         for a in fn(*[states[s] for s in v.states]))  # fmt: skip
-        out[name] = body.corners(x, y, heading)
-    return out
+    poses = ocp.vehicle.body_poses()
+    return {name: body.corners(*ocp.vehicle.state_function(list(poses[name]))(states))
+            for name, body in ocp.bodies.items()}  # fmt: skip
 
 
 def substeps(states: Mapping[str, np.ndarray], names, count: int = SUBSTEPS) -> dict[str, np.ndarray]:

@@ -14,7 +14,6 @@ import sympy as sp
 from model.analysis.bodies import road_measures
 from model.analysis.columns import Columns, as_arrays
 from model.problem.ocp import OCP
-from model.vehicles import sym
 
 TOL = {"defect": 1e-6, "bound": 1e-6, "boundary": 1e-6, "clearance": 1e-6, "grid": 1e-9}
 
@@ -93,13 +92,8 @@ def _bound_violation(ocp: OCP, traj: dict[str, np.ndarray]) -> float:
 
 def _outputs(ocp: OCP, traj: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """The vehicle's bounded outputs evaluated at the nodes."""
-    v = ocp.vehicle
-    params = {sym(k): val for k, val in v.parameters().items()}
-    out = {}
-    for name, expr in v.outputs().items():
-        fn = sp.lambdify(v.state_symbols(), expr.subs(params), "numpy")
-        out[name] = np.broadcast_to(np.asarray(fn(*[traj[s] for s in v.states]), dtype=float), traj["t"].shape)
-    return out
+    outputs = ocp.vehicle.outputs()
+    return dict(zip(outputs, ocp.vehicle.state_function(list(outputs.values()))(traj), strict=True))
 
 
 def _boundary_error(ocp: OCP, traj: dict[str, np.ndarray]) -> float:

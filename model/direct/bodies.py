@@ -136,12 +136,7 @@ def _lane_margin(rb, leg: int, lane: str, x, y, r: float):
     Without ``along >= r`` the strip would continue through the centre and past the opposite curb.
     """
     g = rb.legs[leg]
-    side = lane_side(rb, lane)
-    ux, uy = g.axis
-    nx, ny = g.normal
-    dx, dy = x - rb.center[0], y - rb.center[1]
-    across = side * (nx * dx + ny * dy)
-    along = ux * dx + uy * dy
+    along, across = _lane_frame(rb, leg, lane, x, y)
     margins = [across - r, g.lane_width - across - r, along - r, rb.outer_radius + g.length - along - r]
     return -_smooth_max([-mi for mi in margins])
 
@@ -157,11 +152,15 @@ def _fillet_margin(rb, leg: int, lane: str, x, y, r: float):
         d = d / np.hypot(*d)
         sign = 1.0 if d[0] * corner[1] - d[1] * corner[0] > 0 else -1.0  # the corner's side of the ray
         margins.append(sign * (d[0] * (y - fy) - d[1] * (x - fx)))
-    g = rb.legs[leg]
-    side = lane_side(rb, lane)
-    across = side * (g.normal[0] * (x - rb.center[0]) + g.normal[1] * (y - rb.center[1]))
-    margins.append(across - r)
+    margins.append(_lane_frame(rb, leg, lane, x, y)[1] - r)
     return -_smooth_max([-mi for mi in margins])
+
+
+def _lane_frame(rb, leg: int, lane: str, x, y):
+    """(along, across): the point's distance along the leg's axis and across it into the lane (0 on the centre line)."""
+    g = rb.legs[leg]
+    dx, dy = x - rb.center[0], y - rb.center[1]
+    return g.axis[0] * dx + g.axis[1] * dy, lane_side(rb, lane) * (g.normal[0] * dx + g.normal[1] * dy)
 
 
 def _saturate(margin):

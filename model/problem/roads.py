@@ -7,7 +7,7 @@ from typing import Any
 from model.errors import InputError
 from model.problem.tables import array_of_tables, no_unknown, number
 from model.scene.road import Road
-from model.scene.roundabout import Leg, Roundabout, Route, check_lane_width
+from model.scene.roundabout import Leg, Roundabout, Route
 
 ROUNDABOUT_KEYS = {"center", "inscribed_diameter", "circulatory_width", "apron_width", "apron_use", "traffic", "legs"}
 LEG_KEYS = {"angle", "lane_width", "entry_radius", "exit_radius", "length"}
@@ -79,9 +79,3 @@ def road_boundary_values(road: Road, initial: dict[str, float], final: dict[str,
     start = {k: v for k, v in {**start, **initial}.items() if k in states}
     goal = {k: v for k, v in {**goal, **final}.items() if k in states}
     return start, goal
-
-
-def check_bodies_fit(road: Road, bodies: dict) -> None:
-    """Every lane must be wider than every body."""
-    for body in bodies.values():
-        check_lane_width(road.roundabout, body.width)

@@ -15,7 +15,7 @@ from typing import Any
 from model.errors import InputError
 from model.problem.costs import Energy, Time
 from model.problem.ocp import OCP, PASSES
-from model.problem.roads import check_bodies_fit, parse_road, road_boundary_values
+from model.problem.roads import parse_road, road_boundary_values
 from model.problem.tables import (
     array_of_tables,
     check_document,
@@ -28,6 +28,7 @@ from model.problem.tables import (
     table_of,
 )
 from model.scene.obstacles import Circle
+from model.scene.roundabout import check_lane_width
 from model.vehicles import VEHICLES, Body, Vehicle, preset
 
 TOP_KEYS = {"name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route"}
@@ -88,7 +89,8 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     initial = numbers(table_of(data, "initial") if "initial" in data or road is None else {}, "initial.")
     final = numbers(table_of(data, "final") if "final" in data else {}, "final.")
     if road is not None:
-        check_bodies_fit(road, bodies)
+        for body in bodies.values():
+            check_lane_width(road.roundabout, body.width)
         initial, final = road_boundary_values(road, initial, final, vehicle.states)
     ocp = OCP(
         vehicle=vehicle,

@@ -45,11 +45,10 @@ def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
     name, value, edge, point, k = worst
     t = float(relaxed.columns["t"][k])
     depth = max(0.0, -value)
-    body = "vehicle" if name == "vehicle" else "trailer"
     return {
         "kind": "minimal violation",
         "constraint": "body in corridor",
-        "body": body,
+        "body": name,
         "edge": edge,
         "encroachment_m": depth,
         "at_time_s": t,
@@ -57,7 +56,7 @@ def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
         "summed_slack_m": violation,
         "relaxed_status": relaxed.status,
         "message": (
-            f"no valid trajectory found: the {body} crosses the {edge} by {depth:.2f} m at t = {t:.2f} s on the "
+            f"no valid trajectory found: the {name} crosses the {edge} by {depth:.2f} m at t = {t:.2f} s on the "
             "best trajectory a slack-minimising solve reached (an upper bound on what must give way)"
         ),
     }

@@ -111,11 +111,11 @@ def _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, prog
         def solve(problem, guess=None):
             return solve_ocp(problem, intervals, verbose, options, guess=guess, continuation=False)
 
-        for route, method in (("slowed minimum time", slowed_minimum_time), ("final-time homotopy", None)):
-            if method is not None:
-                found, least_time = method(ocp, solve, progress)
-            else:
-                found = final_time_homotopy(ocp, lambda easy: solve(easy), progress)
+        attempts_to_make = (("slowed minimum time", lambda: slowed_minimum_time(ocp, solve, progress)),
+                            ("final-time homotopy", lambda: (final_time_homotopy(ocp, solve, progress), None)))
+        for route, attempt in attempts_to_make:
+            found, least = attempt()
+            least_time = least_time if least is None else least
             status, objective = (found.status, found.objective) if found else ("failed", None)
             attempts.append({"pass": "best", "route": route, "status": status,
                              "valid": bool(found and found.ok), "objective": objective})  # fmt: skip

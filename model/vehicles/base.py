@@ -6,6 +6,7 @@ the Pontryagin engine all read ``states``, ``controls`` and ``dynamics()``.
 
 from __future__ import annotations
 
+import numpy as np
 import sympy as sp
 
 
@@ -50,6 +51,20 @@ class Vehicle:
 
     def parameter_symbols(self) -> dict[str, sp.Symbol]:
         return {k: sym(k) for k in self.parameters()}
+
+    def state_function(self, exprs: list[sp.Expr]):
+        """Numpy evaluation of expressions of the state (parameters substituted) on arrays of node values.
+
+        Returns a function of a mapping state name -> array giving one float array per expression.
+        """
+        values = {sym(k): v for k, v in self.parameters().items()}
+        fn = sp.lambdify(self.state_symbols(), [sp.sympify(e).subs(values) for e in exprs], "numpy")
+
+        def evaluate(states) -> list[np.ndarray]:
+            shape = np.shape(states[self.states[0]])
+            return [np.broadcast_to(np.asarray(a, float), shape) for a in fn(*[states[s] for s in self.states])]
+
+        return evaluate
 
     def rhs(self, numeric: bool = True) -> list[sp.Expr]:
         """Dynamics in state order; with ``numeric`` the parameters are substituted."""
