@@ -97,24 +97,14 @@ def build(data: dict, n: int) -> Transcription:
     time_optimal = data["problem"]["objective"] == "time"
     tf = opti.variable() if time_optimal else opti.parameter()
     h = tf / n
-    x, y, theta, phi, u1, u2 = (X[k] for k in STATES + CONTROLS)
-    d = wheelbase(data)
-    rhs = {"x": u1 * ca.cos(theta), "y": u1 * ca.sin(theta), "theta": u1 * ca.tan(phi) / d, "phi": u2}
-    for s in STATES:
-        opti.subject_to(X[s][1:] - X[s][:-1] == h / 2 * (rhs[s][:-1] + rhs[s][1:]))
-    for s, val in data["initial"].items():
-        opti.subject_to(X[s][0] == val)
-    for s, val in data.get("final", {}).items():
-        opti.subject_to(X[s][-1] == val)
-    for name, (lo, hi) in data["bounds"].items():
-        opti.subject_to(opti.bounded(lo, X[name], hi))
-    script.obstacles(opti, data.get("obstacles", []), x, y, pass_constraint(data))
+    script.transcribe(opti, data, X, h)
+    script.obstacles(opti, data.get("obstacles", []), X["x"], X["y"], pass_constraint(data))
     if time_optimal:
         opti.subject_to(tf >= 1e-3)
         objective = tf
     else:
         opti.set_value(tf, float(data["problem"]["final_time"]))
-        L = (u1**2 + u2**2) / 2
+        L = (X["u1"] ** 2 + X["u2"] ** 2) / 2
         objective = h * (ca.sum1(L) - (L[0] + L[-1]) / 2)
     opti.minimize(objective)
     opti.solver("ipopt", script.CASADI_OPTIONS, PEER_IPOPT)

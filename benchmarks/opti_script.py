@@ -139,31 +139,35 @@ def build(data: dict, n: int, passing: str, route: str, tf_scale: float) -> tupl
     tf_guess = guess_final_time(data, passing) * (tf_scale if time_optimal else 1.0)
     tf = opti.variable() if time_optimal else tf_guess
     h = tf / n
-    d = wheelbase(data)
-    x, y, theta, phi, u1, u2 = (X[k] for k in STATES + CONTROLS)
-    rhs = {"x": u1 * ca.cos(theta), "y": u1 * ca.sin(theta), "theta": u1 * ca.tan(phi) / d, "phi": u2}
-    for s in STATES:
-        f = rhs[s]
-        opti.subject_to(X[s][1:] - X[s][:-1] == h / 2 * (f[:-1] + f[1:]))
-    for s, val in data["initial"].items():
-        opti.subject_to(X[s][0] == val)
-    for s, val in data.get("final", {}).items():
-        opti.subject_to(X[s][-1] == val)
-    for name, (lo, hi) in data["bounds"].items():
-        opti.subject_to(opti.bounded(lo, X[name], hi))
-    obstacles(opti, data.get("obstacles", []), x, y, passing)
+    transcribe(opti, data, X, h)
+    obstacles(opti, data.get("obstacles", []), X["x"], X["y"], passing)
     if time_optimal:
         opti.subject_to(tf >= 1e-3)
         opti.set_initial(tf, tf_guess)
         objective = tf
     else:
-        L = (u1**2 + u2**2) / 2
+        L = (X["u1"] ** 2 + X["u2"] ** 2) / 2
         objective = h * (ca.sum1(L) - (L[0] + L[-1]) / 2)
     opti.minimize(objective)
     for name, vals in initial_guess(data, passing, n, tf_guess, route).items():
         opti.set_initial(X[name], vals)
     opti.solver("ipopt", CASADI_OPTIONS, IPOPT_OPTIONS)
     return opti, objective
+
+
+def transcribe(opti: ca.Opti, data: dict, X: dict, h) -> None:
+    """Trapezoid defects of the truck, boundary values and bounds (the project's transcription)."""
+    d = wheelbase(data)
+    x, y, theta, phi, u1, u2 = (X[k] for k in STATES + CONTROLS)
+    rhs = {"x": u1 * ca.cos(theta), "y": u1 * ca.sin(theta), "theta": u1 * ca.tan(phi) / d, "phi": u2}
+    for s in STATES:
+        opti.subject_to(X[s][1:] - X[s][:-1] == h / 2 * (rhs[s][:-1] + rhs[s][1:]))
+    for s, val in data["initial"].items():
+        opti.subject_to(X[s][0] == val)
+    for s, val in data.get("final", {}).items():
+        opti.subject_to(X[s][-1] == val)
+    for name, (lo, hi) in data["bounds"].items():
+        opti.subject_to(opti.bounded(lo, X[name], hi))
 
 
 def obstacles(opti: ca.Opti, items: list[dict], x: ca.MX, y: ca.MX, passing: str) -> None:
