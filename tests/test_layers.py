@@ -25,7 +25,8 @@ LAYERS["model.search"] = {*LAYERS["model.direct"], "model.direct"}
 LAYERS["model.studies"] = {*LAYERS["model.search"], "model.search", "model.indirect"}
 LAYERS["model.plotting"] = {*LAYERS["model.analysis"], "model.analysis"}
 LAYERS["derivations.paper"] = {*LAYERS["derivations"], "derivations"}
-LAYERS["model.cli"] = {*LAYERS["model.search"], "model.search"}
+LAYERS["model.simulation"] = {*LAYERS["model.search"], "model.search"}
+LAYERS["model.cli"] = {*LAYERS["model.simulation"], "model.simulation"}
 LAYERS["model"] = set(LAYERS)  # the package's lazy public API may name any layer
 
 
