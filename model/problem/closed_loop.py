@@ -1,12 +1,23 @@
 """The closed-loop keys of a scenario (docs/closed-loop-format.md): [disturbance] and [control].
 
 The plant differs from the model the controller uses by a ``Disturbance``; ``ControlSettings``
-say how often the controller acts and how far MPC looks ahead.
+say how often the controller acts and how far MPC looks ahead. ``parse_closed_loop`` reads both
+tables with one ``InputError`` per bad key, as the rest of the scenario parser does.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from typing import Any
+
+from model.errors import InputError
+from model.problem.tables import is_number, no_unknown, number, table_of
+from model.vehicles import Vehicle
+
+DISTURBANCE_KEYS = {"speed_gain", "steering_bias", "drift", "wheelbase", "delay", "noise", "seed"}
+CONTROL_KEYS = {"sample_time", "horizon"}
+MULTIPLE_TOL = 1e-9  # relative: delay / sample_time within this of a whole number
 
 
 @dataclass(frozen=True)
@@ -45,4 +56,107 @@ class ControlSettings:
         return int(round(disturbance.delay / self.sample_time))
 
 
-__all__ = ["ControlSettings", "Disturbance"]
+def parse_closed_loop(data: dict[str, Any], vehicle: Vehicle | None = None) -> tuple[Disturbance, ControlSettings]:
+    """The scenario's ``[disturbance]`` and ``[control]`` tables (defaults where absent).
+
+    Parameters
+    ----------
+    data : dict
+        The whole TOML document.
+    vehicle : Vehicle, optional
+        The scenario's vehicle: ``disturbance.wheelbase`` may name only its length parameters,
+        and ``disturbance.steering_bias`` needs a steering angle ``phi``.
+
+    Returns
+    -------
+    (Disturbance, ControlSettings)
+
+    Raises
+    ------
+    InputError
+        Naming the first bad key (unknown keys with a "did you mean" hint).
+    """
+    control = _control(table_of(data, "control") if "control" in data else {})
+    disturbance = _disturbance(table_of(data, "disturbance") if "disturbance" in data else {}, vehicle)
+    ratio = disturbance.delay / control.sample_time
+    if abs(ratio - round(ratio)) > MULTIPLE_TOL * max(1.0, ratio):
+        raise InputError(
+            "disturbance.delay",
+            f"must be a whole multiple of control.sample_time = {control.sample_time:g} s, got {disturbance.delay:g} s",
+        )
+    return disturbance, control
+
+
+def _control(table: dict[str, Any]) -> ControlSettings:
+    no_unknown(table, CONTROL_KEYS, "control.")
+    sample_time = _finite(table, "sample_time", "control.", ControlSettings.sample_time)
+    if sample_time <= 0:
+        raise InputError("control.sample_time", f"must be > 0, got {sample_time:g}")
+    horizon = table.get("horizon", ControlSettings.horizon)
+    if horizon != "shrinking" and (isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 2):
+        raise InputError("control.horizon", f'must be a whole number >= 2 or "shrinking", got {horizon!r}')
+    return ControlSettings(sample_time=sample_time, horizon=horizon)
+
+
+def _disturbance(table: dict[str, Any], vehicle: Vehicle | None) -> Disturbance:
+    where = "disturbance."
+    no_unknown(table, DISTURBANCE_KEYS, where)
+    gain = _finite(table, "speed_gain", where, 1.0)
+    if gain <= 0:
+        raise InputError(where + "speed_gain", f"must be > 0, got {gain:g}")
+    bias = _finite(table, "steering_bias", where, 0.0)
+    if bias != 0 and vehicle is not None and "phi" not in vehicle.states:
+        raise InputError(where + "steering_bias", f"the {vehicle.model} model has no steering angle phi; leave it 0")
+    delay = _finite(table, "delay", where, 0.0)
+    noise = _finite(table, "noise", where, 0.0)
+    for key, val in (("delay", delay), ("noise", noise)):
+        if val < 0:
+            raise InputError(where + key, f"must be >= 0, got {val:g}")
+    seed = table.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
+        raise InputError(where + "seed", f"must be a whole number >= 0, got {seed!r}")
+    return Disturbance(
+        speed_gain=gain,
+        steering_bias=bias,
+        drift=_drift(table.get("drift", [0.0, 0.0])),
+        wheelbase=_lengths(table["wheelbase"], vehicle) if "wheelbase" in table else {},
+        delay=delay,
+        noise=noise,
+        seed=seed,
+    )
+
+
+def _finite(table: dict[str, Any], key: str, where: str, default: float) -> float:
+    val = number(table, key, where, default)
+    if not math.isfinite(val):
+        raise InputError(where + key, f"must be a finite number, got {val}")
+    return val
+
+
+def _drift(val: Any) -> tuple[float, float]:
+    if not (isinstance(val, list) and len(val) == 2 and all(is_number(v) and math.isfinite(v) for v in val)):
+        raise InputError("disturbance.drift", f"must be [w_x, w_y] (two finite numbers, m/s), got {val!r}")
+    return float(val[0]), float(val[1])
+
+
+def _lengths(val: Any, vehicle: Vehicle | None) -> dict[str, float]:
+    """``wheelbase = 5.3`` or ``wheelbase = {wheelbase = 3.9, trailer_wheelbase = 8.0}``: the plant's lengths."""
+    key = "disturbance.wheelbase"
+    allowed = set(vehicle.parameter_keys.values()) if vehicle is not None else {"wheelbase", "trailer_wheelbase"}
+    if vehicle is not None and "wheelbase" not in allowed:
+        raise InputError(key, f"the {vehicle.model} model has no wheelbase")
+    table = val if isinstance(val, dict) else {"wheelbase": val}
+    no_unknown(table, allowed, key + ".")
+    lengths = {}
+    for name in table:
+        where = key if not isinstance(val, dict) else f"{key}.{name}"
+        length = table[name]
+        if not is_number(length) or not math.isfinite(length):
+            raise InputError(where, f"must be a finite number (m) or a table of the model's lengths, got {length!r}")
+        if name != "hitch_offset" and length <= 0:
+            raise InputError(where, f"must be > 0, got {length:g}")
+        lengths[name] = float(length)
+    return lengths
+
+
+__all__ = ["ControlSettings", "Disturbance", "parse_closed_loop"]

@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import dataclasses
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from model.errors import InputError
+from model.problem.closed_loop import ControlSettings, Disturbance, parse_closed_loop
 from model.problem.costs import Energy, Time
 from model.problem.ocp import OCP, PASSES
 from model.problem.roads import parse_road, road_boundary_values
@@ -31,7 +32,10 @@ from model.scene.obstacles import Circle
 from model.scene.roundabout import check_lane_width
 from model.vehicles import VEHICLES, Body, Vehicle, preset
 
-TOP_KEYS = {"name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route"}
+TOP_KEYS = {
+    "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
+    "disturbance", "control",
+}  # fmt: skip
 PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
 OBJECTIVES = {"energy": Energy, "time": Time}
@@ -39,12 +43,14 @@ OBJECTIVES = {"energy": Energy, "time": Time}
 
 @dataclass
 class Scenario:
-    """A parsed scenario: the problem plus how to discretise it."""
+    """A parsed scenario: the problem plus how to discretise it, and how its closed loop runs."""
 
     ocp: OCP
     intervals: int = 100
     scheme: str = "trapezoid"
     path: Path | None = None
+    disturbance: Disturbance = field(default_factory=Disturbance)
+    control: ControlSettings = field(default_factory=ControlSettings)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -85,6 +91,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     if isinstance(intervals, bool) or not isinstance(intervals, int) or intervals < 1:
         raise InputError("problem.intervals", f"must be a whole number >= 1, got {intervals!r}")
     final_time = number(problem, "final_time", "problem.") if "final_time" in problem else None
+    disturbance, control = parse_closed_loop(data, vehicle)
     road = parse_road(data)
     initial = numbers(table_of(data, "initial") if "initial" in data or road is None else {}, "initial.")
     final = numbers(table_of(data, "final") if "final" in data else {}, "final.")
@@ -106,7 +113,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         name=string(data, "name", default_name),
         title=string(data, "title", ""),
     )
-    return Scenario(ocp=ocp, intervals=intervals, scheme=scheme, path=path)
+    return Scenario(ocp=ocp, intervals=intervals, scheme=scheme, path=path, disturbance=disturbance, control=control)
 
 
 BODY_TABLES = {"body": "vehicle", "trailer_body": "trailer"}  # [vehicle.<table>] -> body name
