@@ -1,63 +1,285 @@
-"""A road manoeuvre as a designer draws it: the roundabout to scale, bodies at intervals, swept areas.
+"""A road manoeuvre as a roundabout designer draws it: the plan to scale, bodies at intervals, swept paths.
 
-``road_figure`` draws the roadway (ring, apron, island, every leg's lanes with their fillets and
-centre lines), the route's corridor outline, the area each body sweeps, the bodies every few
-nodes, the rear-axle path, and beside it the controls and (for a trailer) the articulation angle.
+``road_figure`` draws the plan (paved area with its curbs, the hatched truck apron, the central
+island, the leg centre lines and give-way lines), the envelope each body sweeps, the bodies every
+few nodes, the axle tracks, a scale bar and a north arrow; beside it the controls, the steering
+angle and (for a trailer) the articulation angle over time with their bounds. ``draw_roundabout``,
+``draw_scale_bar`` and ``geometry_patch`` are shared with the animation (``model.plotting.animation``).
 """
 
 from __future__ import annotations
 
+import math
+import textwrap
 from collections.abc import Mapping
 
 import matplotlib.pyplot as plt
 import numpy as np
+import shapely
+from matplotlib.colors import to_rgb
+from matplotlib.patches import PathPatch
 from matplotlib.patches import Polygon as PolygonPatch
+from matplotlib.path import Path as MplPath
+from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
 from model.analysis.bodies import body_corners, swept_polygons
-from model.plotting.figures import PALETTE, apply_style
+from model.plotting.figures import apply_style
 from model.problem.ocp import OCP
-from model.scene.roundabout import apron_region, fillet_region, island_region, lane_region, ring_region
+from model.scene.geometry import Disc
+from model.scene.roundabout import (
+    Roundabout,
+    apron_region,
+    fillet_region,
+    island_region,
+    lane_side,
+    leg_point,
+)
 
-ROAD, APRON, ISLAND, CURB = "#d9d9d9", "#c2a878", "#9cc68f", "#404040"
-BODY_COLORS = {"vehicle": PALETTE[0], "trailer": PALETTE[1]}
+PAVED, APRON, ISLAND, CURB, MARKING = "#e3e3e3", "#e8d5b0", "#b9d9a8", "#262626", "white"
+BODY_COLORS = {"vehicle": "#1f5fa8", "trailer": "#b2182b"}
+TRACK_STYLES = {"front axle": "-", "rear axle": "--", "trailer axle": ":"}
+SCALE_BAR_GID = "scale-bar"
+CLOSE = 1e-4  # m: slits narrower than twice this between the carriageway's polygons are closed
+NICE_LENGTHS = (1, 2, 5, 10, 20, 25, 50, 100, 200, 500)
+DEG = 180.0 / math.pi
+PANEL_LABELS = {
+    "u1": ("speed $u_1$", "m/s", 1.0),
+    "u2": (r"steering rate $u_2$", "deg/s", DEG),
+    "phi": (r"steering $\phi$", "deg", DEG),
+    "articulation": (r"articulation $\theta-\theta_1$", "deg", DEG),
+}
 
 
-def _fill(ax: plt.Axes, geometry, **style) -> None:
-    """Fill a shapely (Multi)Polygon, holes included."""
-    import shapely
-
-    for part in shapely.get_parts(geometry):
-        if part.is_empty:
-            continue
-        ax.fill(*part.exterior.xy, **style)
-        for hole in part.interiors:
-            ax.fill(*hole.xy, color="white", lw=0)
+# --------------------------------------------------------------------------- shapes as patches
 
 
-def draw_roundabout(ax: plt.Axes, ocp: OCP) -> None:
-    """The roadway of every leg, the ring, apron and island, and the route's corridor outline."""
+def geometry_patch(geometry, **style) -> PathPatch:
+    """One patch for a shapely (Multi)Polygon, holes left open.
+
+    Parameters
+    ----------
+    geometry : shapely Polygon or MultiPolygon
+        The area to draw; empty parts are skipped.
+    **style
+        Patch properties (facecolor, edgecolor, hatch, alpha, ...).
+
+    Returns
+    -------
+    PathPatch
+        Exteriors counter-clockwise and holes clockwise, so the non-zero fill leaves the holes empty.
+    """
+    vertices, codes = [], []
+    for part in shapely.get_parts(shapely.orient_polygons(geometry)):
+        for ring in (part.exterior, *part.interiors) if not part.is_empty else ():
+            xy = np.asarray(ring.coords)
+            vertices.append(xy)
+            codes.append([MplPath.MOVETO] + [MplPath.LINETO] * (len(xy) - 2) + [MplPath.CLOSEPOLY])
+    if not vertices:
+        return PathPatch(MplPath(np.zeros((1, 2)), [MplPath.MOVETO]), **style)
+    return PathPatch(MplPath(np.concatenate(vertices), np.concatenate(codes)), **style)
+
+
+def _plot_lines(ax: plt.Axes, lines, **style) -> None:
+    """Draw every LineString part of a shapely geometry."""
+    for part in shapely.get_parts(lines):
+        if isinstance(part, shapely.LineString | shapely.LinearRing) and not part.is_empty:
+            ax.plot(*np.asarray(part.coords).T, **style)
+
+
+# --------------------------------------------------------------------------- the roundabout
+
+
+def paved_area(rb: Roundabout):
+    """The carriageway: the disc of the outer curb with every leg's lanes and curb fillets (shapely).
+
+    The union of the exact shapes' polygons leaves slivers along the outer curb circle and slits
+    between touching polygons: the slits are closed by a +-``CLOSE`` buffer and only the exteriors
+    are kept (the island and apron are drawn over the carriageway).
+    """
+    parts = [Disc(rb.center, rb.outer_radius, "outer curb").polygon()]
+    for leg, g in enumerate(rb.legs):
+        end, w = rb.outer_radius + g.length, g.lane_width
+        parts.append(shapely.Polygon([leg_point(rb, leg, a, s) for a, s in ((0, -w), (end, -w), (end, w), (0, w))]))
+        parts += [fillet_region(rb, leg, lane).polygon for lane in ("entry", "exit")]
+    closed = shapely.union_all(parts).buffer(CLOSE, join_style="mitre").buffer(-CLOSE, join_style="mitre")
+    return shapely.union_all([shapely.Polygon(p.exterior) for p in shapely.get_parts(closed)])
+
+
+def _leg_ends(rb: Roundabout):
+    """The cut lines where the drawn legs end (not curbs)."""
+    ends = []
+    for i, g in enumerate(rb.legs):
+        reach = rb.outer_radius + g.length
+        ends.append(shapely.LineString([leg_point(rb, i, reach, -g.lane_width), leg_point(rb, i, reach, g.lane_width)]))
+    return shapely.union_all(ends)
+
+
+def _give_way_line(rb: Roundabout, leg: int) -> np.ndarray:
+    """Points of the entry lane's give-way line, along the outer curb circle across the lane."""
+    w, side = rb.legs[leg].lane_width, lane_side(rb, "entry")
+    across = np.linspace(0.0, side * w, 12)
+    along = np.sqrt(rb.outer_radius**2 - across**2)
+    return np.array([leg_point(rb, leg, a, s) for a, s in zip(along, across, strict=True)])
+
+
+def draw_roundabout(ax: plt.Axes, ocp: OCP, label: bool = True) -> None:
+    """The plan of the roundabout to scale.
+
+    Parameters
+    ----------
+    ax : Axes
+        Where to draw (equal aspect is set by the caller).
+    ocp : OCP
+        A problem with a ``road``.
+    label : bool
+        Give the apron and the island legend labels.
+    """
     rb = ocp.road.roundabout
-    for leg in range(len(rb.legs)):
-        for lane in ("entry", "exit"):
-            _fill(ax, lane_region(rb, leg, lane).polygon, color=ROAD, lw=0)
-            _fill(ax, fillet_region(rb, leg, lane).polygon, color=ROAD, lw=0)
-        axis = rb.legs[leg].axis
-        reach = rb.outer_radius + rb.legs[leg].length
-        start = np.asarray(rb.center) + rb.outer_radius * axis
-        ax.plot(*np.column_stack([start, np.asarray(rb.center) + reach * axis]), color="white", lw=0.8, ls=(0, (6, 6)))
-    _fill(ax, ring_region(rb).polygon, color=ROAD, lw=0)
+    paved = paved_area(rb)
+    ax.add_patch(geometry_patch(paved, facecolor=PAVED, lw=0, zorder=0))
+    curbs = shapely.difference(paved.boundary, _leg_ends(rb).buffer(1e-3))
+    _plot_lines(ax, curbs, color=CURB, lw=1.3, solid_capstyle="butt", zorder=3)
+    for leg, g in enumerate(rb.legs):
+        line = np.array([leg_point(rb, leg, rb.outer_radius, 0.0), leg_point(rb, leg, rb.outer_radius + g.length, 0.0)])
+        ax.plot(*line.T, color=MARKING, lw=1.0, dashes=(4, 3), zorder=1)
+        ax.plot(*_give_way_line(rb, leg).T, color=MARKING, lw=1.2, dashes=(1.5, 1.5), zorder=1)
     if rb.apron_width > 0:
-        _fill(ax, apron_region(rb).polygon, color=APRON, lw=0, label="truck apron")
-    _fill(ax, island_region(rb).polygon, color=ISLAND, lw=0, label="central island")
-    corridor = ocp.road.corridor("vehicle").polygon
-    import shapely
+        apron = apron_region(rb).polygon
+        style = {"facecolor": APRON, "hatchcolor": "#a88a55", "hatch": "////", "lw": 0, "zorder": 1}
+        ax.add_patch(geometry_patch(apron, label="truck apron" if label else None, **style))
+        _plot_lines(ax, apron.exterior if hasattr(apron, "exterior") else apron.boundary, color=CURB, lw=0.6, zorder=3)
+    island = island_region(rb).polygon
+    ax.add_patch(geometry_patch(island, facecolor=ISLAND, lw=0, zorder=1, label="central island" if label else None))
+    _plot_lines(ax, island.boundary, color=CURB, lw=1.3, zorder=3)
 
-    for part in shapely.get_parts(corridor):
-        ax.plot(*part.exterior.xy, color=CURB, lw=0.9)
+
+# --------------------------------------------------------------------------- scale bar, north, frame
 
 
-def road_figure(ocp: OCP, columns: Mapping[str, np.ndarray], title: str = "", every: int | None = None) -> plt.Figure:
-    """The manoeuvre to scale (left) and its controls over time (right).
+def nice_length(span: float, fraction: float = 0.2) -> float:
+    """The largest of 1, 2, 5, 10, 20, 25, 50, ... m not longer than ``fraction`` of ``span``."""
+    fitting = [n for n in NICE_LENGTHS if n <= fraction * span]
+    return float(fitting[-1] if fitting else NICE_LENGTHS[0])
+
+
+def draw_scale_bar(ax: plt.Axes, loc: str = "lower right") -> AnchoredSizeBar:
+    """A scale bar in metres (gid ``"scale-bar"``) sized to about a fifth of the view's width."""
+    x0, x1 = ax.get_xlim()
+    length = nice_length(x1 - x0)
+    bar = AnchoredSizeBar(
+        ax.transData, length, f"{length:g} m", loc, pad=0.4, borderpad=0.5, sep=3,
+        frameon=True, size_vertical=(x1 - x0) / 150, fontproperties={"size": 7},
+    )  # fmt: skip
+    bar.patch.set(alpha=0.85, edgecolor="none")
+    bar.set_gid(SCALE_BAR_GID)
+    ax.add_artist(bar)
+    return bar
+
+
+def draw_north(ax: plt.Axes) -> None:
+    """A north arrow (+y is north) in the upper right corner."""
+    ax.annotate("N", xy=(0.95, 0.97), xytext=(0.95, 0.87), xycoords="axes fraction", ha="center", va="top",
+                fontsize=8, fontweight="bold", arrowprops={"arrowstyle": "-|>", "color": CURB, "lw": 1.2})  # fmt: skip
+
+
+def plan_limits(ocp: OCP, cols: Mapping[str, np.ndarray]) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The view (x and y limits): the path, the bodies and the outer curb circle with a margin of one leg's width."""
+    rb = ocp.road.roundabout
+    px, py = ocp.vehicle.position
+    (cx, cy), ro = rb.center, rb.outer_radius
+    pad = 2 * max(g.lane_width for g in rb.legs)
+    corners = np.concatenate([c.reshape(-1, 2) for c in body_corners(ocp, cols).values()] or [np.empty((0, 2))])
+    xs = np.concatenate([cols[px], corners[:, 0], [cx - ro, cx + ro]])
+    ys = np.concatenate([cols[py], corners[:, 1], [cy - ro, cy + ro]])
+    return (xs.min() - pad, xs.max() + pad), (ys.min() - pad, ys.max() + pad)
+
+
+def _frame(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray]) -> None:
+    """Equal axes around the plan, a thin border without ticks (the scale bar gives the scale)."""
+    xlim, ylim = plan_limits(ocp, cols)
+    ax.set_xlim(*xlim)
+    ax.set_ylim(*ylim)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.grid(False)
+    for spine in ax.spines.values():
+        spine.set(visible=True, color="0.6", lw=0.6)
+
+
+# --------------------------------------------------------------------------- vehicle
+
+
+def body_label(ocp: OCP, name: str) -> str:
+    """``"tractor"`` for the vehicle's body when it pulls a trailer, else the body's name."""
+    if name == "vehicle":
+        return "tractor" if "trailer" in ocp.bodies else ocp.vehicle.model or "vehicle"
+    return name
+
+
+def axle_tracks(ocp: OCP, states: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Paths (n, 2) of the axle centres: the front axle (models with a wheelbase d), rear axle, trailer axle."""
+    v = ocp.vehicle
+    px, py = v.position
+    x, y = np.asarray(states[px], float), np.asarray(states[py], float)
+    tracks = {}
+    d = v.parameters().get("d")
+    if d is not None and "theta" in states:
+        theta = np.asarray(states["theta"], float)
+        tracks["front axle"] = np.column_stack([x + d * np.cos(theta), y + d * np.sin(theta)])
+    tracks["rear axle"] = np.column_stack([x, y])
+    poses = v.body_poses()
+    if "trailer" in poses:
+        tx, ty, _ = v.state_function(list(poses["trailer"]))(states)
+        tracks["trailer axle"] = np.column_stack([tx, ty])
+    return tracks
+
+
+def _draw_envelopes(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray]) -> None:
+    for name, poly in swept_polygons(ocp, cols).items():
+        color = BODY_COLORS.get(name, "0.4")
+        ax.add_patch(geometry_patch(poly, facecolor=color, alpha=0.12, lw=0, zorder=4))
+        ax.add_patch(geometry_patch(poly, facecolor="none", edgecolor=color, lw=0.9, zorder=6,
+                                    label=f"{body_label(ocp, name)} swept path"))  # fmt: skip
+
+
+def pose_nodes(ocp: OCP, cols: Mapping[str, np.ndarray], count: int = 8) -> np.ndarray:
+    """Node indices about equally spaced along the rear-axle path (first and last included).
+
+    The spacing is the path length over ``count``, but at least the longest body, so that the
+    drawn bodies seldom overlap.
+    """
+    px, py = ocp.vehicle.position
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(cols[px]), np.diff(cols[py])))])
+    longest = max((b.length for b in ocp.bodies.values()), default=0.0)
+    step = max(s[-1] / count, longest, 1e-9)
+    marks = np.append(np.arange(0.0, s[-1] - 0.5 * step, step), s[-1])
+    return np.unique(np.searchsorted(s, marks).clip(0, len(s) - 1))
+
+
+def _draw_bodies(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray], nodes: np.ndarray) -> None:
+    picks = {k: np.asarray(a)[nodes] for k, a in cols.items()}
+    for name, corners in body_corners(ocp, picks).items():
+        color = BODY_COLORS.get(name, "0.4")
+        for i, c in enumerate(corners):
+            label = body_label(ocp, name) if i == 0 else None
+            ax.add_patch(PolygonPatch(c, closed=True, fc=(*to_rgb(color), 0.25), ec=color, lw=0.8, zorder=5,
+                                      label=label))  # fmt: skip
+
+
+def _draw_tracks(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray]) -> None:
+    for name, xy in axle_tracks(ocp, cols).items():
+        color = BODY_COLORS["trailer"] if name == "trailer axle" else "black"
+        ax.plot(*xy.T, color=color, lw=0.7, ls=TRACK_STYLES[name], zorder=7, label=f"{name} track")
+
+
+# --------------------------------------------------------------------------- the figure
+
+
+def road_figure(
+    ocp: OCP, columns: Mapping[str, np.ndarray], title: str = "", every: int | None = None, note: str = ""
+) -> plt.Figure:
+    """The manoeuvre on the plan to scale (left) and its controls and angles over time (right).
 
     Parameters
     ----------
@@ -65,61 +287,67 @@ def road_figure(ocp: OCP, columns: Mapping[str, np.ndarray], title: str = "", ev
         A problem with a ``road``.
     columns : mapping
         Node values: t, the states and the controls (a Solution's ``columns`` or a trajectory.csv).
+    title : str, optional
+        Figure title (default: the scenario's title or name).
     every : int, optional
-        Draw the bodies at every ``every``-th node (default: about 12 poses).
+        Draw the bodies at every ``every``-th node (default: about eight poses equally spaced along the path).
+    note : str, optional
+        A line added under the title (e.g. the final time and least clearance).
+
+    Returns
+    -------
+    Figure
+        The plan axes first, then one axes per time panel (u1, u2, phi, and the articulation for a trailer).
     """
     apply_style()
     v = ocp.vehicle
     cols = {k: np.asarray(columns[k], float) for k in ("t", *v.states, *v.controls)}
-    fig = plt.figure(figsize=(11.0, 5.6), constrained_layout=True)
-    rows = len([c for c in ("u1", "phi", "u2") if c in cols]) + ("theta1" in v.states)
-    grid = fig.add_gridspec(rows, 2, width_ratios=(1.35, 1))
+    (x0, x1), (y0, y1) = plan_limits(ocp, cols)
+    plan_width = 4.9
+    fig = plt.figure(figsize=(7.4, max(4.4, plan_width * (y1 - y0) / (x1 - x0) + 1.2)), layout="constrained")
+    rows = _panel_names(ocp, cols)
+    grid = fig.add_gridspec(len(rows), 2, width_ratios=(plan_width, 7.4 - plan_width))
     ax = fig.add_subplot(grid[:, 0])
     draw_roundabout(ax, ocp)
-    _draw_bodies(ax, ocp, cols, every or max(1, (len(cols["t"]) - 1) // 12))
-    px, py = v.position
-    ax.plot(cols[px], cols[py], color="k", lw=1.0, label="rear axle")
+    _draw_envelopes(ax, ocp, cols)
+    nodes = np.arange(0, len(cols["t"]), every) if every else pose_nodes(ocp, cols)
+    _draw_bodies(ax, ocp, cols, nodes)
+    _draw_tracks(ax, ocp, cols)
     _frame(ax, ocp, cols)
-    ax.set_title(title or ocp.title or ocp.name, fontsize=10)
-    ax.legend(loc="lower left", fontsize=7, framealpha=0.9)
-    _time_panels(fig, grid, ocp, cols)
+    draw_scale_bar(ax)
+    draw_north(ax)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.01), ncol=3, fontsize=6.5, frameon=False,
+              handlelength=2.2, columnspacing=1.0)  # fmt: skip
+    heading = textwrap.fill(title or ocp.title or ocp.name, 95) + (f"\n{note}" if note else "")
+    fig.suptitle(heading, fontsize=8.5)
+    _time_panels(fig, grid, ocp, cols, rows)
     return fig
 
 
-def _draw_bodies(ax: plt.Axes, ocp: OCP, cols: dict, every: int) -> None:
-    for name, poly in swept_polygons(ocp, cols).items():
-        _fill(ax, poly, color=BODY_COLORS.get(name, PALETTE[2]), alpha=0.18, lw=0, label=f"{name} swept area")
-    picks = {k: a[::every] for k, a in cols.items()}
-    for name, corners in body_corners(ocp, picks).items():
-        for c in corners:
-            ax.add_patch(PolygonPatch(c, closed=True, fill=False, lw=0.7, ec=BODY_COLORS.get(name, PALETTE[2])))
+def _panel_names(ocp: OCP, cols: Mapping[str, np.ndarray]) -> list[str]:
+    names = [c for c in ("u1", "u2", "phi") if c in cols]
+    return names + [k for k in ocp.vehicle.outputs() if k == "articulation"]
 
 
-def _frame(ax: plt.Axes, ocp: OCP, cols: dict) -> None:
-    """Equal axes around the path with a margin of one leg width and the ring."""
-    rb = ocp.road.roundabout
-    px, py = ocp.vehicle.position
-    xs = np.concatenate([cols[px], [rb.center[0] - rb.outer_radius, rb.center[0] + rb.outer_radius]])
-    ys = np.concatenate([cols[py], [rb.center[1] - rb.outer_radius, rb.center[1] + rb.outer_radius]])
-    pad = 2 * max(g.lane_width for g in rb.legs)
-    ax.set_xlim(xs.min() - pad, xs.max() + pad)
-    ax.set_ylim(ys.min() - pad, ys.max() + pad)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
+def _panel_values(ocp: OCP, cols: Mapping[str, np.ndarray], name: str) -> np.ndarray:
+    if name in cols:
+        return cols[name]
+    return ocp.vehicle.state_function([ocp.vehicle.outputs()[name]])(cols)[0]
 
 
-def _time_panels(fig: plt.Figure, grid, ocp: OCP, cols: dict) -> None:
-    v = ocp.vehicle
-    rows = [c for c in ("u1", "phi", "u2") if c in cols] + (["articulation"] if "theta1" in v.states else [])
+def _time_panels(fig: plt.Figure, grid, ocp: OCP, cols: Mapping[str, np.ndarray], rows: list[str]) -> None:
+    """One panel per quantity, in display units, its bounds dashed; the time axis shared."""
+    first = None
     for i, name in enumerate(rows):
-        ax = fig.add_subplot(grid[i, 1])
-        values = cols["theta"] - cols["theta1"] if name == "articulation" else cols[name]
-        ax.plot(cols["t"], values, color=PALETTE[i % len(PALETTE)], lw=1.2)
-        lo, hi = ocp.bounds.get(name, (None, None))
-        for b in (lo, hi):
-            if b is not None and np.isfinite(b):
-                ax.axhline(b, color="0.5", lw=0.6, ls="--")
-        labels = {"u1": "u1 (m/s)", "phi": "phi (rad)", "u2": "u2 (rad/s)", "articulation": "theta - theta1 (rad)"}
-        ax.set_ylabel(labels.get(name, name))
-    ax.set_xlabel("t (s)")
+        ax = fig.add_subplot(grid[i, 1], sharex=first)
+        first = first or ax
+        text, unit, scale = PANEL_LABELS.get(name, (name, "", 1.0))
+        ax.plot(cols["t"], scale * _panel_values(ocp, cols, name), color="C0" if i < 2 else "C3", lw=1.1)
+        for b in ocp.bounds.get(name, ()):
+            if np.isfinite(b):
+                ax.axhline(scale * b, color="0.45", lw=0.7, ls="--")
+        ax.set_ylabel(f"{text}\n({unit})" if unit else text, fontsize=7.5)
+        ax.tick_params(labelsize=7)
+        if i < len(rows) - 1:
+            ax.tick_params(labelbottom=False)
+    ax.set_xlabel("t (s)", fontsize=7.5)

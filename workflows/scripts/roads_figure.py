@@ -17,6 +17,18 @@ from model.plotting.roads import road_figure  # noqa: E402
 from model.problem.scenario import load_scenario  # noqa: E402
 
 
+def note(summary: dict) -> str:
+    """The line under the figure's title: final time, energy and the least clearance at the nodes."""
+    parts = [
+        f"$T_f$ = {summary['final_time']:.2f} s" if summary.get("final_time") is not None else "",
+        f"energy {summary['energy']:.1f}" if summary.get("energy") is not None else "",
+    ]
+    if summary.get("min_clearance") is not None:
+        body = summary.get("min_clearance_body")
+        parts.append(f"least clearance to a curb {summary['min_clearance']:.2f} m" + (f" ({body})" if body else ""))
+    return ", ".join(p for p in parts if p)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("scenario", type=Path)
@@ -27,7 +39,7 @@ def main() -> None:
     ocp = load_scenario(args.scenario).ocp
     summary = json.loads((args.result / "summary.json").read_text())
     if summary.get("valid"):
-        fig = road_figure(ocp, pd.read_csv(args.result / "trajectory.csv"))
+        fig = road_figure(ocp, pd.read_csv(args.result / "trajectory.csv"), note=note(summary))
     else:
         fig, ax = plt.subplots(figsize=(6, 2))
         ax.axis("off")
