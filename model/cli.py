@@ -1,8 +1,10 @@
-"""The ``roundabout`` command: solve a scenario file, or print its Pontryagin system.
+"""The ``roundabout`` command: solve a scenario file, simulate it in closed loop, or print its Pontryagin system.
 
 Exit codes of ``roundabout solve``: 0 solved and validated; 1 the solver ran and
 failed (DIR/summary.json says how); 2 invalid input (one line on stderr, nothing
-written).
+written). ``roundabout simulate`` (docs/closed-loop-format.md): 0 the closed loop reached
+the goal (every run, with --runs); 1 it did not, a step failed or the open-loop solve failed
+(the files are still written); 2 invalid input.
 """
 
 from __future__ import annotations
@@ -19,13 +21,16 @@ EPILOG = """examples:
   roundabout solve workflows/scenarios/s2-case1.toml --out results/s2-case1
   roundabout solve my.toml --out out/ --intervals 400 --verbose
   roundabout derive workflows/scenarios/s1.toml --latex
+  roundabout simulate examples/closed-loop-truck.toml --out out/cl --controller tracking --runs 5
 
-scenario files: see docs/scenario-format.md (TOML, SI units, radians).
+scenario files: see docs/scenario-format.md (TOML, SI units, radians);
+                [disturbance] and [control]: docs/closed-loop-format.md.
 exit codes: 0 solved and validated, 1 solver failed (summary.json says why),
             2 invalid input (one line on stderr, nothing written)."""
 
 
 STARTUP: float | None = None  # seconds from process start to the CLI's main(), set by main
+CONTROLLERS = ("open-loop", "tracking", "mpc")
 
 
 def parser() -> argparse.ArgumentParser:
@@ -48,6 +53,16 @@ def parser() -> argparse.ArgumentParser:
     d = sub.add_parser("derive", help="print the Pontryagin system of a scenario's problem")
     d.add_argument("scenario", type=Path, help="scenario file (TOML)")
     d.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
+    m = sub.add_parser(
+        "simulate",
+        help="solve, then run a controller against the disturbed plant; write DIR/closed_loop.csv and DIR/summary.json",
+    )
+    m.add_argument("scenario", type=Path, help="scenario file (TOML) with optional [disturbance] and [control]")
+    m.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    m.add_argument("--controller", required=True, metavar="NAME", help="|".join(CONTROLLERS))
+    m.add_argument("--runs", type=int, default=1, metavar="K", help="K runs with seeds seed, seed + 1, ... (runs.csv)")
+    m.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals of the open-loop solve")
+    m.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log of the open-loop solve")
     c = sub.add_parser("check", help="validate a scenario file only (exit 0 or 2)")
     c.add_argument("scenario", type=Path, help="scenario file (TOML)")
     return p
@@ -65,9 +80,11 @@ def main(argv: list[str] | None = None) -> int:
         args.load_seconds = time.perf_counter() - t0
         if getattr(args, "intervals", None) is not None and args.intervals < 1:
             raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
-        if args.command == "solve":
+        if args.command in ("solve", "simulate"):
             check_output_folder(args.out)
             check_size(args.intervals or scenario.intervals, scenario.ocp, "--intervals" if args.intervals else None)
+        if args.command == "simulate":
+            check_simulate(args, scenario)
         options = ipopt_options(getattr(args, "ipopt", []))
         if options:
             from model.nlp.ipopt import IpoptOptionError, check_options
@@ -84,6 +101,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.command == "derive":
         return _derive(scenario, args.latex)
+    if args.command == "simulate":
+        return _simulate(scenario, args)
     return _solve(scenario, args, options)
 
 
@@ -141,7 +160,26 @@ def ipopt_options(pairs: list[str]) -> dict:
     return options
 
 
-def _solve(scenario, args, options: dict) -> int:
+def check_simulate(args, scenario) -> None:
+    """The simulate command's own inputs: the controller's name (mpc only once it exists), --runs, the sample time."""
+    if args.controller not in CONTROLLERS:
+        raise InputError("--controller", f"must be one of {list(CONTROLLERS)}, got {args.controller!r}")
+    if args.runs < 1:
+        raise InputError("--runs", f"must be >= 1, got {args.runs}")
+    tf, h = scenario.ocp.final_time, scenario.control.sample_time
+    if not scenario.ocp.cost.free_final_time and h > tf:
+        raise InputError("control.sample_time", f"{h:g} s exceeds problem.final_time = {tf:g} s")
+    if args.controller == "mpc":
+        try:
+            from model.simulation.mpc import MPC  # noqa: F401
+        except ImportError as err:
+            if err.name != "model.simulation.mpc":
+                raise
+            raise InputError("--controller", "mpc controller not available yet") from None
+
+
+def open_loop_solve(scenario, args, options: dict):
+    """The scenario's optimum by the default solve (as ``roundabout solve``), with its phase timings."""
     intervals = args.intervals or scenario.intervals
     print(f"{scenario.ocp.name}: solving with N = {intervals} ...", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
@@ -156,23 +194,74 @@ def _solve(scenario, args, options: dict) -> int:
         options=options,
         progress=lambda line: print("  " + line, file=sys.stderr, flush=True),
     )
-    t2 = time.perf_counter()
-    sol.write(args.out)
-    if args.verbose:
-        phases = {"scenario (sympy, parse)": args.load_seconds, "solver imports": t1 - t0,
-                  **sol.timings.get("all_starts", {}), "write": time.perf_counter() - t2}  # fmt: skip
-        print(phase_report(phases), file=sys.stderr)
-    line = (
+    return sol, t1 - t0
+
+
+def solve_line(scenario, sol) -> str:
+    return (
         f"{scenario.ocp.name}: {sol.status}, objective {sol.objective:.10g}, Tf {sol.final_time:.6g} s, "
         f"energy {sol.energy:.6g}, {sol.iterations} iterations, {sol.solve_seconds:.2f} s"
     )
+
+
+def failure_reason(sol) -> str:
+    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
+    return sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
+
+
+def _solve(scenario, args, options: dict) -> int:
+    sol, import_seconds = open_loop_solve(scenario, args, options)
+    t2 = time.perf_counter()
+    sol.write(args.out)
+    if args.verbose:
+        phases = {"scenario (sympy, parse)": args.load_seconds, "solver imports": import_seconds,
+                  **sol.timings.get("all_starts", {}), "write": time.perf_counter() - t2}  # fmt: skip
+        print(phase_report(phases), file=sys.stderr)
+    line = solve_line(scenario, sol)
     if sol.ok:
         print(line)
         return 0
-    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
-    reason = sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
-    print(f"{line}\nroundabout: FAILED ({reason}); see {args.out / 'summary.json'}", file=sys.stderr)
+    print(f"{line}\nroundabout: FAILED ({failure_reason(sol)}); see {args.out / 'summary.json'}", file=sys.stderr)
     return 1
+
+
+def _simulate(scenario, args) -> int:
+    """Solve the open-loop optimum, then run the controller (K times with --runs); write the results."""
+    sol, _ = open_loop_solve(scenario, args, {})
+    sol.write(args.out / "optimum")
+    if not sol.ok:
+        from model.simulation.loop import json_text, write_text
+
+        reason = failure_reason(sol)
+        summary = {"controller": args.controller, "status": f"the open-loop solve failed ({reason})",
+                   "reached_goal": False, "optimum": "optimum/summary.json"}  # fmt: skip
+        write_text(args.out / "summary.json", json_text(summary))
+        print(f"{solve_line(scenario, sol)}\nroundabout: FAILED ({reason}); see {args.out / 'summary.json'}",
+              file=sys.stderr)  # fmt: skip
+        return 1
+    print(solve_line(scenario, sol), file=sys.stderr)
+    from model.simulation.loop import make_controller, simulate_runs
+
+    factory = make_controller(args.controller, sol, scenario.control, scenario.disturbance)
+    result = simulate_runs(scenario, sol, factory, scenario.disturbance, scenario.control, runs=args.runs)
+    result.write(args.out)
+    s = result.summary
+    line = (
+        f"{scenario.ocp.name}: {s['controller']}, {s['steps']} steps, final position error "
+        f"{_fmt(s['final_position_error'])} m, heading error {_fmt(s['final_heading_error'])} rad, energy "
+        f"{s['energy']:.6g} (optimum {sol.energy:.6g}), realtime factor {s['realtime_factor']:.3g}"
+        + (f", {args.runs} runs, goal reached in {s['reached_goal_rate']:.0%}" if args.runs > 1 else "")
+    )
+    if s["reached_goal"]:
+        print(line)
+        return 0
+    print(f"{line}\nroundabout: goal not reached within the tolerance; see {args.out / 'summary.json'}",
+          file=sys.stderr)  # fmt: skip
+    return 1
+
+
+def _fmt(value) -> str:
+    return "n/a" if value is None else f"{value:.4g}"
 
 
 def process_seconds() -> float | None:

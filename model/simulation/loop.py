@@ -1,0 +1,325 @@
+"""Run a controller against the disturbed plant (docs/closed-loop-format.md).
+
+The loop runs from t = 0 to the scenario's final time: the fixed Tf of an energy problem, the
+optimum's Tf of a time problem. Samples are t_k = k h; the last one ends at Tf and is shorter
+than h when Tf is not a multiple of h. At each sample the plant's state is measured (seeded
+Gaussian noise), the controller is called (timed with ``time.perf_counter``) and its control
+joins the actuator queue; the control applied over [t_k, t_k+1) is the one sent ``delay / h``
+samples earlier. Before t = 0 the vehicle stands still: the queue starts with zero controls.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from model.direct.solution import Solution, _atomic_write, _jsonable, csv_text
+from model.problem.closed_loop import ControlSettings, Disturbance
+from model.problem.scenario import Scenario
+from model.simulation.base import Controller
+from model.simulation.controllers import sample_grid, wrap
+from model.simulation.plant import Plant
+
+POSITION_SHARE = 0.02  # goal tolerance on the position: this share of the start-goal distance
+ANGLE_TOL = 0.05  # rad: goal tolerance on every angle the scenario fixes at Tf
+SUMMARY_KEYS = (
+    "controller", "steps", "final_position_error", "final_heading_error", "energy", "final_time",
+    "min_clearance", "solve_seconds_mean", "solve_seconds_max", "realtime_factor", "failed_steps",
+    "reached_goal", "goal_tolerance",
+)  # fmt: skip
+
+
+@dataclass
+class ClosedLoop:
+    """One closed-loop run: the CSV columns (one row per sample, then the final state) and the summary."""
+
+    columns: dict[str, np.ndarray]
+    summary: dict
+    runs: list[dict] = field(default_factory=list)
+
+    @property
+    def reached_goal(self) -> bool:
+        return bool(self.summary["reached_goal"])
+
+    def write(self, out: str | Path) -> None:
+        """DIR/closed_loop.csv and DIR/summary.json (and DIR/runs.csv for several runs), each atomically."""
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        _atomic_write(out / "closed_loop.csv", csv_text(self.columns))
+        if self.runs:
+            _atomic_write(out / "runs.csv", runs_csv(self.runs))
+        _atomic_write(out / "summary.json", json_text(self.summary))
+
+
+def json_text(summary: dict) -> str:
+    """The summary as full-precision JSON (NaN and infinities as null)."""
+    import json
+
+    return json.dumps(_jsonable(summary), indent=2) + "\n"
+
+
+def write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically, making its folder first."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    _atomic_write(path, text)
+
+
+def make_controller(
+    name: str, solution: Solution, control: ControlSettings, disturbance: Disturbance
+) -> Callable[[], Controller]:
+    """A factory of fresh controllers named as on the command line: open-loop, tracking or mpc.
+
+    ``mpc`` imports ``model.simulation.mpc`` on first use (an ImportError if it is absent).
+    """
+    from model.simulation.controllers import OpenLoop, Tracking
+
+    if name == "open-loop":
+        return lambda: OpenLoop(solution, control)
+    if name == "tracking":
+        return lambda: Tracking(solution, control, disturbance)
+    if name == "mpc":
+        from model.simulation.mpc import MPC
+
+        return lambda: MPC(solution, control, disturbance)
+    raise ValueError(f"unknown controller {name!r} (open-loop, tracking, mpc)")
+
+
+def simulate(
+    scenario: Scenario,
+    solution: Solution,
+    controller: Controller,
+    disturbance: Disturbance,
+    control: ControlSettings,
+) -> ClosedLoop:
+    """Run ``controller`` against the plant from t = 0 to the final time.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The problem (vehicle, start, goal, obstacles or road).
+    solution : Solution
+        The open-loop optimum: its final time ends the run (fixed Tf, or the optimum's for a time
+        problem), its states are the reference columns of the CSV.
+    controller : Controller
+        Called once per sample with the measured state and the pending controls.
+    disturbance : Disturbance
+        The plant's disturbances, the delay, the noise and its seed.
+    control : ControlSettings
+        The sample time.
+
+    Returns
+    -------
+    ClosedLoop
+    """
+    ocp = scenario.ocp
+    v = ocp.vehicle
+    h = control.sample_time
+    grid = sample_grid(float(solution.columns["t"][-1]), h)
+    plant = Plant(v, disturbance, h)
+    rng = np.random.default_rng(disturbance.seed)
+    zero = np.zeros(len(v.controls))
+    queue = deque([zero] * control.delay_samples(disturbance))
+    x = np.array([ocp.initial[s] for s in v.states], dtype=float)
+    rows: dict[str, list] = {k: [] for k in ("x", "applied", "measured", "sent", "seconds")}
+    failed = 0
+    for k, t in enumerate(grid[:-1]):
+        y = plant.measure(x, rng)
+        pending = np.array(queue, dtype=float).reshape(len(queue), len(v.controls))
+        t0 = time.perf_counter()
+        sent = np.asarray(controller.make_step(float(t), y, pending), dtype=float).reshape(len(v.controls))
+        rows["seconds"].append(time.perf_counter() - t0)
+        if controller.failed or not np.all(np.isfinite(sent)):
+            failed += 1
+            sent = np.where(np.isfinite(sent), sent, 0.0)
+        queue.append(sent)
+        applied = queue.popleft()
+        for key, val in (("x", x), ("applied", applied), ("measured", y), ("sent", sent)):
+            rows[key].append(val)
+        x = plant.step(x, applied, grid[k + 1] - t)
+    rows["x"].append(x)
+    columns = _columns(v, solution, grid, rows)
+    summary = _summary(scenario, solution, controller, columns, rows["seconds"], failed, h)
+    return ClosedLoop(columns=columns, summary=summary)
+
+
+def _columns(v, solution: Solution, grid: np.ndarray, rows: dict) -> dict[str, np.ndarray]:
+    """t, states, u1, u2 (applied), then measured states, sent controls and the optimum's states at t."""
+    X = np.array(rows["x"])
+    last = lambda a: np.vstack([np.array(a), np.array(a)[-1:]])  # noqa: E731 - the final row repeats the previous
+    U, Y, S = last(rows["applied"]), last(rows["measured"]), last(rows["sent"])
+    cols = {"t": grid}
+    cols |= {s: X[:, i] for i, s in enumerate(v.states)}
+    cols |= {c: U[:, j] for j, c in enumerate(v.controls)}
+    cols |= {f"measured_{s}": Y[:, i] for i, s in enumerate(v.states)}
+    cols |= {f"sent_{c}": S[:, j] for j, c in enumerate(v.controls)}
+    t = np.asarray(solution.columns["t"], dtype=float)
+    cols |= {f"ref_{s}": np.interp(grid, t, solution.columns[s]) for s in v.states}
+    return cols
+
+
+def goal_tolerance(scenario: Scenario) -> dict:
+    """Position (2 % of the start-goal distance) and angle (0.05 rad) tolerances on the states fixed at Tf."""
+    ocp = scenario.ocp
+    v = ocp.vehicle
+    distance = ocp.straight_distance()
+    angles = [s for s in v.states if s in ocp.final and s not in v.position]
+    return {
+        "position": POSITION_SHARE * distance if distance is not None else None,
+        "position_rule": f"{POSITION_SHARE:g} x the start-goal distance ({distance} m)" if distance else None,
+        "angle": ANGLE_TOL,
+        "states": [s for s in v.states if s in ocp.final],
+        "angle_states": angles,
+    }
+
+
+def final_errors(scenario: Scenario, columns: dict[str, np.ndarray]) -> dict[str, float]:
+    """Final error of each state fixed at Tf (angles wrapped), and the position error."""
+    ocp = scenario.ocp
+    px, py = ocp.vehicle.position
+    out = {}
+    for s, goal in ocp.final.items():
+        err = columns[s][-1] - goal
+        out[s] = float(abs(wrap(err)) if s.startswith("theta") else abs(err))
+    if px in ocp.final and py in ocp.final:
+        out["position"] = float(math.hypot(columns[px][-1] - ocp.final[px], columns[py][-1] - ocp.final[py]))
+    return out
+
+
+def min_clearance(scenario: Scenario, columns: dict[str, np.ndarray]) -> float | None:
+    """Smallest clearance over the samples: exact body rectangles to the road's edges, else the point to obstacles."""
+    ocp = scenario.ocp
+    v = ocp.vehicle
+    px, py = v.position
+    if ocp.road is not None and ocp.bodies:
+        from model.analysis.bodies import clearances
+
+        return float(min(np.min(c) for c in clearances(ocp, {s: columns[s] for s in v.states}).values()))
+    if ocp.road is not None:
+        xy = np.column_stack([columns[px], columns[py]])
+        return float(np.min(ocp.road.corridor("vehicle").signed_distance(xy)))
+    if ocp.obstacles:
+        return float(min(np.min(ob.clearance(columns[px], columns[py])) for ob in ocp.obstacles))
+    return None
+
+
+def zoh_energy(columns: dict[str, np.ndarray], controls) -> float:
+    """1/2 integral of the sum of the squared applied controls under the zero-order hold."""
+    dt = np.diff(columns["t"])
+    return float(0.5 * np.sum(dt * sum(columns[c][:-1] ** 2 for c in controls)))
+
+
+def reached(errors: dict[str, float], tol: dict) -> bool:
+    """Every state fixed at Tf within its tolerance (position by distance, angles by ``angle``)."""
+    ok = [errors["position"] <= tol["position"]] if "position" in errors and tol["position"] is not None else []
+    ok += [errors[s] <= tol["angle"] for s in tol["angle_states"]]
+    return all(ok)
+
+
+def _summary(scenario, solution, controller, columns, seconds, failed: int, h: float) -> dict:
+    v = scenario.ocp.vehicle
+    tol = goal_tolerance(scenario)
+    errors = final_errors(scenario, columns)
+    seconds = np.asarray(seconds, dtype=float)
+    return {
+        "controller": controller.name,
+        "steps": len(seconds),
+        "final_position_error": errors.get("position"),
+        "final_heading_error": errors.get("theta"),
+        "energy": zoh_energy(columns, v.controls),
+        "final_time": float(columns["t"][-1]),
+        "min_clearance": min_clearance(scenario, columns),
+        "solve_seconds_mean": float(np.mean(seconds)),
+        "solve_seconds_max": float(np.max(seconds)),
+        "realtime_factor": float(np.max(seconds) / h),
+        "failed_steps": int(failed),
+        "reached_goal": failed == 0 and reached(errors, tol),
+        "goal_tolerance": tol,
+        "final_errors": errors,
+        "sample_time": h,
+        "optimum_energy": solution.energy,
+        "optimum_objective": solution.objective,
+        "optimum_final_time": solution.final_time,
+    }
+
+
+def simulate_runs(
+    scenario: Scenario,
+    solution: Solution,
+    make_controller: Callable[[], Controller],
+    disturbance: Disturbance,
+    control: ControlSettings,
+    runs: int = 1,
+) -> ClosedLoop:
+    """``runs`` closed loops with seeds seed, seed + 1, ...; a fresh controller for each.
+
+    Returns
+    -------
+    ClosedLoop
+        The first run's columns; ``runs`` one row per run; the summary: the contract's keys at
+        their worst case over the runs (largest errors, energy and times, smallest clearance, all
+        failed steps, ``reached_goal`` only if every run reached it), plus ``mean`` and ``worst``
+        of every number and ``reached_goal_rate``.
+    """
+    results = []
+    for i in range(runs):
+        seeded = Disturbance(**{**disturbance.__dict__, "seed": disturbance.seed + i})
+        results.append(simulate(scenario, solution, make_controller(), seeded, control))
+    rows = [{"run": i, "seed": disturbance.seed + i, **_scalars(r.summary)} for i, r in enumerate(results)]
+    if runs == 1:
+        return results[0]
+    summary = _runs_summary([r.summary for r in results], [r["seed"] for r in rows])
+    return ClosedLoop(columns=results[0].columns, summary=summary, runs=rows)
+
+
+WORST_IS_SMALLEST = {"min_clearance"}
+
+
+def _scalars(summary: dict) -> dict:
+    """The summary's per-run numbers and booleans (for runs.csv)."""
+    keys = [k for k, v in summary.items() if isinstance(v, bool | int | float) or v is None]
+    return {k: summary[k] for k in keys if k not in ("goal_tolerance",)}
+
+
+def _runs_summary(summaries: list[dict], seeds: list[int]) -> dict:
+    """The first run's summary with the contract's numbers at their worst, plus means, worst cases and rates."""
+    numbers = [k for k, v in _scalars(summaries[0]).items() if not isinstance(v, bool) and k != "steps"]
+    mean, worst = {}, {}
+    for k in numbers:
+        vals = [s[k] for s in summaries if s[k] is not None]
+        mean[k] = float(np.mean(vals)) if vals else None
+        worst[k] = (min(vals) if k in WORST_IS_SMALLEST else max(vals)) if vals else None
+    worst["failed_steps"] = int(sum(s["failed_steps"] for s in summaries))
+    rate = float(np.mean([s["reached_goal"] for s in summaries]))
+    summary = {k: v for k, v in summaries[0].items() if k != "final_errors"}
+    summary |= {k: worst[k] for k in SUMMARY_KEYS if k in worst}
+    return summary | {
+        "reached_goal": rate == 1.0,
+        "runs": len(summaries),
+        "seeds": seeds,
+        "reached_goal_rate": rate,
+        "mean": mean,
+        "worst": worst,
+    }
+
+
+def runs_csv(rows: list[dict]) -> str:
+    """One line per run, the header the keys of the first."""
+    names = list(rows[0])
+
+    def cell(v) -> str:
+        if v is None:
+            return ""
+        if isinstance(v, bool):
+            return str(v).lower()
+        return f"{v:.17g}" if isinstance(v, float) else str(v)
+
+    return "\n".join([",".join(names), *(",".join(cell(r[n]) for n in names) for r in rows)]) + "\n"
+
+
+__all__ = ["ClosedLoop", "goal_tolerance", "make_controller", "min_clearance", "simulate", "simulate_runs"]

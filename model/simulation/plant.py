@@ -1,0 +1,130 @@
+"""The disturbed plant: the scenario's own vehicle model with the disturbances of the contract.
+
+The equations are the vehicle's SymPy dynamics (written once in ``model.vehicles``), changed by
+substitution only (docs/closed-loop-format.md):
+
+- ``u1 -> g u1`` in every state derivative (g = ``speed_gain``);
+- ``phi -> phi + b`` in every state derivative except ``phi'`` itself (b = ``steering_bias``);
+  the unicycle has no steering angle, so it takes no bias (the parser refuses one);
+- ``+ w_x``, ``+ w_y`` on the derivatives of the position states (w = ``drift``);
+- the length parameters (d, and for the trailer L, h) at the plant's true values.
+
+One sample is integrated with the controls held (zero-order hold) by ``scipy.integrate.solve_ivp``
+(DOP853, rtol = atol = 1e-10).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from model.problem.closed_loop import Disturbance
+from model.vehicles import Vehicle, sym
+
+RTOL = ATOL = 1e-10
+METHOD = "DOP853"
+HEADING = "theta"  # the measured heading; its noise is noise / 10 rad
+
+
+def plant_parameters(vehicle: Vehicle, disturbance: Disturbance) -> dict[str, float]:
+    """The plant's true parameter values by symbol name: the model's, overridden by ``disturbance.wheelbase``."""
+    values = dict(vehicle.parameters())
+    by_key = {key: name for name, key in vehicle.parameter_keys.items()}
+    for key, val in disturbance.wheelbase.items():
+        if key not in by_key:
+            raise ValueError(f"the {vehicle.model} model has no parameter {key!r}")
+        values[by_key[key]] = float(val)
+    return values
+
+
+def plant_rhs(vehicle: Vehicle, disturbance: Disturbance) -> list[sp.Expr]:
+    """The plant's state derivatives in state order (SymPy, parameters substituted).
+
+    Raises
+    ------
+    ValueError
+        For a steering bias on a model without a steering angle ``phi``.
+    """
+    f = vehicle.dynamics()
+    u1 = sym(vehicle.controls[0])
+    has_phi = "phi" in vehicle.states
+    if disturbance.steering_bias != 0 and not has_phi:
+        raise ValueError(f"the {vehicle.model} model has no steering angle phi: a steering bias cannot apply")
+    params = {sym(k): v for k, v in plant_parameters(vehicle, disturbance).items()}
+    drift = dict(zip(vehicle.position, disturbance.drift, strict=True))
+    out = []
+    for name in vehicle.states:
+        expr = sp.sympify(f[name]).subs(u1, disturbance.speed_gain * u1, simultaneous=True)
+        if has_phi and name != "phi":
+            expr = expr.subs(sym("phi"), sym("phi") + disturbance.steering_bias)
+        out.append(expr.subs(params) + drift.get(name, 0.0))
+    return out
+
+
+class Plant:
+    """The scenario's vehicle model with the contract's disturbances, one sample at a time.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The model the controllers use (truck, unicycle, tricycle, tractor-trailer).
+    disturbance : Disturbance
+        How the plant differs from it (speed gain, steering bias, drift, true lengths); the
+        delay and the noise act in the loop and in ``measure``.
+    sample_time : float
+        The zero-order hold's sample time h, s.
+
+    Examples
+    --------
+    >>> plant = Plant(Truck(wheelbase=5.0), Disturbance(speed_gain=0.95), 0.1)   # doctest: +SKIP
+    >>> plant.step(np.zeros(4), np.array([10.0, 0.0]))                           # doctest: +SKIP
+    array([0.95, 0.  , 0.  , 0.  ])
+    """
+
+    def __init__(self, vehicle: Vehicle, disturbance: Disturbance, sample_time: float):
+        self.vehicle = vehicle
+        self.disturbance = disturbance
+        self.sample_time = float(sample_time)
+        self.expressions = plant_rhs(vehicle, disturbance)
+        args = vehicle.state_symbols() + vehicle.control_symbols()
+        self._f = sp.lambdify(args, self.expressions, "numpy")
+        self._n = len(vehicle.states)
+        self._noise_scale = np.array([_noise_scale(vehicle, s) for s in vehicle.states])
+
+    def rhs(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The plant's state derivative at state ``x`` under controls ``u``."""
+        return np.array(self._f(*x, *u), dtype=float)
+
+    def step(self, x: np.ndarray, u: np.ndarray, duration: float | None = None) -> np.ndarray:
+        """The state after one sample (``duration``, default the sample time) with ``u`` held."""
+        from scipy.integrate import solve_ivp
+
+        h = self.sample_time if duration is None else float(duration)
+        x = np.asarray(x, dtype=float)
+        u = np.asarray(u, dtype=float)
+        if h <= 0:
+            return x.copy()
+        sol = solve_ivp(lambda _t, z: self.rhs(z, u), (0.0, h), x, method=METHOD, rtol=RTOL, atol=ATOL)
+        if not sol.success:
+            raise RuntimeError(f"plant integration failed: {sol.message}")
+        return sol.y[:, -1]
+
+    def measure(self, x: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """The measured state: x, y with noise of std ``noise`` (m), theta with ``noise / 10`` (rad).
+
+        The other states (steering angle, trailer heading) are measured exactly. Without noise the
+        generator is not drawn from.
+        """
+        x = np.asarray(x, dtype=float)
+        if self.disturbance.noise == 0:
+            return x.copy()
+        return x + self.disturbance.noise * self._noise_scale * rng.standard_normal(self._n)
+
+
+def _noise_scale(vehicle: Vehicle, state: str) -> float:
+    if state in vehicle.position:
+        return 1.0
+    return 0.1 if state == HEADING else 0.0
+
+
+__all__ = ["Plant", "plant_parameters", "plant_rhs"]
