@@ -10,6 +10,7 @@ samples earlier. Before t = 0 the vehicle stands still: the queue starts with ze
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections import deque
@@ -268,7 +269,7 @@ def simulate_runs(
     """
     results = []
     for i in range(runs):
-        seeded = Disturbance(**{**disturbance.__dict__, "seed": disturbance.seed + i})
+        seeded = dataclasses.replace(disturbance, seed=disturbance.seed + i)
         results.append(simulate(scenario, solution, make_controller(), seeded, control))
     rows = [{"run": i, "seed": disturbance.seed + i, **_scalars(r.summary)} for i, r in enumerate(results)]
     if runs == 1:
