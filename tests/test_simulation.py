@@ -14,13 +14,14 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from model.cli import main
-from model.problem.closed_loop import Disturbance
-from model.problem.scenario import load_scenario
+from model.errors import InputError
+from model.problem.closed_loop import ControlSettings, Disturbance
+from model.problem.scenario import Scenario, load_scenario, parse_scenario
 from model.simulation.controllers import OpenLoop, Tracking
 from model.simulation.loop import SUMMARY_KEYS, simulate
 from model.simulation.plant import Plant
 from model.vehicles import TractorTrailer, Tricycle
-from tests.conftest import ROOT
+from tests.conftest import ROOT, straight_time
 
 TRUCK = ROOT / "examples" / "closed-loop-truck.toml"
 CONTRACT_KEYS = {
@@ -207,3 +208,36 @@ def test_plants_of_the_other_models_step_as_their_equations_say():
 
     expected = solve_ivp(semi, (0, h), x0, rtol=1e-12, atol=1e-12, method="DOP853").y[:, -1]
     assert np.max(np.abs(trailer.step(x0, np.array([u1, u2])) - expected)) < 1e-8
+
+
+def test_a_time_problem_runs_to_the_optimum_final_time_with_a_shorter_last_sample():
+    """Straight 1 m at |u1| <= 1: Tf = 1 s; with h = 0.3 s the last sample lasts 0.1 s."""
+    scenario = Scenario(ocp=straight_time(), control=ControlSettings(sample_time=0.3))
+    solution = scenario.ocp.solve(intervals=20)
+    assert solution.ok
+    none = Disturbance()
+    result = simulate(scenario, solution, Tracking(solution, scenario.control, none), none, scenario.control)
+    t = result.columns["t"]
+    assert t[-1] == pytest.approx(solution.final_time, abs=1e-9) and np.diff(t)[-1] < 0.3 - 1e-6
+    assert result.summary["steps"] == len(t) - 1 == math.ceil(solution.final_time / 0.3 - 1e-9)
+    assert result.summary["reached_goal"] and result.summary["final_position_error"] < 1e-3
+
+
+def test_model_specific_disturbance_keys():
+    """The trailer's lengths as a table; a steering bias on the unicycle (no steering angle) is refused."""
+    doc = {
+        "vehicle": {"model": "tractor-trailer"},
+        "bounds": {"u1": [-1.0, 1.0], "u2": [-0.5, 0.5]},
+        "initial": {"x": 0.0, "y": 0.0, "theta": 0.0, "phi": 0.0, "theta1": 0.0},
+        "problem": {"objective": "energy", "final_time": 5.0},
+        "disturbance": {"wheelbase": {"wheelbase": 4.0, "trailer_wheelbase": 8.1}},
+    }
+    assert parse_scenario(doc).disturbance.wheelbase == {"wheelbase": 4.0, "trailer_wheelbase": 8.1}
+    doc["disturbance"] = {"wheelbase": {"trailer_wheelbse": 8.1}}
+    with pytest.raises(InputError, match="did you mean 'trailer_wheelbase'"):
+        parse_scenario(doc)
+    doc["vehicle"] = {"model": "unicycle"}
+    doc["initial"] = {"x": 0.0, "y": 0.0, "theta": 0.0}
+    doc["disturbance"] = {"steering_bias": 0.01}
+    with pytest.raises(InputError, match="disturbance.steering_bias"):
+        parse_scenario(doc)
