@@ -194,7 +194,7 @@ def plan_limits(ocp: OCP, cols: Mapping[str, np.ndarray]) -> tuple[tuple[float, 
     return (xs.min() - pad, xs.max() + pad), (ys.min() - pad, ys.max() + pad)
 
 
-def _frame(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray]) -> None:
+def frame_plan(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray]) -> None:
     """Equal axes around the plan, a thin border without ticks (the scale bar gives the scale)."""
     xlim, ylim = plan_limits(ocp, cols)
     ax.set_xlim(*xlim)
@@ -313,7 +313,7 @@ def road_figure(
     nodes = np.arange(0, len(cols["t"]), every) if every else pose_nodes(ocp, cols)
     _draw_bodies(ax, ocp, cols, nodes)
     _draw_tracks(ax, ocp, cols)
-    _frame(ax, ocp, cols)
+    frame_plan(ax, ocp, cols)
     draw_scale_bar(ax)
     draw_north(ax)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.01), ncol=3, fontsize=6.5, frameon=False,
