@@ -304,7 +304,7 @@ def road_figure(
     cols = {k: np.asarray(columns[k], float) for k in ("t", *v.states, *v.controls)}
     (x0, x1), (y0, y1) = plan_limits(ocp, cols)
     plan_width = 4.9
-    fig = plt.figure(figsize=(7.4, max(4.4, plan_width * (y1 - y0) / (x1 - x0) + 1.2)), layout="constrained")
+    fig = plt.figure(figsize=(7.4, max(4.0, 0.9 * plan_width * (y1 - y0) / (x1 - x0) + 1.3)), layout="constrained")
     rows = _panel_names(ocp, cols)
     grid = fig.add_gridspec(len(rows), 2, width_ratios=(plan_width, 7.4 - plan_width))
     ax = fig.add_subplot(grid[:, 0])
