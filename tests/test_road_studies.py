@@ -1,0 +1,139 @@
+"""Road studies (issue 11, item 8): turning-circle physics, the cell scenarios, the table scripts on one small cell."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from model.problem.scenario import parse_scenario
+from model.studies.roads import (
+    EU_INNER,
+    EU_OUTER,
+    cell_document,
+    cell_name,
+    eu_steering,
+    eu_turning_circle,
+    integrate,
+    parse_cell,
+    preset_vehicle,
+    rectangle_distance,
+    steady_poses,
+    steady_turn,
+    trailer_radius,
+)
+from model.vehicles import Body, TractorTrailer, Truck
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPTS = ROOT / "workflows" / "scripts"
+TEMPLATE = ROOT / "workflows" / "scenarios" / "roads" / "left-turn.toml"
+
+
+def trailer_axle(vehicle, run):
+    p = vehicle.parameters()
+    ax = run["x"] + p["h"] * np.cos(run["theta"]) - p["L"] * np.cos(run["theta1"])
+    ay = run["y"] + p["h"] * np.sin(run["theta"]) - p["L"] * np.sin(run["theta1"])
+    return np.hypot(ax, ay)
+
+
+@pytest.mark.parametrize("h", [0.6, 0.0, -0.8])  # fifth wheel ahead, on the axle, tow ball behind
+def test_off_tracking_closed_form_matches_an_integrated_steady_circle(h):
+    """R_t^2 = R^2 + h^2 - L^2: the trailer axle of the integrated model settles on it to 1e-3 m."""
+    v = TractorTrailer(wheelbase=3.7, hitch_offset=h, trailer_wheelbase=7.7)
+    phi = 0.35
+    R = 3.7 / math.tan(phi)
+    start = {"x": R, "y": 0.0, "theta": math.pi / 2, "phi": phi, "theta1": math.pi / 2}  # trailer straight
+    run = integrate(v, start, 1.0, 0.0, 6 * 2 * math.pi * R, samples=601)
+    radius = trailer_axle(v, run)
+    assert abs(radius[-1] - trailer_radius(R, h, 7.7)) < 1e-3
+    assert abs(radius[0] - trailer_radius(R, h, 7.7)) > 0.01  # it started elsewhere
+    # the steady pose is a fixed point: integrated from it, the trailer axle stays on R_t
+    run = integrate(v, steady_poses(v, phi), 1.0, 0.0, 2 * math.pi * R, samples=201)
+    assert np.max(np.abs(trailer_axle(v, run) - trailer_radius(R, h, 7.7))) < 1e-6
+
+
+def test_turning_circle_of_a_rigid_truck_in_closed_form():
+    """A rectangle on a rear axle: the front outer corner on 12.50 m fixes R, the inner side is R - w/2."""
+    v, body = Truck(wheelbase=5.0), Body(length=8.0, width=2.5, rear_overhang=1.5)
+    phi = eu_steering(v, {"vehicle": body})
+    R = math.sqrt(EU_OUTER**2 - 6.5**2) - 1.25
+    assert math.isclose(5.0 / math.tan(phi), R, abs_tol=1e-9)
+    s = steady_turn(v, {"vehicle": body}, phi)
+    assert math.isclose(s["outer"], EU_OUTER, abs_tol=1e-9)
+    assert math.isclose(s["inner"], R - 1.25, abs_tol=1e-9)
+    r = eu_turning_circle(v, {"vehicle": body}, phi_limit=0.6)
+    assert r["passes"] and math.isclose(r["inner_margin"], R - 1.25 - EU_INNER, abs_tol=1e-9)
+    # the integrated turns of a rigid truck are its steady circle from the first instant
+    for turn in r["transient"]["turns"]:
+        assert math.isclose(turn["inner"], R - 1.25, abs_tol=1e-6)
+        assert turn["outside_annulus_m2"] < 1e-6
+    assert not eu_turning_circle(v, {"vehicle": body}, phi_limit=phi - 0.01, transient=False)["passes"]
+
+
+def test_eu_semitrailer_turning_circle_steady_and_integrated_agree():
+    v, bodies, limit = preset_vehicle("EU-semitrailer")
+    r = eu_turning_circle(v, bodies, limit)
+    assert r["passes"] and limit is None
+    assert 0.0 < r["inner_margin"] < 0.1  # the preset's docstring: inner side at 5.35 m
+    assert r["steady"]["inner_body"] == "trailer"
+    last = r["transient"]["turns"][-1]
+    assert abs(last["inner"] - r["steady"]["inner"]) < 1e-3  # converged to the steady state
+    assert r["transient"]["turns"][0]["inner"] >= r["steady"]["inner"] - 1e-9  # approached from outside
+    assert abs(last["outer"] - EU_OUTER) < 1e-6 and last["outside_annulus_m2"] < 1e-6
+
+
+def test_rectangle_distance_sides_and_corners():
+    square = np.array([[[1.0, -1.0], [3.0, -1.0], [3.0, 1.0], [1.0, 1.0]]])
+    assert rectangle_distance(square)[0] == pytest.approx(1.0)  # a side, not a corner
+    assert rectangle_distance(square + np.array([0.0, 2.0]))[0] == pytest.approx(math.sqrt(2.0))  # corner (1, 1)
+    assert rectangle_distance(square, (2.0, 0.0))[0] == 0.0  # inside
+
+
+def test_cell_documents():
+    template = tomllib.loads(TEMPLATE.read_text())
+    assert parse_cell(cell_name("WB-62", 45, 2)) == ("WB-62", 45.0, 2.0)
+    su = cell_document(template, "SU-30", 30, 2, 20)
+    ocp = parse_scenario(su).ocp
+    assert ocp.road.roundabout.apron_use == "all" and ocp.road.roundabout.inscribed_diameter == 30
+    assert ocp.road.roundabout.legs[0].entry_radius == pytest.approx(template["roundabout"]["legs"][0]["entry_radius"]
+                                                                     * 30 / 40)  # fmt: skip
+    assert ocp.bounds["phi"][1] < 0.6  # the preset's limit, not the template's
+    eu = parse_scenario(cell_document(template, "EU-semitrailer", 55, 0, 20)).ocp
+    assert eu.road.roundabout.apron_use == "trailer" and eu.bounds["phi"] == (-0.6, 0.6)
+    assert parse_scenario(cell_document(template, "P", 25, 2, 20)).ocp.road.roundabout.apron_use == "none"
+
+
+def run(script: str, *args) -> None:
+    subprocess.run([sys.executable, str(SCRIPTS / script), *map(str, args)], check=True, cwd=ROOT,
+                   capture_output=True, text=True)  # fmt: skip
+
+
+def test_table_scripts_on_one_small_cell(tmp_path):
+    cell = tmp_path / "cells" / "P_icd40_apron0.json"
+    run("studies_roads_cell.py", "--template", TEMPLATE, "--cell", "P_icd40_apron0", "--intervals", 20, "--out", cell)
+    data = json.loads(cell.read_text())
+    assert data["time"]["valid"] and data["energy"]["valid"]
+    assert data["energy"]["final_time"] == pytest.approx(1.2 * data["time"]["final_time"])
+    assert data["energy"]["energy"] < data["time"]["energy"]
+    assert data["measures"]["apron_used_m"] == 0.0 and 2.0 < data["measures"]["swept_width_m"] < 4.5
+    # a failed cell (made by hand) is reported with its diagnosis, never as a solution
+    failed = {**data, "cell": "WB-67_icd40_apron0", "preset": "WB-67", "energy": None, "measures": None}
+    failed["time"] = {**data["time"], "valid": False, "status": "infeasible",
+                      "diagnosis": {"message": "the trailer crosses the apron by 1.30 m", "body": "trailer",
+                                    "edge": "apron", "encroachment_m": 1.3}}  # fmt: skip
+    (tmp_path / "cells" / "WB-67_icd40_apron0.json").write_text(json.dumps(failed))
+    section = tmp_path / "74.md"
+    run("studies_roads_table.py", "--cells", cell, tmp_path / "cells" / "WB-67_icd40_apron0.json", "--template",
+        TEMPLATE, "--mode", "small", "--vehicles", "P", "WB-67", "--icd", 40, "--apron", 0, "--intervals", 20,
+        "--out", tmp_path / "table", "--section", section, "--formats", "png")  # fmt: skip
+    text = section.read_text()
+    assert "`road_studies: small` run" in text
+    assert f"{data['time']['final_time']:.4g}" in text
+    assert "FAILED" in text and "the trailer crosses the apron by 1.30 m" in text
+    assert (tmp_path / "table" / "table.png").exists()

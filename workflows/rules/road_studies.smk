@@ -1,0 +1,100 @@
+"""Road studies (issue 11, item 8): the EU turning circle, design vehicles x roundabout sizes, energy vs time on a roundabout."""
+
+ROAD_STUDY = config.get("road_studies", "small")
+ROAD_GRID = config["road_studies_grids"][ROAD_STUDY]
+ROAD_TEMPLATE = "workflows/scenarios/roads/left-turn.toml"
+ROAD_CELLS = [f"{v}_icd{float(i):g}_apron{float(a):g}" for v in ROAD_GRID["vehicles"] for i in ROAD_GRID["icd"]
+              for a in ROAD_GRID["apron"]]  # model.studies.roads.cell_name
+ROAD_TRADEOFF = config.get("road_tradeoff", {})
+ROAD_TRADEOFF_SCENARIO = ROAD_TRADEOFF.get("scenario", "workflows/scenarios/roads/su30-left-turn.toml")
+ROAD_ENERGY_RATIO = config.get("road_studies_energy_ratio", 1.2)
+ROAD_STUDY_DIR = "results/studies/roads"
+
+PAPER_SECTIONS += [
+    "results/sections/72-turning-circle.md",
+    "results/sections/74-design-vehicles.md",
+    "results/sections/76-road-tradeoff.md",
+]
+PAPER_FIGURES += [
+    f"{ROAD_STUDY_DIR}/turning/turning.png",
+    f"{ROAD_STUDY_DIR}/table/{ROAD_STUDY}/table.png",
+    f"{ROAD_STUDY_DIR}/tradeoff/tradeoff.png",
+]
+
+
+wildcard_constraints:
+    road_cell="|".join(re.escape(c) for c in ROAD_CELLS) or "NO_CELL",
+    road_grid="small|full",
+
+
+rule road_study_turning:
+    input:
+        script=SCRIPTS / "studies_roads_turning.py",
+        code=closure(SCRIPTS / "studies_roads_turning.py"),
+    output:
+        json=f"{ROAD_STUDY_DIR}/turning/turning.json",
+        figures=expand(f"{ROAD_STUDY_DIR}/turning/turning.{{ext}}", ext=FORMATS),
+        section="results/sections/72-turning-circle.md",
+    log:
+        "results/logs/studies/roads-turning.log",
+    shell:
+        "{PYTHON} {input.script} --out {ROAD_STUDY_DIR}/turning --section {output.section} --formats {FORMATS}"
+        " 2> {log}"
+
+
+rule road_study_cell:
+    input:
+        template=ROAD_TEMPLATE,
+        script=SCRIPTS / "studies_roads_cell.py",
+        code=closure(SCRIPTS / "studies_roads_cell.py"),
+    output:
+        f"{ROAD_STUDY_DIR}/table/{{road_grid}}/cells/{{road_cell}}.json",
+    params:
+        intervals=lambda wc: config["road_studies_grids"][wc.road_grid]["intervals"],
+    log:
+        "results/logs/studies/roads-{road_grid}/{road_cell}.log",
+    shell:
+        "{PYTHON} {input.script} --template {input.template} --cell {wildcards.road_cell}"
+        " --intervals {params.intervals} --energy-ratio {ROAD_ENERGY_RATIO} --out {output} 2> {log}"
+
+
+rule road_study_table:
+    input:
+        cells=expand(f"{ROAD_STUDY_DIR}/table/{ROAD_STUDY}/cells/{{cell}}.json", cell=ROAD_CELLS),
+        template=ROAD_TEMPLATE,
+        script=SCRIPTS / "studies_roads_table.py",
+        code=closure(SCRIPTS / "studies_roads_table.py"),
+    output:
+        csv=f"{ROAD_STUDY_DIR}/table/{ROAD_STUDY}/table.csv",
+        figures=expand(f"{ROAD_STUDY_DIR}/table/{ROAD_STUDY}/table.{{ext}}", ext=FORMATS),
+        section="results/sections/74-design-vehicles.md",
+    params:
+        vehicles=ROAD_GRID["vehicles"],
+        icd=ROAD_GRID["icd"],
+        apron=ROAD_GRID["apron"],
+        intervals=ROAD_GRID["intervals"],
+    log:
+        "results/logs/studies/roads-table.log",
+    shell:
+        "{PYTHON} {input.script} --cells {input.cells} --template {input.template} --mode {ROAD_STUDY}"
+        " --vehicles {params.vehicles} --icd {params.icd} --apron {params.apron} --intervals {params.intervals}"
+        " --energy-ratio {ROAD_ENERGY_RATIO} --out {ROAD_STUDY_DIR}/table/{ROAD_STUDY} --section {output.section}"
+        " --formats {FORMATS} 2> {log}"
+
+
+rule road_study_tradeoff:
+    input:
+        scenario=ROAD_TRADEOFF_SCENARIO,
+        script=SCRIPTS / "studies_roads_tradeoff.py",
+        code=closure(SCRIPTS / "studies_roads_tradeoff.py"),
+    output:
+        csv=f"{ROAD_STUDY_DIR}/tradeoff/tradeoff.csv",
+        figures=expand(f"{ROAD_STUDY_DIR}/tradeoff/tradeoff.{{ext}}", ext=FORMATS),
+        section="results/sections/76-road-tradeoff.md",
+    params:
+        ratios=ROAD_TRADEOFF.get("ratios", [1.1, 1.25, 1.5, 2.0]),
+    log:
+        "results/logs/studies/roads-tradeoff.log",
+    shell:
+        "{PYTHON} {input.script} --scenario {input.scenario} --ratios {params.ratios} --out {ROAD_STUDY_DIR}/tradeoff"
+        " --section {output.section} --formats {FORMATS} 2> {log}"

@@ -1,0 +1,91 @@
+"""Road study (b), one cell: a design vehicle turns left through one roundabout size, with or without an apron.
+
+The cell's scenario is the template (workflows/scenarios/roads/left-turn.toml) with the preset,
+the inscribed diameter and the apron set (model.studies.roads.cell_document). Solves the minimum
+time; if that is valid, the apron used and the swept width of its exact rectangles, and the
+energy-optimal solve at ``--energy-ratio`` x the minimum time (started from the time solution).
+A failed solve is written as failed, with its diagnosis; it is never a solution.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from studies_common import write_json  # noqa: E402
+
+from model.problem.scenario import parse_scenario  # noqa: E402
+from model.studies.roads import cell_document, cell_measures, parse_cell  # noqa: E402
+from model.studies.sweeps import as_energy  # noqa: E402
+
+KEEP = ("t", "x", "y", "theta", "phi", "theta1", "u1", "u2")
+
+
+def outcome(sol) -> dict:
+    """One solve as a record: status, validity, objective, Tf, clearances, diagnosis."""
+    measures = sol.validation.get("measures", {})
+    out = {
+        "status": sol.status,
+        "valid": bool(sol.ok),
+        "objective": sol.objective,
+        "final_time": sol.final_time,
+        "energy": sol.energy,
+        "iterations": sol.iterations,
+        "solve_seconds": sol.solve_seconds,
+        "min_clearance": measures.get("min_clearance"),
+        "min_clearance_dense": measures.get("min_clearance_dense"),
+        "exit_taken": measures.get("exit_taken"),
+    }
+    if not sol.ok:
+        out["diagnosis"] = sol.diagnosis or {"message": f"solver status {sol.status}, validation failed"}
+    return out
+
+
+def solve_cell(template: Path, cell: str, intervals: int, energy_ratio: float) -> dict:
+    preset_name, icd, apron = parse_cell(cell)
+    doc = cell_document(tomllib.loads(template.read_text()), preset_name, icd, apron, intervals)
+    ocp = parse_scenario(doc).ocp
+    start = time.perf_counter()
+    sol = ocp.solve(intervals=intervals)
+    record = {
+        "cell": cell,
+        "preset": preset_name,
+        "icd": icd,
+        "apron": apron,
+        "apron_use": ocp.road.roundabout.apron_use,
+        "intervals": intervals,
+        "template": str(template),
+        "time": outcome(sol),
+        "energy_ratio": energy_ratio,
+        "energy": None,
+    }
+    if sol.ok:
+        record["measures"] = cell_measures(ocp, sol.columns)
+        record["trajectory"] = {k: [float(v) for v in sol.columns[k]] for k in KEEP if k in sol.columns}
+        tf = energy_ratio * sol.final_time
+        esol = as_energy(ocp, tf).solve(intervals=intervals, guess=sol.trajectory)
+        record["energy"] = {"final_time_set": tf, **outcome(esol)}
+    record["seconds"] = time.perf_counter() - start
+    return record
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--template", type=Path, required=True)
+    ap.add_argument("--cell", required=True, help="e.g. WB-62_icd40_apron2 (model.studies.roads.cell_name)")
+    ap.add_argument("--intervals", type=int, required=True)
+    ap.add_argument("--energy-ratio", type=float, default=1.2)
+    ap.add_argument("--out", type=Path, required=True, help="the cell's JSON file")
+    args = ap.parse_args()
+    write_json(args.out, solve_cell(args.template, args.cell, args.intervals, args.energy_ratio))
+
+
+if __name__ == "__main__":
+    main()
