@@ -96,7 +96,7 @@ class MPCSettings:
             "acceptable_tol": 1e-4,
             "acceptable_iter": 2,
             "max_iter": 40,
-            "mu_init": 1e-4,
+            "mu_init": 1e-5,
         }
     )
     stop_samples: float = 1.5
