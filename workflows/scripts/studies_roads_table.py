@@ -46,7 +46,7 @@ def flat(c: dict) -> dict:
 
 
 def figure(df: pd.DataFrame, out: Path, formats: list[str]) -> None:
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.4))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.8), constrained_layout=True)
     presets = list(dict.fromkeys(df.preset))
     for k, name in enumerate(presets):
         color = f"C{k}"
@@ -57,7 +57,7 @@ def figure(df: pd.DataFrame, out: Path, formats: list[str]) -> None:
             ax1.plot(ok.icd, ok.t_min, style, marker="o", ms=4, color=color, label=label)
             ax2.plot(ok.icd, ok.swept_width_m, style, marker="o", ms=4, color=color, label=label)
             bad = g[~g.feasible]
-            for ax in (ax1, ax2):
+            for ax in (ax1, ax2) if len(bad) else ():
                 ax.plot(bad.icd, [0.02] * len(bad), "x", color=color, ms=8, mew=2,
                         transform=ax.get_xaxis_transform(), clip_on=False)  # fmt: skip
     ax1.set_xlabel("inscribed circle diameter ICD (m)")
@@ -66,8 +66,7 @@ def figure(df: pd.DataFrame, out: Path, formats: list[str]) -> None:
     ax2.set_ylabel("swept width in the ring (m)")
     ax1.set_title("minimum time (x on the axis: no valid trajectory)", fontsize=9)
     ax2.set_title("swept width of the time-optimal manoeuvre", fontsize=9)
-    ax2.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
+    fig.legend(*ax1.get_legend_handles_labels(), loc="outside lower center", ncol=min(6, 2 * len(presets)), fontsize=7)
     save(fig, out / "table", formats)
 
 

@@ -196,9 +196,13 @@ def section(name: str, r: dict, rows: list[dict], fig: Path) -> str:
             },
         ),  # fmt: skip
         "",
-        "The AASHTO WB-62 and WB-67 cannot: a steady state needs the tractor's rear axle radius above the"
-        " trailer wheelbase (R^2 + h^2 > L^2), which alone puts the tractor's front corner beyond 12.50 m.",
     ]
+    never = [r["preset"] for r in rows if r["phi_deg"] is None]
+    if never:
+        lines += [
+            f"No steering angle brings {', '.join(never)} within 12.50 m: a steady state needs the tractor's rear"
+            " axle radius above sqrt(L^2 - h^2) (R_t real), which alone puts the tractor's front corner beyond it.",
+        ]
     return "\n".join(lines)
 
 
