@@ -14,7 +14,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from model.problem.ocp import OCP
-from model.scene.geometry import clearance
+from model.scene.geometry import Region, clearance
+from model.scene.geometry import clearances as clearances_in
 from model.scene.roundabout import exit_taken
 
 SUBSTEPS = 4
@@ -38,7 +39,9 @@ def clearances(ocp: OCP, states: Mapping[str, np.ndarray]) -> dict[str, np.ndarr
     out = {}
     for name, corners in body_corners(ocp, states).items():
         region = ocp.road.corridor(name)
-        out[name] = np.array([clearance(region, c) for c in corners])
+        out[name] = clearances_in(region, corners) if isinstance(region, Region) else np.array(
+            [clearance(region, c) for c in corners]
+        )
     return out
 
 

@@ -55,10 +55,12 @@ def solve_starts(
     verbose: bool = False,
     options: dict | None = None,
     relax: bool = False,
+    analyse: bool = True,
 ) -> list[Solution]:
     """Build the model of one pass direction once; solve it from each start in turn.
 
     ``relax``: solve the minimal-violation model instead (``build_model(..., relax=True)``).
+    ``analyse=False``: skip validation and certificate (a screening solve, used only as a guess).
     """
     t0 = time.perf_counter()
     with paused_gc():  # Pyomo creates many small objects: collections cost 3x the build
@@ -73,7 +75,7 @@ def solve_starts(
                 nlp = CasadiNLP(m)
             timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
         res = run_ipopt(nlp, opts, x0=nlp.init_primals())
-        sols.append(finish(ocp, m, nlp, res, passing, timings))
+        sols.append(finish(ocp, m, nlp, res, passing, timings, analyse))
     return sols
 
 
@@ -87,12 +89,18 @@ def load_start(m: pyo.ConcreteModel, start: Start) -> None:
             var[t].set_value(float(pyo.value(expression(t))), skip_validation=True)
 
 
-def finish(ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, passing: str, timings: dict) -> Solution:
-    """Load Ipopt's answer into the model and make a validated, certified Solution."""
+def finish(
+    ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, passing: str, timings: dict, analyse: bool = True
+) -> Solution:
+    """Load Ipopt's answer into the model and make a validated, certified Solution.
+
+    Without ``analyse`` the node columns are states and controls only, nothing is validated
+    (``ok`` is False) and there is no certificate: a screening answer, a guess for a refinement.
+    """
     t0 = time.perf_counter()
     nlp.load_primals(res.x)
     nlp.load_duals(res.mult_g, res.x)
-    cols = node_columns(m, ocp)
+    cols = node_columns(m, ocp) if analyse else primal_columns(m, ocp)
     tf = float(pyo.value(m.tf))
     sol = Solution(
         ocp=ocp,
@@ -105,14 +113,14 @@ def finish(ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, pas
         solve_seconds=res.seconds,
         columns=cols,
         passing=passing,
-        validation=validate(ocp, cols, tf, passing),
+        validation=validate(ocp, cols, tf, passing) if analyse else {"passed": None, "skipped": "screening"},
         solver_message=res.message,
         timings={**timings, "ipopt": res.seconds},
     )
-    if sol.status == "optimal" and not sol.validation["passed"]:
+    if analyse and sol.status == "optimal" and not sol.validation["passed"]:
         sol.status = "validation_failed"
     sol.model, sol.nlp, sol.ipopt = m, nlp, res
-    sol.certificate = _certificate(sol)
+    sol.certificate = _certificate(sol) if analyse else {"passed": None, "skipped": "screening"}
     sol.timings["analysis"] = time.perf_counter() - t0
     return sol
 
@@ -133,13 +141,20 @@ def load_values(m: pyo.ConcreteModel, values: dict[str, np.ndarray]) -> None:
             var[t].set_value(float(val), skip_validation=True)
 
 
-def node_columns(m: pyo.ConcreteModel, ocp: OCP) -> dict[str, np.ndarray]:
-    """Node arrays: t, states, controls, then costates, mu, H, switching functions."""
+def primal_columns(m: pyo.ConcreteModel, ocp: OCP) -> dict[str, np.ndarray]:
+    """Node arrays: t, states, controls."""
     v = ocp.vehicle
     cols: dict[str, np.ndarray] = {"t": np.array(grid(m))}
     for name in v.states + v.controls:
         var = m.component(name)
         cols[name] = np.array([pyo.value(var[t]) for t in m.nodes], dtype=float)
+    return cols
+
+
+def node_columns(m: pyo.ConcreteModel, ocp: OCP) -> dict[str, np.ndarray]:
+    """Node arrays: t, states, controls, then costates, mu, H, switching functions."""
+    v = ocp.vehicle
+    cols = primal_columns(m, ocp)
     cols.update(costates(m, ocp))
     px, py = v.position
     cols["mu"] = obstacle_multiplier(m, ocp, (cols[px], cols[py]))
@@ -149,4 +164,13 @@ def node_columns(m: pyo.ConcreteModel, ocp: OCP) -> dict[str, np.ndarray]:
     return cols
 
 
-__all__ = ["Start", "finish", "load_start", "load_values", "node_columns", "paused_gc", "solve_starts"]
+__all__ = [
+    "Start",
+    "finish",
+    "load_start",
+    "load_values",
+    "node_columns",
+    "paused_gc",
+    "primal_columns",
+    "solve_starts",
+]

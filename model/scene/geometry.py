@@ -705,7 +705,17 @@ def clearance(region: Region | BaseGeometry, body: Polygon | np.ndarray) -> floa
     """
     if not isinstance(region, Region):
         return _polygon_clearance(region, body)
-    return clearance_detail(region, body)[0]
+    return float(clearances(region, body_corners(body)[None])[0])
+
+
+def clearances(region: Region, corners: np.ndarray) -> np.ndarray:
+    """``clearance`` of many bodies given as corners (m, n, 2), one membership test for all."""
+    first_inside = region.contains(corners[:, 0, :])
+    out = np.empty(len(corners))
+    for i, (c, inside) in enumerate(zip(corners, first_inside, strict=True)):
+        d = region.nearest_to_body(c)[0]
+        out[i] = d if d > 0.0 and inside else min(-region.encroachment(c)[0], 0.0)
+    return out
 
 
 def clearance_detail(region: Region, body: Polygon | np.ndarray) -> tuple[float, str | None, np.ndarray]:

@@ -17,6 +17,7 @@ from model.direct.solution import Solution
 from model.direct.solve import Start, solve_starts
 from model.problem.ocp import OCP
 from model.search.guess import guess_final_time, initial_guess
+from model.search.screening import screen_starts, screening_intervals
 
 TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
@@ -38,6 +39,7 @@ def solve_ocp(
     starts: tuple[tuple[float, str], ...] | None = None,
     progress: Callable[[str], None] | None = None,
     continuation: bool = True,
+    screen: bool | int | None = None,
 ) -> Solution:
     """Solve every pass direction asked for and keep the best validated solution.
 
@@ -53,6 +55,9 @@ def solve_ocp(
     progress : called with one line of text after each start (e.g. ``print``).
     continuation : when no start validates, try a homotopy in the final time
         (``model.search.continuation``) before reporting a diagnosis.
+    screen : screen the cold starts on a coarse grid and refine the best distinct optima at N
+        (``model.search.screening``): None where N is large enough to pay, False never, an int
+        for that coarse grid. If no refined solution validates, every start is solved at N.
 
     Returns
     -------
@@ -61,26 +66,16 @@ def solve_ocp(
         ``attempts`` lists every start with its status and objective.
     """
     start = time.perf_counter()
-    best: Solution | None = None
-    attempts, solutions = [], []
     if starts is None:
         starts = default_starts(ocp) if guess is None else ((1.0, "arc"),)
-    for passing in passes_to_try(ocp):
-        values = [start_values(ocp, intervals, passing, guess, scale, route) for scale, route in starts]
-        for (scale, route), sol in zip(starts, solve_starts(ocp, intervals, passing, values, verbose, options),
-                                       strict=True):  # fmt: skip
-            attempts.append(
-                {"pass": passing, "tf_guess_scale": scale, "route": route, "status": sol.status, "valid": sol.ok,
-                 "objective": sol.objective}
-            )  # fmt: skip
-            if progress is not None:
-                progress(
-                    f"[{len(attempts)}] pass {passing}, start {route} x{scale:g}: {sol.status}, "
-                    f"objective {sol.objective:.8g}, {sol.iterations} iterations, {sol.timings['ipopt']:.2f} s in Ipopt"
-                )
-            solutions.append(sol)
-            if best is None or _better(sol, best):
-                best = sol
+    attempts: list[dict] = []
+    solutions: list[Solution] = []
+    coarse = screening_intervals(intervals, screen) if guess is None else None
+    best = None
+    if coarse is not None:
+        best = _screen_and_refine(ocp, intervals, coarse, starts, verbose, options, attempts, solutions, progress)
+    if best is None or not best.ok:  # no screening, or nothing refined validated: every cold start at N
+        best = _cold_starts(ocp, intervals, starts, guess, verbose, options, attempts, solutions, progress, best)
     if not best.ok and ocp.road is not None and ocp.bodies:
         from model.search.diagnosis import failed_road, finite
 
@@ -98,6 +93,50 @@ def solve_ocp(
     return best
 
 
+def _record(attempts, solutions, progress, sol: Solution, passing: str, scale, route: str) -> None:
+    attempts.append({"pass": passing, "tf_guess_scale": scale, "route": route, "status": sol.status,
+                     "valid": sol.ok, "objective": sol.objective})  # fmt: skip
+    solutions.append(sol)
+    if progress is not None:
+        progress(
+            f"[{len(attempts)}] pass {passing}, start {route} x{scale:g}: {sol.status}, "
+            f"objective {sol.objective:.8g}, {sol.iterations} iterations, {sol.timings['ipopt']:.2f} s in Ipopt"
+        )
+
+
+def _cold_starts(ocp, intervals, starts, guess, verbose, options, attempts, solutions, progress, best):
+    """Every start of every pass direction at N; the best so far (``best`` may be None)."""
+    for passing in passes_to_try(ocp):
+        values = [start_values(ocp, intervals, passing, guess, scale, route) for scale, route in starts]
+        for (scale, route), sol in zip(starts, solve_starts(ocp, intervals, passing, values, verbose, options),
+                                       strict=True):  # fmt: skip
+            _record(attempts, solutions, progress, sol, passing, scale, route)
+            if best is None or _better(sol, best):
+                best = sol
+    return best
+
+
+def _screen_and_refine(ocp, intervals, coarse, starts, verbose, options, attempts, solutions, progress):
+    """Screen the starts at ``coarse``, refine the distinct optima at N; the best refined (or None)."""
+
+    def make_starts(n, passing):
+        return [start_values(ocp, n, passing, None, scale, route) for scale, route in starts]
+
+    kept, screened, coarse_sols = screen_starts(ocp, coarse, passes_to_try(ocp), make_starts, options)
+    attempts.extend(screened)
+    solutions.extend(coarse_sols)
+    if progress is not None:
+        progress(f"screening on N = {coarse}: {len(screened)} starts, {len(kept)} distinct optima to refine")
+    best = None
+    for cand in kept:
+        values = start_values(ocp, intervals, cand.passing, cand.columns)
+        sol = solve_starts(ocp, intervals, cand.passing, [values], verbose, options)[0]
+        _record(attempts, solutions, progress, sol, cand.passing, 1.0, f"refined from N={coarse}")
+        if best is None or _better(sol, best):
+            best = sol
+    return best
+
+
 def _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, progress, continuation) -> Solution:
     """A proven bound ends the search; else a slowed-down minimum-time solution or a homotopy in Tf may
     find a solution; else the solver's evidence (with the least time found, if above Tf)."""
@@ -111,8 +150,10 @@ def _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, prog
         def solve(problem, guess=None):
             return solve_ocp(problem, intervals, verbose, options, guess=guess, continuation=False)
 
-        attempts_to_make = (("slowed minimum time", lambda: slowed_minimum_time(ocp, solve, progress)),
-                            ("final-time homotopy", lambda: (final_time_homotopy(ocp, solve, progress), None)))
+        attempts_to_make = (
+            ("slowed minimum time", lambda: slowed_minimum_time(ocp, solve, progress)),
+            ("final-time homotopy", lambda: (final_time_homotopy(ocp, solve, progress), None)),
+        )
         for route, attempt in attempts_to_make:
             found, least = attempt()
             least_time = least_time if least is None else least

@@ -73,8 +73,9 @@ def embed_figures(body: str, base: Path) -> str:
         number += 1
         alt, src = html.unescape(m.group(1)), m.group(2)
         data = base64.b64encode((base / src).read_bytes()).decode()
+        kind = "gif" if src.lower().endswith(".gif") else "png"
         caption = markdown.markdown(alt)[3:-4]  # inline Markdown (code spans) in the caption
-        return (f'<figure id="figure-{number}"><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
+        return (f'<figure id="figure-{number}"><img alt="{html.escape(alt)}" src="data:image/{kind};base64,{data}">'
                 f"<figcaption><strong>Figure {number}.</strong> {caption}</figcaption></figure>")
 
     return IMAGE.sub(figure, body)
