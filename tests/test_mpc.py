@@ -17,7 +17,7 @@ from scipy.integrate import solve_ivp
 
 from model.problem.closed_loop import ControlSettings, Disturbance
 from model.problem.scenario import load_scenario
-from model.simulation.mpc import MPC, TimeLayout
+from model.simulation.mpc import MPC, MPCSettings, TimeLayout
 from tests.conftest import ROOT
 
 SCENARIOS = ROOT / "workflows" / "scenarios"
@@ -179,6 +179,20 @@ def test_a_failed_step_follows_the_previous_plan(real):
     u = mpc.make_step(0.1, np.array([np.nan, 0.0, 0.0, 0.0]), np.zeros((0, 2)))
     assert mpc.failed
     assert u == pytest.approx(planned)
+
+
+def test_a_road_scenario_with_a_body_solves_its_steps():
+    """Body discs in the roundabout corridor: the horizon starts from the reference (disc centres
+    included, not zero: that is the island's centre, where the distance is not differentiable)."""
+    sc = load_scenario(ROOT / "workflows" / "roads" / "truck-straight-on.toml")
+    sol = sc.ocp.solve(intervals=sc.intervals)
+    mpc = MPC(sol, ControlSettings(0.1, 40), settings=MPCSettings(budget=100.0))
+    cols = sol.columns
+    for t in (0.0, 0.1):
+        y = np.array([np.interp(t, cols["t"], cols[k]) for k in sol.ocp.vehicle.states])
+        y[1] += 0.2  # pushed sideways in its lane
+        u = mpc.make_step(t, y, np.zeros((0, 2)))
+        assert not mpc.failed and np.all(np.isfinite(u))
 
 
 def test_time_layout_moves_node_values_in_time():

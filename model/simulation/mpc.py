@@ -48,7 +48,7 @@ import sympy as sp
 
 from model.direct.resolve import WARM_OPTIONS
 from model.direct.solution import Solution
-from model.direct.solve import paused_gc
+from model.direct.solve import Start, load_start, paused_gc
 from model.direct.transcription import build_model
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import IpoptResult, run_ipopt
@@ -541,14 +541,15 @@ class MPC:
         return Plan(times, res.x.copy(), res.mult_g.copy(), res.mult_x_L.copy(), res.mult_x_U.copy(), values)
 
     def _reference_plan(self) -> Plan:
-        """The open-loop optimum as a plan on the horizon's layout (no multipliers)."""
+        """The open-loop optimum as a plan on the horizon's layout (no multipliers); auxiliary node
+        variables (body disc centres) follow it, slacks start at zero."""
         hm, ref = self.horizon, self.reference
         length = min(self.horizon_time, self.final_time)
         times = np.linspace(0.0, length, hm.n + 1)
-        x = hm.nlp.init_primals() * 0.0
-        values = {}
+        values = {name: np.interp(times, ref["t"], ref[name]) for name in hm.node_cols}
+        load_start(hm.model, Start(values, length if hm.free_time else None))
+        x = hm.nlp.init_primals()
         for name, cols in hm.node_cols.items():
-            values[name] = np.interp(times, ref["t"], ref[name])
             x[cols] = values[name]
         if hm.tf_col is not None:
             x[hm.tf_col] = length
