@@ -150,4 +150,5 @@ def _reintegration_drift(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray) 
         "max_position_error": float(np.max(pos)),
         "final_position_error": float(pos[-1]),
         "max_state_error": {s: float(np.max(err[i])) for i, s in enumerate(v.states)},
+        "final_state_error": {s: float(err[i, -1]) for i, s in enumerate(v.states)},
     }

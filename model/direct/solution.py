@@ -43,6 +43,7 @@ class Solution:
     timings: dict = field(default_factory=dict)
     certificate: dict = field(default_factory=dict)
     diagnosis: dict | None = None
+    accuracy: dict = field(default_factory=dict)
 
     @property
     def trajectory(self) -> pd.DataFrame:
@@ -80,6 +81,7 @@ class Solution:
             "valid": bool(self.validation.get("passed")),
             "validation": self.validation.get("checks", {}),
             "reintegration": measures.get("reintegration"),
+            **({"accuracy": self.accuracy} if self.accuracy else {}),
             "solver_message": self.solver_message,
             "attempts": self.attempts,
             "timings": self.timings,

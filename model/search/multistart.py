@@ -16,6 +16,7 @@ from model.analysis.columns import Columns, as_arrays
 from model.direct.solution import Solution
 from model.direct.solve import Start, solve_starts
 from model.problem.ocp import OCP
+from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
 from model.search.guess import guess_final_time, initial_guess
 from model.search.screening import screen_starts, screening_intervals
 
@@ -40,6 +41,7 @@ def solve_ocp(
     progress: Callable[[str], None] | None = None,
     continuation: bool = True,
     screen: bool | int | None = None,
+    accuracy: float | None = GOAL_ACCURACY,
 ) -> Solution:
     """Solve every pass direction asked for and keep the best validated solution.
 
@@ -58,6 +60,8 @@ def solve_ocp(
     screen : screen the cold starts on a coarse grid and refine the best distinct optima at N
         (``model.search.screening``): None where N is large enough to pay, False never, an int
         for that coarse grid. If no refined solution validates, every start is solved at N.
+    accuracy : goal tolerance of the re-integrated controls (``model.search.accuracy``): a
+        solution that drifts further is solved again on 2N intervals; None never refines.
 
     Returns
     -------
@@ -85,12 +89,27 @@ def solve_ocp(
                          "objective": best.objective})  # fmt: skip
     elif not best.ok:
         best = _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, progress, continuation)
+    best = _accurate(ocp, best, attempts, verbose, options, progress, accuracy)
     best.nlp.load_primals(best.ipopt.x)  # the model may hold a later start's values
     best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
     best.attempts = attempts
     best.solve_seconds = time.perf_counter() - start
     best.timings = {**best.timings, "all_starts": phase_totals(solutions)}
     return best
+
+
+def _accurate(ocp, best, attempts, verbose, options, progress, accuracy) -> Solution:
+    """The solution refined on finer grids until its re-integrated goal drift is within tolerance."""
+
+    def solve(n, guess):
+        sol = solve_starts(ocp, n, guess.passing, [start_values(ocp, n, guess.passing, guess.columns)], verbose,
+                           options)[0]  # fmt: skip
+        _record(attempts, [], progress, sol, guess.passing, 1.0, f"N={n} for accuracy")
+        return sol
+
+    sol, record = refine_for_accuracy(best, solve, accuracy, progress)
+    sol.accuracy = record
+    return sol
 
 
 def _record(attempts, solutions, progress, sol: Solution, passing: str, scale, route: str) -> None:

@@ -1,0 +1,73 @@
+"""Accuracy of a solution: do its controls, integrated exactly, reach the goal?
+
+The trapezoid rule is second order: on a coarse grid the optimal controls, re-integrated by
+an accurate integrator (the validation's ``reintegration``), end a little off the goal. A
+solution whose drift at the goal exceeds the tolerance is solved again on a grid twice as
+fine, warm from itself, at most ``MAX_DOUBLINGS`` times; the summary says what was reached.
+
+Tolerance: ``GOAL_ACCURACY * max(1, L)`` for the position states (L the start-goal distance,
+metres) and ``GOAL_ACCURACY`` for every other state fixed at the goal (radians for angles).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from model.direct.solution import Solution
+from model.problem.ocp import OCP
+
+GOAL_ACCURACY = 1e-3
+MAX_DOUBLINGS = 1
+MAX_INTERVALS = 1600  # never refine beyond this grid
+
+
+def goal_tolerances(ocp: OCP, accuracy: float = GOAL_ACCURACY) -> dict[str, float]:
+    """The drift allowed at the goal for each state fixed there."""
+    scale = max(1.0, ocp.straight_distance() or 0.0)
+    position = set(ocp.vehicle.position)
+    return {s: accuracy * (scale if s in position else 1.0) for s in ocp.final}
+
+
+def goal_drift(sol: Solution, accuracy: float = GOAL_ACCURACY) -> tuple[float, str | None]:
+    """The largest re-integrated goal error relative to its tolerance (<= 1 is accurate), and its state."""
+    errors = (sol.validation.get("measures", {}).get("reintegration") or {}).get("final_state_error")
+    if not errors:
+        return float("inf"), None
+    tol = goal_tolerances(sol.ocp, accuracy)
+    worst = max(tol, key=lambda s: errors[s] / tol[s], default=None)
+    return (errors[worst] / tol[worst], worst) if worst else (0.0, None)
+
+
+def refine_for_accuracy(
+    sol: Solution,
+    solve: Callable[[int, Solution], Solution],
+    accuracy: float | None = GOAL_ACCURACY,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[Solution, dict]:
+    """Double the grid (warm) while the goal drift exceeds its tolerance; the best accurate solution.
+
+    ``solve(n, guess)`` solves the problem on n intervals from ``guess``. Returns the solution to
+    keep and the record for the summary (``accuracy``).
+    """
+    if accuracy is None or not sol.ok:
+        return sol, {}
+    ratio, state = goal_drift(sol, accuracy)
+    record = {"tolerance": goal_tolerances(sol.ocp, accuracy), "intervals_requested": sol.intervals}
+    for _ in range(MAX_DOUBLINGS):
+        if ratio <= 1.0 or 2 * sol.intervals > MAX_INTERVALS:
+            break
+        if progress is not None:
+            progress(
+                f"goal drift {ratio:.3g} x the tolerance ({state}) on N = {sol.intervals}: now N = {2 * sol.intervals}"
+            )
+        finer = solve(2 * sol.intervals, sol)
+        if not finer.ok:
+            record["refinement_failed"] = finer.status
+            break
+        sol = finer
+        ratio, state = goal_drift(sol, accuracy)
+    return sol, record | {"drift_over_tolerance": ratio, "worst_state": state, "reached": ratio <= 1.0,
+                          "intervals": sol.intervals}  # fmt: skip
+
+
+__all__ = ["GOAL_ACCURACY", "goal_drift", "goal_tolerances", "refine_for_accuracy"]
