@@ -21,25 +21,37 @@ margin at +-M metres (same sign, same zero) so that the exponentials stay finite
 Where the centre line meets the outer curb (the corner between a leg's two lanes) the union is
 conservative by up to a disc radius. The exact rectangles are checked against the exact
 corridor by the validation.
+
+Other formulations (``FORMULATIONS``, chosen by ``add_body_constraints(..., formulation=...)`` or
+``use_formulation``; docs/bodies-formulation.md compares them): "discs-tight", the same with more
+discs (``TIGHT_COVER_SLACK``) and a sharper union (``TIGHT_SHARPNESS``), and "corners"
+(``_add_corner_bodies``): the rectangle's corners in the union, the rectangle clear of the circles.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import operator
+from collections.abc import Iterator
 
 import numpy as np
 import pyomo.environ as pyo
 
 from model.direct.expressions import sympy_to_pyomo
 from model.problem.ocp import OCP
-from model.scene.roundabout import apron_allowed, fillet_geometry, lane_side
+from model.scene.roundabout import apron_allowed, fillet_geometry, lane_side, leg_point
 from model.vehicles import sym
 
-SHARPNESS = 20.0  # k, 1/m: the union gives away at most log(3) / k = 5.5 cm
+SHARPNESS = 20.0  # k, 1/m: the union of five pieces gives away at most log(5) / k = 8.0 cm
 SATURATION = 5.0  # M, m
 COVER_SLACK = 0.1  # each body's cover discs reach at most 10 % of its half-width beyond its sides
+TIGHT_SHARPNESS = 50.0  # k of "discs-tight": log(5) / k = 3.2 cm (k M = 250: exp and its square stay finite)
+TIGHT_COVER_SLACK = 0.03  # "discs-tight": discs reach at most 3 % of the half-width beyond the sides
+CORNER_SHARPNESS = 50.0  # k of "corners": a point's union gives away log(5) / k = 3.2 cm, a keep-out log(4) / k
+FORMULATIONS = ("discs", "discs-tight", "corners")
+FORMULATION = "discs"  # the default (docs/bodies-formulation.md)
 
 
 def disc_count(length: float, width: float, slack: float = COVER_SLACK) -> int:
@@ -49,33 +61,78 @@ def disc_count(length: float, width: float, slack: float = COVER_SLACK) -> int:
     return max(1, math.ceil(length / (2 * reach)))
 
 
-def add_body_constraints(m: pyo.ConcreteModel, ocp: OCP, relax: bool = False) -> None:
-    """Add, for each body and cover disc, the island and corridor constraints at every node.
+def add_body_constraints(m: pyo.ConcreteModel, ocp: OCP, relax: bool = False, formulation: str | None = None) -> None:
+    """Add, for each body, the island and corridor constraints at every node.
 
     With ``relax`` each row gets a slack ``s >= 0`` (metres, on the disc's margin) and the model's
     objective becomes the sum of the slacks: the minimal-violation problem behind ``diagnosis``.
+    ``formulation``: one of ``FORMULATIONS``; None uses the module setting ``FORMULATION``
+    ("discs", the formulation of the module docstring; see ``use_formulation``).
     """
     if ocp.road is None or not ocp.bodies:
         return
+    kind = FORMULATION if formulation is None else formulation
+    if kind not in FORMULATIONS:
+        raise ValueError(f"body formulation must be one of {FORMULATIONS}, got {kind!r}")
+    if kind == "corners":
+        _add_corner_bodies(m, ocp, relax)
+    elif kind == "discs-tight":
+        _add_disc_bodies(m, ocp, relax, TIGHT_COVER_SLACK, TIGHT_SHARPNESS)
+    else:
+        _add_disc_bodies(m, ocp, relax, COVER_SLACK, SHARPNESS)
+
+
+def _pose_point(m: pyo.ConcreteModel, ocp: OCP, pose, ahead: float, left: float):
+    """``t -> (x, y)``: the point ``ahead`` along and ``left`` across a body's axis, as Pyomo expressions."""
     v = ocp.vehicle
     params = {sym(k): val for k, val in v.parameters().items()}
     comps = [(sym(n), m.component(n)) for n in v.states]
-    poses = v.body_poses()
+
+    def point(t):
+        env = {s: c[t] for s, c in comps} | params
+        x, y, h = (sympy_to_pyomo(e, env) for e in pose)
+        if left == 0.0:  # the disc centres: the same expressions as before "left" existed
+            return x + ahead * pyo.cos(h), y + ahead * pyo.sin(h)
+        c, s = pyo.cos(h), pyo.sin(h)
+        return x + ahead * c - left * s, y + ahead * s + left * c
+
+    return point
+
+
+def _add_disc_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool, slack: float, k: float) -> None:
+    """Each body's cover discs (``disc_count`` with ``slack``) kept in the corridor with sharpness ``k``."""
+    poses = ocp.vehicle.body_poses()
     for name, body in ocp.bodies.items():
-        offsets, radius = body.cover(disc_count(body.length, body.width))
-        pose = poses[name]
+        offsets, radius = body.cover(disc_count(body.length, body.width, slack))
+        apron = apron_allowed(ocp.road.roundabout, name)
         for j, offset in enumerate(offsets):
-
-            def centre(t, pose=pose, offset=float(offset)):
-                env = {s: c[t] for s, c in comps} | params
-                x, y, h = (sympy_to_pyomo(e, env) for e in pose)
-                return x + offset * pyo.cos(h), y + offset * pyo.sin(h)
-
-            _add_disc(m, ocp, f"body_{name}_{j}", centre, float(radius), apron_allowed(ocp.road.roundabout, name),
-                      relax)  # fmt: skip
+            centre = _pose_point(m, ocp, poses[name], float(offset), 0.0)
+            _add_disc(m, ocp, f"body_{name}_{j}", centre, float(radius), apron, relax, k)
 
 
-def _add_disc(m: pyo.ConcreteModel, ocp: OCP, tag: str, position, r: float, apron: bool, relax: bool) -> None:
+@contextlib.contextmanager
+def use_formulation(name: str) -> Iterator[None]:
+    """Build every model inside the block with the body formulation ``name`` (restores the setting).
+
+    Examples
+    --------
+    >>> with use_formulation("corners"):          # doctest: +SKIP
+    ...     sol = ocp.solve(intervals=100)
+    """
+    global FORMULATION
+    if name not in FORMULATIONS:
+        raise ValueError(f"body formulation must be one of {FORMULATIONS}, got {name!r}")
+    previous, FORMULATION = FORMULATION, name
+    try:
+        yield
+    finally:
+        FORMULATION = previous
+
+
+def _add_disc(
+    m: pyo.ConcreteModel, ocp: OCP, tag: str, position, r: float, apron: bool, relax: bool, k: float = SHARPNESS
+):
+    """A disc (a point if ``r`` = 0) outside the island and in the union of pieces; returns its centre."""
     rb, road = ocp.road.roundabout, ocp.road
     cx, cy = rb.center
     inner = rb.island_radius if apron else rb.inner_radius
@@ -90,11 +147,95 @@ def _add_disc(m: pyo.ConcreteModel, ocp: OCP, tag: str, position, r: float, apro
         x, y = centre(t)
         pieces = [rb.outer_radius - r - pyo.sqrt((x - cx) ** 2 + (y - cy) ** 2)]
         for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit")):
-            pieces += [_lane_margin(rb, leg, lane, x, y, r), _fillet_margin(rb, leg, lane, x, y, r)]
-        return _smooth_max(pieces) + slack["corridor"](t) >= math.log(len(pieces)) / SHARPNESS
+            pieces += [_lane_margin(rb, leg, lane, x, y, r, k), _fillet_margin(rb, leg, lane, x, y, r, k)]
+        return _smooth_max(pieces, k) + slack["corridor"](t) >= math.log(len(pieces)) / k
 
     m.add_component(f"{tag}_island", pyo.Constraint(m.tau, rule=island))
     m.add_component(f"{tag}_corridor", pyo.Constraint(m.tau, rule=corridor))
+    return centre
+
+
+def _add_corner_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool) -> None:
+    """Formulation "corners": each body's four corners in the corridor, its sides clear of the circles.
+
+    The corners are points (discs of radius 0) outside the island and in the smooth union of the
+    pieces (sharpness ``CORNER_SHARPNESS``). The rectangle is kept clear of the island's circle,
+    of the two fillet circles of the route and of the points where a leg's centre line meets the
+    outer curb (``_keep_out_points``): docs/bodies-formulation.md, "Formulation B".
+    """
+    rb = ocp.road.roundabout
+    poses = ocp.vehicle.body_poses()
+    for name, body in ocp.bodies.items():
+        apron = apron_allowed(rb, name)
+        corners = []
+        for j, (ox, oy) in enumerate(body.outline()):
+            point = _pose_point(m, ocp, poses[name], float(ox), float(oy))
+            corners.append(_add_disc(m, ocp, f"body_{name}_c{j}", point, 0.0, apron, relax, CORNER_SHARPNESS))
+        for tag, point, radius in _keep_out_points(ocp, apron):
+            for box in (0, 1) if radius > 0.0 else (0,):
+                _add_keep_out(m, f"body_{name}_{tag}_{box}", corners, body, point, radius, box, relax)
+
+
+def _keep_out_points(ocp: OCP, apron: bool) -> list[tuple[str, tuple[float, float], float]]:
+    """(tag, centre, radius) of the circles a rectangle must stay clear of, the corridor's convex holes.
+
+    The island (or apron edge), the entry lane's and the exit lane's fillet circles, and, where the
+    route uses one lane of a leg, the point where that leg's centre line meets the outer curb
+    (radius 0: the corridor's reflex corner there).
+    """
+    rb, road = ocp.road.roundabout, ocp.road
+    inner = rb.island_radius if apron else rb.inner_radius
+    out = [("island", rb.center, inner)]
+    for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit")):
+        f = fillet_geometry(rb, leg, lane)
+        out.append((f"fillet_{lane}", tuple(float(v) for v in f["center"]), float(f["radius"])))
+    if road.route.enter != road.exit_leg:
+        for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit")):
+            vertex = leg_point(rb, leg, rb.outer_radius, 0.0)
+            out.append((f"vertex_{lane}", (float(vertex[0]), float(vertex[1])), 0.0))
+    return out
+
+
+def _add_keep_out(m: pyo.ConcreteModel, tag: str, corners: list, body, point, radius: float, box: int, relax: bool):
+    """The point outside one arm of the rectangle grown by ``radius`` (box 0: across, 1: along).
+
+    With the corners outside the circle, the rectangle misses the disc (``point``, ``radius``) exactly
+    when the point lies outside both arms of the cross ``rectangle + disc`` without its rounded
+    corners. The condition is a smooth maximum of the four margins of the arm, ``>= log(4) / k``.
+    """
+    half_l, half_w = body.length / 2, body.width / 2
+    reach = (half_l, half_w + radius) if box == 0 else (half_l + radius, half_w)
+    slack = _slack(m, tag, relax)
+    k = CORNER_SHARPNESS
+
+    def rule(_m, t):
+        along, across = _body_frame([c(t) for c in corners], body, point)
+        margins = [along - reach[0], -along - reach[0], across - reach[1], -across - reach[1]]
+        return _smooth_max(margins, k) + slack(t) >= math.log(len(margins)) / k
+
+    m.add_component(f"{tag}_keep_out", pyo.Constraint(m.tau, rule=rule))
+
+
+def _body_frame(p: list, body, point) -> tuple:
+    """``point`` in the frame of the rectangle with corners ``p`` (rear right, front right, front left, rear left).
+
+    Origin at the rectangle's centre, first axis along the body, second to its left.
+    """
+    mx, my = (p[0][0] + p[2][0]) / 2, (p[0][1] + p[2][1]) / 2
+    ux, uy = (p[1][0] - p[0][0]) / body.length, (p[1][1] - p[0][1]) / body.length
+    nx, ny = (p[3][0] - p[0][0]) / body.width, (p[3][1] - p[0][1]) / body.width
+    dx, dy = point[0] - mx, point[1] - my
+    return dx * ux + dy * uy, dx * nx + dy * ny
+
+
+def _slack(m: pyo.ConcreteModel, tag: str, relax: bool):
+    """One row's slack ``t -> s(t) >= 0`` (relaxed model) or zero."""
+    if not relax:
+        return lambda t: 0
+    var = pyo.Var(m.tau, bounds=(0.0, None), initialize=0.0)
+    m.add_component(f"{tag}_slack", var)
+    m.slacks = [*getattr(m, "slacks", []), var]
+    return lambda t: var[t]
 
 
 def _slacks(m: pyo.ConcreteModel, tag: str, relax: bool) -> dict:
@@ -130,7 +271,7 @@ def _centre_variables(m: pyo.ConcreteModel, tag: str, position, rb):
     return lambda t: (x[t], y[t])
 
 
-def _lane_margin(rb, leg: int, lane: str, x, y, r: float):
+def _lane_margin(rb, leg: int, lane: str, x, y, r: float, k: float = SHARPNESS):
     """Smooth minimum of a disc's margins in the lane's strip: centre line, outer edge, and from the centre to its end.
 
     Without ``along >= r`` the strip would continue through the centre and past the opposite curb.
@@ -138,10 +279,10 @@ def _lane_margin(rb, leg: int, lane: str, x, y, r: float):
     g = rb.legs[leg]
     along, across = _lane_frame(rb, leg, lane, x, y)
     margins = [across - r, g.lane_width - across - r, along - r, rb.outer_radius + g.length - along - r]
-    return -_smooth_max([-mi for mi in margins])
+    return -_smooth_max([-mi for mi in margins], k)
 
 
-def _fillet_margin(rb, leg: int, lane: str, x, y, r: float):
+def _fillet_margin(rb, leg: int, lane: str, x, y, r: float, k: float = SHARPNESS):
     """Smooth minimum of a disc's margins in a lane's fillet corner (see the module docstring)."""
     f = fillet_geometry(rb, leg, lane)
     fx, fy = f["center"]
@@ -153,7 +294,7 @@ def _fillet_margin(rb, leg: int, lane: str, x, y, r: float):
         sign = 1.0 if d[0] * corner[1] - d[1] * corner[0] > 0 else -1.0  # the corner's side of the ray
         margins.append(sign * (d[0] * (y - fy) - d[1] * (x - fx)))
     margins.append(_lane_frame(rb, leg, lane, x, y)[1] - r)
-    return -_smooth_max([-mi for mi in margins])
+    return -_smooth_max([-mi for mi in margins], k)
 
 
 def _lane_frame(rb, leg: int, lane: str, x, y):
@@ -167,6 +308,7 @@ def _saturate(margin):
     return SATURATION * margin / pyo.sqrt(SATURATION**2 + margin**2)
 
 
-def _smooth_max(margins: list):
-    terms = [pyo.exp(SHARPNESS * _saturate(mi)) for mi in margins]
-    return pyo.log(functools.reduce(operator.add, terms)) / SHARPNESS  # not sum(): see expressions.py
+def _smooth_max(margins: list, k: float = SHARPNESS):
+    """``log(sum exp(k g(m))) / k``: above the largest saturated margin, by at most ``log(len(margins)) / k``."""
+    terms = [pyo.exp(k * _saturate(mi)) for mi in margins]
+    return pyo.log(functools.reduce(operator.add, terms)) / k  # not sum(): see expressions.py
