@@ -135,21 +135,33 @@ def test_disturbed_mpc_halves_the_open_loop_error(request, case, dt, gain, bias)
     assert errors(sol.ocp, closed.final)[1] <= 0.5 * errors(sol.ocp, open_loop.final)[1]
 
 
-def test_a_known_delay_is_predicted_through(real):
-    """One sample of dead time: the controller that uses ``pending`` ends closer than one that ignores it."""
-    plant = truck_plant(5.0, 0.95, 0.02)
-    aware = MPC(real, ControlSettings(0.1, 40), Disturbance(delay=0.1))
-    with_delay = simulate(aware.make_step, start(real.ocp), lambda: aware.final_time, 0.1, plant, delay=1)
+def delayed_runs(real, plant, delay: int) -> tuple[MPC, Run, Run]:
+    """The same dead time against a controller that predicts through ``pending`` and one that ignores it."""
+    aware = MPC(real, ControlSettings(0.1, 40), Disturbance(delay=0.1 * delay))
+    with_delay = simulate(aware.make_step, start(real.ocp), lambda: aware.final_time, 0.1, plant, delay=delay)
     blind = MPC(real, ControlSettings(0.1, 40))
 
     def ignoring(t, y, _pending):
         return blind.make_step(t, y, np.zeros((0, 2)))
 
-    without = simulate(ignoring, start(real.ocp), lambda: blind.final_time, 0.1, plant, delay=1)
-    assert aware.steps[-1]["t"] == pytest.approx(aware.steps[-2]["t"] + 0.1)
+    without = simulate(ignoring, start(real.ocp), lambda: blind.final_time, 0.1, plant, delay=delay)
+    return aware, with_delay, without
+
+
+def test_a_known_delay_is_predicted_through(real):
+    """One sample of dead time, nominal plant: the prediction is exact, so the goal is reached exactly."""
+    aware, with_delay, without = delayed_runs(real, truck_plant(5.0), 1)
     assert aware.steps[0]["t"] == pytest.approx(0.1)  # the first plan starts where its control acts
-    assert errors(real.ocp, with_delay.final)[0] < errors(real.ocp, without.final)[0]
+    assert aware.steps[-1]["t"] == pytest.approx(aware.steps[-2]["t"] + 0.1)
+    assert errors(real.ocp, with_delay.final)[0] < 0.01
+    assert errors(real.ocp, without.final)[0] > 10 * errors(real.ocp, with_delay.final)[0]
+    assert not any(s.get("used") is False for s in aware.steps)
+
+
+def test_a_longer_delay_with_disturbance(real):
+    _, with_delay, without = delayed_runs(real, truck_plant(5.0, 0.95, 0.02), 2)
     assert errors(real.ocp, with_delay.final)[0] < 0.5
+    assert errors(real.ocp, with_delay.final)[0] < errors(real.ocp, without.final)[0]
 
 
 def test_prediction_through_pending_controls_matches_the_model(real):

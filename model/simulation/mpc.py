@@ -9,16 +9,16 @@ The horizon problem (``horizon`` intervals, or the scenario's own N when "shrink
 
 - the scenario's dynamics (trapezoid), bounds and output bounds, from the measured state
   predicted through the controls still in the actuator's delay line (nominal model, RK4);
-- energy objective (fixed Tf): the horizon is ``horizon * sample_time`` while that ends before
-  Tf (receding; terminal target: the reference optimum's state at the horizon's end), then the
-  time left, Tf - t - delay (shrinking; target: the scenario's final conditions); the cost is
-  the energy;
-- time objective: the scenario's own minimum-time problem from where the vehicle is, the final
-  time free (so the loop reaches the goal even when the plant is slower than the model:
-  ``final_time`` then moves later), plus ``time_energy`` times the normalised energy as a
-  regulariser of the singular arcs. ``MPCSettings(time_receding=True)`` uses the receding
-  horizon with the reference's state as target instead (measured: often unreachable when the
-  plant is slower, since the reference drives at the speed bound; see benchmarks/bench_mpc.py);
+- the horizon is ``horizon * sample_time`` while that ends before the final time Tf (receding;
+  terminal target: the reference optimum's state at the horizon's end; cost: the energy), then
+  the time left, Tf - t - delay (shrinking; target: the scenario's final conditions);
+- energy objective: the cost is the energy throughout;
+- time objective: once the horizon reaches Tf, the scenario's own minimum-time problem from where
+  the vehicle is, the final time free (so the loop reaches the goal when the plant is slower than
+  the model: ``final_time`` then moves later), plus ``time_energy`` times the normalised energy as
+  a regulariser of the singular arcs. ``MPCSettings(time_receding=False)`` solves that free-time
+  problem from the first step (measured in benchmarks/bench_mpc.py: as robust, fewer iterations,
+  a later arrival under a speed loss);
 - terminal targets are soft: an exact L1 penalty (plus a small quadratic) on scaled errors, so a
   reachable target is met as a hard constraint would be and an unreachable one is no infeasibility;
 - keep-out discs and road-body constraints are soft too: slacks in metres with an exact L1 penalty.
@@ -81,8 +81,8 @@ class MPCSettings:
     feasible_inf_pr : float
         A step stopped by the iteration cap is still used if its primal infeasibility is below this.
     time_receding : bool
-        Time objective: receding horizon with the reference as terminal target (default: the
-        free-final-time problem over the whole remaining manoeuvre).
+        Time objective: receding horizon with the reference as terminal target until the horizon
+        reaches Tf (else the free-final-time problem over the whole remaining manoeuvre).
     warm_from_iterate : bool
         Start the next step from a failed step's iterate (Ipopt's iterations carry over, as in a
         real-time iteration) rather than from the last usable plan.
@@ -95,7 +95,7 @@ class MPCSettings:
             "tol": 1e-6,
             "acceptable_tol": 1e-4,
             "acceptable_iter": 2,
-            "max_iter": 40,
+            "max_iter": 60,
             "mu_init": 1e-5,
         }
     )
@@ -106,7 +106,7 @@ class MPCSettings:
     obstacle_l1: float = 100.0
     time_energy: float = 1e-2
     feasible_inf_pr: float = 1e-4
-    time_receding: bool = False
+    time_receding: bool = True
     warm_from_iterate: bool = True
     budget: float = 0.8
 
