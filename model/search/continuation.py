@@ -59,15 +59,12 @@ def slowed_minimum_time(
 
 def _reeds_shepp_start(timed: OCP, solve: Callable[..., Solution]) -> Solution | None:
     """The time problem solved from the shortest Reeds-Shepp path (cusps, reversing) driven at 70 % speed."""
-    from model.search.paths import min_turning_radius, path_guess, reeds_shepp
+    from model.search.guess import reeds_shepp_guess
 
-    rho = min_turning_radius(timed.vehicle, timed.bounds, both_ways=True)
-    keys = ("x", "y", "theta")
-    if rho is None or not all(k in timed.final for k in keys) or timed.max_speed() is None:
+    found = reeds_shepp_guess(timed, 200)
+    if found is None:
         return None
-    path = reeds_shepp(tuple(timed.initial[k] for k in keys), tuple(timed.final[k] for k in keys), rho)
-    tf = max(path.length, 1e-3) / (0.7 * timed.max_speed())
-    guess = path_guess(timed.vehicle, path, tf, 200, initial=timed.initial)
+    guess, tf = found
     guess["t"] = np.linspace(0.0, tf, 201)
     return solve(timed, guess=guess)
 
@@ -112,5 +109,5 @@ def _walk_down(solution: Solution, target: float, progress) -> Solution | None:
                 progress(f"continuation: stuck at Tf = {current:.6g} s")
             return None
         resolver.solve(final_time=current)  # back to the last valid point before a smaller step
-        step = step ** 0.5
+        step = step**0.5
     return None

@@ -8,7 +8,7 @@ import numpy as np
 import sympy as sp
 
 from model.problem.ocp import OCP
-from model.search.paths import trailer_angle
+from model.search.paths import min_turning_radius, path_guess, reeds_shepp, trailer_angle
 from model.vehicles import sym
 
 
@@ -127,3 +127,19 @@ def _road_path(ocp: OCP, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _clip(values: np.ndarray, bounds: tuple[float, float] | None) -> np.ndarray:
     return values if bounds is None else np.clip(values, bounds[0], bounds[1])
+
+
+def reeds_shepp_guess(ocp: OCP, n: int, tf_scale: float = 1.0) -> tuple[dict[str, np.ndarray], float] | None:
+    """The shortest Reeds-Shepp path (cusps, reversing; obstacles ignored) as node values, and its time.
+
+    Driven at constant speed in the given final time, or (free Tf) at 70 % of the top speed times
+    ``1 / tf_scale``. None where it does not apply: no turning radius to both sides, no top speed,
+    or x, y, theta not all fixed at the goal.
+    """
+    rho = min_turning_radius(ocp.vehicle, ocp.bounds, both_ways=True)
+    keys = ("x", "y", "theta")
+    if rho is None or math.isinf(rho) or not all(k in ocp.final for k in keys) or ocp.max_speed() is None:
+        return None
+    path = reeds_shepp(tuple(ocp.initial[k] for k in keys), tuple(ocp.final[k] for k in keys), rho)
+    tf = ocp.final_time if ocp.final_time is not None else tf_scale * max(path.length, 1e-3) / (0.7 * ocp.max_speed())
+    return path_guess(ocp.vehicle, path, tf, n, initial=ocp.initial), tf

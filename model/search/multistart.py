@@ -17,11 +17,12 @@ from model.direct.solution import Solution
 from model.direct.solve import Start, solve_starts
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
-from model.search.guess import guess_final_time, initial_guess
+from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess
 from model.search.screening import screen_starts, screening_intervals
 
 TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
+REEDS_SHEPP_START = (1.0, "reeds-shepp")
 
 
 def passes_to_try(ocp: OCP) -> list[str]:
@@ -53,7 +54,7 @@ def solve_ocp(
     options : Ipopt options, e.g. ``{"mu_strategy": "adaptive"}``.
     guess : a trajectory (t, states, controls; e.g. ``other.trajectory``) to start from
         instead of the geometric guesses; it is resampled onto the new grid.
-    starts : cold starts as (scale of the Tf guess, route "arc" or "line").
+    starts : cold starts as (scale of the Tf guess, route "arc", "line" or "reeds-shepp").
     progress : called with one line of text after each start (e.g. ``print``).
     continuation : when no start validates, try a homotopy in the final time
         (``model.search.continuation``) before reporting a diagnosis.
@@ -203,10 +204,17 @@ def phase_totals(solutions: list[Solution]) -> dict[str, float]:
 
 
 def default_starts(ocp: OCP) -> tuple[tuple[float, str], ...]:
-    """The cold starts ``solve_ocp`` tries per pass direction when none are given."""
+    """The cold starts ``solve_ocp`` tries per pass direction when none are given.
+
+    Off the road, also the shortest Reeds-Shepp path (reversing where it pays) where it applies.
+    """
     if ocp.cost.free_final_time:
-        return TIME_STARTS
-    return DETOUR_STARTS if ocp.obstacles else ((1.0, "arc"),)
+        starts = TIME_STARTS
+    else:
+        starts = DETOUR_STARTS if ocp.obstacles else ((1.0, "arc"),)
+    if ocp.road is None and reeds_shepp_guess(ocp, 2) is not None:
+        starts += (REEDS_SHEPP_START,)
+    return starts
 
 
 def _better(a: Solution, b: Solution) -> bool:
@@ -237,6 +245,9 @@ def start_values(
     free = ocp.cost.free_final_time
     if guess is not None:
         return Start(resample(ocp, guess, intervals), float(np.asarray(guess["t"])[-1]) if free else None)
+    if route == "reeds-shepp":
+        values, tf = reeds_shepp_guess(ocp, intervals, scale)
+        return Start(values, tf if free else None)
     tf_guess = guess_final_time(ocp, passing) * (scale if free else 1.0)
     return Start(initial_guess(ocp, passing, intervals, tf_guess, route), tf_guess if free else None)
 
