@@ -117,9 +117,11 @@ class OptiPeer:
             opti.subject_to((x - ob.center[0]) ** 2 + (y - ob.center[1]) ** 2 >= (R - slack) ** 2)
             opti.subject_to(opti.bounded(0, slack, R))
             g_frac += [nodes, nodes]
-        if self.free:
-            opti.subject_to(self.T >= 1e-3)
-            g_frac.append([np.nan])
+        if self.free:  # fixed (lower = upper) while the horizon recedes, as the MPC's bounds on tf
+            self.T_lo, self.T_hi = opti.parameter(), opti.parameter()
+            opti.subject_to(self.T >= self.T_lo)
+            opti.subject_to(self.T <= self.T_hi)
+            g_frac += [[np.nan], [np.nan]]
         L = (u1**2 + u2**2) / 2
         energy = h * (ca.sum2(L) - (L[0] + L[n]) / 2)
         t_s, e_s = mpc._cost_scales()
@@ -152,6 +154,9 @@ class OptiPeer:
         opti.set_value(self.w_energy, self.mpc.settings.time_energy if free else 1.0)
         if not self.free:
             opti.set_value(self.T, length)
+        else:
+            opti.set_value(self.T_lo, 1e-3 if free else length)
+            opti.set_value(self.T_hi, 1e6 if free else length)
         times = start + np.linspace(0.0, length, n + 1)
         if self.prev is None:  # the MPC's own start: the reference on the grid
             ref = self.mpc.reference

@@ -146,6 +146,8 @@ class HorizonModel:
     cost_scales : tuple of float
         (final time, energy) that normalise the cost to about 1.
     settings : MPCSettings
+    path_length : float
+        The reference's path length (m): normalises the keep-out slacks.
     """
 
     def __init__(self, ocp: OCP, intervals: int, scales: dict[str, float], cost_scales: tuple[float, float],
@@ -164,10 +166,24 @@ class HorizonModel:
     # -- construction -------------------------------------------------------------------
     def _soften(self, m: pyo.ConcreteModel, scales: dict, cost_scales: tuple[float, float], length: float) -> None:
         """Replace the objective, the final conditions and the keep-out rows by their soft forms."""
-        s = self.settings
         for comp in (m.objective, getattr(m, "violation", None), *(m.component(f"final_{k}") for k in self.ocp.final)):
             if comp is not None:
                 comp.deactivate()
+        slacks = self._soft_keep_out(m)
+        slacks += [v[t] for v in getattr(m, "slacks", []) for t in m.nodes]  # road bodies (relax=True)
+        penalty = self._soft_target(m, scales)
+        m.time_weight = pyo.Param(mutable=True, initialize=1.0 if self.free_time else 0.0)
+        m.energy_weight = pyo.Param(mutable=True, initialize=self.settings.time_energy if self.free_time else 1.0)
+        m.mpc_objective = pyo.Objective(
+            expr=m.time_weight * m.tf / cost_scales[0]
+            + m.energy_weight * _energy(m, self.ocp) / cost_scales[1]
+            + penalty
+            + self.settings.obstacle_l1 / length * pyo.quicksum(slacks),
+            sense=pyo.minimize,
+        )
+
+    def _soft_keep_out(self, m: pyo.ConcreteModel) -> list:
+        """|p - c| >= R - s with a slack 0 <= s <= R (metres) per obstacle and node; the slacks."""
         m.obstacle.deactivate()
         px, py = self.ocp.vehicle.position
         X, Y = m.component(px), m.component(py)
@@ -179,6 +195,11 @@ class HorizonModel:
             return (X[t] - m.obstacle_cx[i]) ** 2 + (Y[t] - m.obstacle_cy[i]) ** 2 >= gap**2
 
         m.soft_obstacle = pyo.Constraint(m.obstacle_set, m.tau, rule=keep_out)
+        return [m.keep_out_slack[i, t] for i in m.obstacle_set for t in m.tau]
+
+    def _soft_target(self, m: pyo.ConcreteModel, scales: dict):
+        """(X_k(end) - target_k) / scale_k = above_k - below_k; the weighted L1 + quadratic penalty."""
+        s = self.settings
         m.state_set = pyo.Set(initialize=list(self.states), ordered=True)
         m.target = pyo.Param(m.state_set, mutable=True, initialize=0.0)
         m.target_weight = pyo.Param(m.state_set, mutable=True, initialize=1.0)
@@ -190,22 +211,11 @@ class HorizonModel:
             return (m.component(k)[end] - m.target[k]) / scales[k] == m.above[k] - m.below[k]
 
         m.terminal = pyo.Constraint(m.state_set, rule=terminal)
-        m.time_weight = pyo.Param(mutable=True, initialize=1.0 if self.free_time else 0.0)
-        m.energy_weight = pyo.Param(mutable=True, initialize=s.time_energy if self.free_time else 1.0)
-        slacks = [m.keep_out_slack[i, t] for i in m.obstacle_set for t in m.tau]
-        slacks += [v[t] for v in getattr(m, "slacks", []) for t in m.nodes]
-        penalty = sum(
+        return sum(
             m.target_weight[k] * (s.terminal_l1 * (m.above[k] + m.below[k])
                                   + s.terminal_quadratic * (m.above[k] - m.below[k]) ** 2)
             for k in self.states
         )  # fmt: skip
-        m.mpc_objective = pyo.Objective(
-            expr=m.time_weight * m.tf / cost_scales[0]
-            + m.energy_weight * _energy(m, self.ocp) / cost_scales[1]
-            + penalty
-            + s.obstacle_l1 / length * pyo.quicksum(slacks),
-            sense=pyo.minimize,
-        )
 
     def _layout(self) -> None:
         """Where each primal column and each row of the reduced NLP sits in time (fraction of the horizon)."""
