@@ -133,3 +133,23 @@ def test_a_drifting_solution_is_refined_on_a_finer_grid_until_its_goal_drift_is_
     refined = ocp.solve(intervals=40)
     assert refined.intervals == 80 and refined.accuracy["intervals_requested"] == 40
     assert goal_drift(refined)[0] < goal_drift(coarse)[0] / 3  # second order: about 4x smaller
+
+
+def test_weighted_energy_from_a_scenario_file_trades_steering_for_speed():
+    import tomllib
+
+    from model.problem.scenario import parse_scenario
+
+    doc = tomllib.loads((SCENARIOS[0].parent / "s2-case1.toml").read_text())
+    plain = parse_scenario(doc).ocp.solve(intervals=60)
+    doc["problem"]["weights"] = {"u1": 1, "u2": 4}
+    weighted = parse_scenario(doc).ocp.solve(intervals=60)
+    assert plain.ok and weighted.ok and weighted.certificate["passed"]
+    cols_p, cols_w = plain.columns, weighted.columns
+    steer = [float(np.trapezoid(c["u2"] ** 2, c["t"])) for c in (cols_p, cols_w)]
+    assert steer[1] < steer[0]  # steering costs 4x: the optimum steers less
+    assert weighted.objective > weighted.energy  # the objective is the weighted J, energy the plain one
+    for bad, says in (({"u3": 1}, "unknown"), ({"u1": 0}, "> 0"), (3, "table")):
+        doc["problem"]["weights"] = bad
+        with pytest.raises(InputError, match=says):
+            parse_scenario(doc)

@@ -36,7 +36,7 @@ TOP_KEYS = {
     "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
     "disturbance", "control",
 }  # fmt: skip
-PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass"}
+PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass", "weights"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
 OBJECTIVES = {"energy": Energy, "time": Time}
 
@@ -101,7 +101,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         initial, final = road_boundary_values(road, initial, final, vehicle.states)
     ocp = OCP(
         vehicle=vehicle,
-        cost=OBJECTIVES[objective](),
+        cost=_cost(objective, problem, vehicle),
         bounds={**preset_bounds, **_bounds(table_of(data, "bounds"))},
         initial=initial,
         final=final,
@@ -114,6 +114,23 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         title=string(data, "title", ""),
     )
     return Scenario(ocp=ocp, intervals=intervals, scheme=scheme, path=path, disturbance=disturbance, control=control)
+
+
+def _cost(objective: str, problem: dict[str, Any], vehicle: Vehicle):
+    """The objective; ``weights`` = {control = w > 0} weighs the energy's squared controls."""
+    if "weights" not in problem:
+        return OBJECTIVES[objective]()
+    if objective != "energy":
+        raise InputError("problem.weights", f"weights the energy objective only (objective = {objective!r})")
+    table = problem["weights"]
+    if not isinstance(table, dict):
+        raise InputError("problem.weights", f"must be a table {{u1 = w1, u2 = w2}}, got {table!r}")
+    no_unknown(table, set(vehicle.controls), "problem.weights.")
+    weights = {k: number(table, k, "problem.weights.") for k in table}
+    for key, w in weights.items():
+        if not w > 0:
+            raise InputError(f"problem.weights.{key}", f"must be > 0, got {w:g}")
+    return Energy(weights=weights)
 
 
 BODY_TABLES = {"body": "vehicle", "trailer_body": "trailer"}  # [vehicle.<table>] -> body name
