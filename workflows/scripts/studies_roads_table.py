@@ -22,7 +22,11 @@ def load(cells: list[Path]) -> list[dict]:
 
 def flat(c: dict) -> dict:
     t, e, m = c["time"], c.get("energy") or {}, c.get("measures") or {}
-    diag = None if t["valid"] else (t.get("diagnosis") or {}).get("message")
+    d = {} if t["valid"] else (t.get("diagnosis") or {})
+    if d.get("body") and d.get("edge") and d.get("encroachment_m") is not None:  # what must give way, by how much
+        diag = f"the {d['body']} crosses the {d['edge']} by {d['encroachment_m']:.2f} m"
+    else:
+        diag = d.get("message")
     return {
         "preset": c["preset"],
         "icd": c["icd"],
