@@ -24,7 +24,7 @@ from model.direct.solution import Solution, _atomic_write, _jsonable, csv_text
 from model.problem.closed_loop import ControlSettings, Disturbance
 from model.problem.scenario import Scenario
 from model.simulation.base import Controller
-from model.simulation.controllers import sample_grid, wrap
+from model.simulation.controllers import wrap
 from model.simulation.plant import Plant
 
 POSITION_SHARE = 0.02  # goal tolerance on the position: this share of the start-goal distance
@@ -56,6 +56,9 @@ class ClosedLoop:
         if self.runs:
             _atomic_write(out / "runs.csv", runs_csv(self.runs))
         _atomic_write(out / "summary.json", json_text(self.summary))
+
+
+LATEST = 1.5  # a run ends by 1.5 x the optimum's final time whatever the controller plans
 
 
 def json_text(summary: dict) -> str:
@@ -121,15 +124,16 @@ def simulate(
     ocp = scenario.ocp
     v = ocp.vehicle
     h = control.sample_time
-    grid = sample_grid(float(solution.columns["t"][-1]), h)
+    tf = float(solution.columns["t"][-1])
     plant = Plant(v, disturbance, h)
     rng = np.random.default_rng(disturbance.seed)
     zero = np.zeros(len(v.controls))
     queue = deque([zero] * control.delay_samples(disturbance))
     x = np.array([ocp.initial[s] for s in v.states], dtype=float)
     rows: dict[str, list] = {k: [] for k in ("x", "applied", "measured", "sent", "seconds")}
-    failed = 0
-    for k, t in enumerate(grid[:-1]):
+    failed, grid = 0, [0.0]
+    while grid[-1] < _end(controller, tf) - 1e-9:
+        t = grid[-1]
         y = plant.measure(x, rng)
         pending = np.array(queue, dtype=float).reshape(len(queue), len(v.controls))
         t0 = time.perf_counter()
@@ -142,11 +146,18 @@ def simulate(
         applied = queue.popleft()
         for key, val in (("x", x), ("applied", applied), ("measured", y), ("sent", sent)):
             rows[key].append(val)
-        x = plant.step(x, applied, grid[k + 1] - t)
+        grid.append(min(len(grid) * h, _end(controller, tf)))
+        x = plant.step(x, applied, grid[-1] - t)
     rows["x"].append(x)
-    columns = _columns(v, solution, grid, rows)
+    columns = _columns(v, solution, np.array(grid), rows)
     summary = _summary(scenario, solution, controller, columns, rows["seconds"], failed, h)
     return ClosedLoop(columns=columns, summary=summary)
+
+
+def _end(controller: Controller, tf: float) -> float:
+    """The run's end: the optimum's Tf, or later if the controller moved its arrival (MPC on a
+    time problem under a slower plant), at most ``LATEST`` x Tf."""
+    return min(max(tf, float(getattr(controller, "final_time", tf))), LATEST * tf)
 
 
 def _columns(v, solution: Solution, grid: np.ndarray, rows: dict) -> dict[str, np.ndarray]:
