@@ -1,0 +1,317 @@
+"""The paper's section "MPC versus the Pontryagin optimum" from the closed-loop study's row.json files.
+
+Every number of the section comes from the rows (workflows/scripts/closed_loop_runs.py): which
+settings were run, one table per geometry, two figures (final position error against the
+disturbance level per controller; the closed-loop paths under the level-1 disturbance on the
+scene) and findings computed from the numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from model.plotting.figures import PALETTE, apply_style, draw_obstacles, plt, save  # noqa: E402
+
+CONTROLLERS = ("open-loop", "tracking", "mpc")
+COLORS = {"open-loop": PALETTE[3], "tracking": PALETTE[2], "mpc": PALETTE[0]}
+TABLE = {  # header -> how to write the cell from a row
+    "level": lambda r: f"{r['level']:g}",
+    "controller": lambda r: r["controller"],
+    "runs": lambda r: str(r["numbers"]["runs"]),
+    "reached": lambda r: f"{r['numbers']['reach_rate']:.0%}",
+    "position error mean / worst (m)": lambda r: pair(r, "position_error"),
+    "heading error mean / worst (rad)": lambda r: pair(r, "heading_error"),
+    "energy / optimum mean / worst": lambda r: pair(r, "energy_ratio", 4),
+    "objective / optimum mean / worst": lambda r: pair(r, "objective_ratio", 4),
+    "runs with clearance < 0": lambda r: fmt(r["numbers"]["violations"]),
+    "min clearance (m)": lambda r: fmt(r["numbers"]["min_clearance"], 3),
+    "step mean / max (ms)": lambda r: ms_pair(r),
+    "realtime factor": lambda r: fmt(r["numbers"]["realtime_factor"], 2),
+    "failed steps": lambda r: str(r["numbers"]["failed_steps"]),
+}
+
+
+def fmt(x, digits: int = 3) -> str:
+    """A number for a table: significant digits, '-' for missing."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return str(x) if isinstance(x, int) else f"{x:.{digits}g}"
+
+
+def pair(row: dict, key: str, digits: int = 3) -> str:
+    n = row["numbers"]
+    return f"{fmt(n.get(key + '_mean'), digits)} / {fmt(n.get(key + '_worst'), digits)}"
+
+
+def ms_pair(row: dict) -> str:
+    n = row["numbers"]
+    mean, worst = n["step_seconds_mean"], n["step_seconds_max"]
+    return f"{fmt(None if mean is None else 1e3 * mean, 2)} / {fmt(None if worst is None else 1e3 * worst, 2)}"
+
+
+def load_rows(paths: Sequence[Path]) -> list[dict]:
+    """Each row.json with its folder (``dir``); rows whose optimum failed keep ``numbers`` None."""
+    rows = []
+    for p in paths:
+        row = json.loads(Path(p).read_text())
+        row["dir"] = str(Path(p).parent)
+        rows.append(row)
+    return rows
+
+
+def geometries(rows: list[dict]) -> list[str]:
+    """The geometries in the order they first appear."""
+    return list(dict.fromkeys(r["geometry"] for r in rows))
+
+
+def of(rows: list[dict], geometry: str) -> list[dict]:
+    """A geometry's rows sorted by level, then controller."""
+    order = {c: i for i, c in enumerate(CONTROLLERS)}
+    mine = [r for r in rows if r["geometry"] == geometry]
+    return sorted(mine, key=lambda r: (r["level"], order.get(r["controller"], 9)))
+
+
+def find(rows: list[dict], geometry: str, level: float, controller: str) -> dict | None:
+    for r in rows:
+        if (r["geometry"], r["level"], r["controller"]) == (geometry, level, controller) and r["numbers"]:
+            return r
+    return None
+
+
+def disturbance_text(d: dict) -> str:
+    """A level-1 disturbance in words (from the row's disturbance)."""
+    parts = [
+        f"speed gain {d['speed_gain']:g}",
+        f"steering bias {d['steering_bias']:g} rad",
+        f"drift ({d['drift'][0]:g}, {d['drift'][1]:g}) m/s",
+    ]
+    parts += [f"true {k} {v:g} m" for k, v in d["wheelbase"].items()]
+    parts += [f"delay {d['delay']:g} s", f"position noise {d['noise']:g} m (heading {d['noise'] / 10:g} rad)"]
+    return ", ".join(parts)
+
+
+def settings_text(rows: list[dict], study: str) -> list[str]:
+    """Which settings were run, read from the rows."""
+    lines = [f"Study grid **{study}** (config `closed_loop_study`); settings run:", ""]
+    for g in geometries(rows):
+        mine = of(rows, g)
+        first = mine[0]
+        levels = ", ".join(f"{lv:g}" for lv in sorted({r["level"] for r in mine}))
+        ctrls = ", ".join(dict.fromkeys(r["controller"] for r in mine))
+        runs = sorted({r["numbers"]["runs"] for r in mine if r["numbers"]})
+        weights = f", weights {first['weights']}" if first.get("weights") else ""
+        lines.append(
+            f"- **{g}** ({first['title']}; {first['objective']}{weights}; sample time {first['sample_time']:g} s, "
+            f"MPC horizon {first['horizon']}): levels {levels}; controllers {ctrls}; runs per setting "
+            f"{', '.join(map(str, runs))}. Level 1: {disturbance_text(first['level1_disturbance'])}."
+        )
+    return [*lines, ""]
+
+
+def columns(first: dict) -> dict:
+    """The table's columns: the objective's ratio only when it is not the plain energy (weights, time)."""
+    plain = first["objective"] == "energy" and not first.get("weights")
+    return {k: v for k, v in TABLE.items() if not (plain and k.startswith("objective"))}
+
+
+def head(geometry: str, first: dict) -> str:
+    """The line above a geometry's table: the optimum, the goal tolerance, what clearance is measured to."""
+    opt, tol = first["optimum"], first.get("goal_tolerance") or {}
+    cert = "certified (PMP)" if opt.get("certified") else "not certified"
+    keep_out = (
+        f"; clearance to the keep-out circle (obstacle radius + safety margin {fmt(first['safety'])} m: "
+        "a negative clearance above minus the margin is inside the margin, not a collision)"
+        if first.get("safety") is not None
+        else ""
+    )
+    return (
+        f"**{geometry}**: {first['title']}. Open-loop optimum: objective {fmt(opt['objective'], 6)}, energy "
+        f"{fmt(opt['energy'], 6)}, Tf {fmt(opt['final_time'], 4)} s, {cert}; goal tolerance "
+        f"{fmt(tol.get('position'), 3)} m, {fmt(tol.get('angle'), 2)} rad{keep_out}."
+    )
+
+
+def table(rows: list[dict], geometry: str) -> list[str]:
+    mine = [r for r in of(rows, geometry) if r["numbers"]]
+    first = (mine or of(rows, geometry))[0]
+    cols = columns(first)
+    lines = [head(geometry, first), "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(cell(r) for cell in cols.values()) + " |" for r in mine]
+    failed = [r for r in of(rows, geometry) if not r["numbers"]]
+    lines += [f"\n(level {r['level']:g}, {r['controller']}: the open-loop solve failed)" for r in failed]
+    return [*lines, ""]
+
+
+def errors_figure(rows: list[dict], stem: Path, formats: Sequence[str]) -> None:
+    """Final position error (mean, worst as a bar) against the level, one line per controller, log scale."""
+    shown = [g for g in geometries(rows) if len({r["level"] for r in of(rows, g)}) > 1] or geometries(rows)
+    fig, axes = plt.subplots(1, len(shown), figsize=(4.2 * len(shown), 3.4), squeeze=False)
+    for ax, g in zip(axes[0], shown, strict=True):
+        for c in CONTROLLERS:
+            pts = [r for r in of(rows, g) if r["controller"] == c and r["numbers"]]
+            if not pts:
+                continue
+            lv = np.array([r["level"] for r in pts])
+            mean = np.array([max(r["numbers"]["position_error_mean"], 1e-9) for r in pts])
+            worst = np.array([max(r["numbers"]["position_error_worst"], 1e-9) for r in pts])
+            ax.errorbar(lv, mean, yerr=[0 * mean, worst - mean], fmt="o-", capsize=3, color=COLORS[c], label=c)
+        tol = next((r["goal_tolerance"]["position"] for r in of(rows, g) if r["numbers"]), None)
+        if tol:
+            ax.axhline(tol, color="0.4", ls="--", lw=1, label="goal tolerance")
+        ax.set(yscale="log", xlabel="disturbance level", ylabel="final position error (m)", title=g)
+        ax.legend(loc="best")
+    save(fig, stem, formats)
+
+
+def path_level(rows: list[dict], geometry: str) -> float | None:
+    """The level drawn in the path figure: 1 if run, else the largest."""
+    levels = sorted({r["level"] for r in of(rows, geometry) if r["numbers"]})
+    return 1.0 if 1.0 in levels else (levels[-1] if levels else None)
+
+
+def draw_scene(ax, scenario: Path | None) -> None:
+    """Obstacles or the roundabout of the geometry's scenario file (nothing if it is missing)."""
+    if scenario is None or not scenario.exists():
+        return
+    from model.problem.scenario import load_scenario
+
+    ocp = load_scenario(scenario).ocp
+    if ocp.road is not None:
+        from model.plotting.roads import draw_roundabout
+
+        draw_roundabout(ax, ocp, label=False)
+    draw_obstacles(ax, ocp.obstacles, label=False)
+    ax.plot([ocp.final.get("x", np.nan)], [ocp.final.get("y", np.nan)], "k*", ms=9, label="goal")
+
+
+def paths_figure(rows: list[dict], scenario_dir: Path | None, stem: Path, formats: Sequence[str]) -> None:
+    """Reference optimum and each controller's first run at level 1, on the scene, one panel per geometry."""
+    shown = [g for g in geometries(rows) if len({r["controller"] for r in of(rows, g)}) > 1] or geometries(rows)
+    fig, axes = plt.subplots(1, len(shown), figsize=(4.4 * len(shown), 4.2), squeeze=False)
+    for ax, g in zip(axes[0], shown, strict=True):
+        level = path_level(rows, g)
+        draw_scene(ax, scenario_dir / f"{g}.toml" if scenario_dir else None)
+        reference = False
+        for c in CONTROLLERS:
+            r = find(rows, g, level, c) if level is not None else None
+            cl = Path(r["dir"]) / "closed_loop.csv" if r else None
+            if cl is None or not cl.exists():
+                continue
+            if not reference and (Path(r["dir"]) / "optimum" / "trajectory.csv").exists():
+                opt = pd.read_csv(Path(r["dir"]) / "optimum" / "trajectory.csv")
+                ax.plot(opt["x"], opt["y"], color="k", lw=2.4, alpha=0.35, label="optimum (reference)")
+                reference = True
+            run = pd.read_csv(cl)
+            ax.plot(run["x"], run["y"], color=COLORS[c], lw=1.3, label=c)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set(xlabel="x (m)", ylabel="y (m)", title=f"{g}, level {fmt(level)} (first run)")
+        ax.legend(loc="best", fontsize=7)
+    save(fig, stem, formats)
+
+
+def ratio(a: float | None, b: float | None) -> float | None:
+    return a / b if a is not None and b else None
+
+
+def findings(rows: list[dict]) -> list[str]:
+    """Sentences computed from the numbers: closeness against open loop, undisturbed energy, real time."""
+    out = []
+    for g in geometries(rows):
+        top = max((r["level"] for r in of(rows, g) if r["numbers"]), default=None)
+        ol, tr, mpc = (find(rows, g, top, c) for c in CONTROLLERS)
+        if ol and mpc:
+            k = ratio(ol["numbers"]["position_error_mean"], mpc["numbers"]["position_error_mean"])
+            t = ratio(ol["numbers"]["position_error_mean"], tr["numbers"]["position_error_mean"]) if tr else None
+            out.append(
+                f"On **{g}** at level {top:g}, MPC ends {fmt(k, 3)} times closer to the goal than the open-loop "
+                f"replay on average (tracking: {fmt(t, 3)} times), reaching it in "
+                f"{mpc['numbers']['reach_rate']:.0%} of the runs (open loop "
+                f"{ol['numbers']['reach_rate']:.0%}); its worst realtime factor is "
+                f"{fmt(mpc['numbers']['realtime_factor'], 2)}."
+            )
+        out += undisturbed(rows, g)
+    return out
+
+
+WHY = "the held controls and the MPC's own horizon grid differ from the optimum's N nodes"
+
+
+def undisturbed(rows: list[dict], geometry: str) -> list[str]:
+    """The level-0 energy of MPC against the optimum (the 1 % criterion), with the hold's own share."""
+    mpc, ol = find(rows, geometry, 0.0, "mpc"), find(rows, geometry, 0.0, "open-loop")
+    if not mpc:
+        return []
+    e = mpc["numbers"]["energy_ratio_mean"] - 1
+    verdict = "within" if abs(e) <= 0.01 else "not within"
+    hold = (f"; the open-loop replay of the same optimum under the {mpc['sample_time']:g} s zero-order hold "
+            f"alone is at {100 * (ol['numbers']['energy_ratio_mean'] - 1):+.2f} %") if ol else ""  # fmt: skip
+    why = "" if abs(e) <= 0.01 else f" ({WHY})"
+    return [
+        f"Undisturbed (**{geometry}**, level 0), MPC's energy is {100 * e:+.2f} % of the optimum's, "
+        f"{verdict} 1 %{hold}{why}; final position error {fmt(mpc['numbers']['position_error_mean'])} m."
+    ]
+
+
+def section(rows: list[dict], study: str, figures: Path | None) -> str:
+    lines = [
+        "## MPC versus the Pontryagin optimum (closed loop)",
+        "",
+        "The plant differs from the model (docs/closed-loop-format.md: speed gain, steering bias, drift, "
+        "true wheelbase, actuator delay, seeded measurement noise); three controllers drive it: the "
+        "optimum's controls replayed (open loop), a time-varying LQR tracking the optimal trajectory, and "
+        "NMPC re-solving the scenario's own OCP from the measured state at every sample, warm-started. A "
+        "level scales the geometry's level-1 disturbance (0: the model itself). Energies are the "
+        "unweighted 1/2 integral of u1^2 + u2^2 of the applied controls against that of the open-loop "
+        "optimum; clearances are over the samples; step times are wall-clock seconds of one controller "
+        "call (realtime factor: the worst step over the sample time). Written by "
+        "workflows/scripts/closed_loop_section.py from results/closed-loop.",
+        "",
+        *settings_text(rows, study),
+    ]
+    for g in geometries(rows):
+        lines += table(rows, g)
+    lines += ["**Findings.** " + " ".join(findings(rows)), ""]
+    if figures is not None:
+        lines += [
+            f"![Final position error against the disturbance level (mean; bars up to the worst run; log "
+            f"scale), one line per controller; the goal tolerance dashed]({(figures / 'errors.png').as_posix()})",
+            "",
+            f"![Closed-loop paths under the level-1 disturbance (first run) on the scene: the open-loop "
+            f"optimum (reference) and the three controllers]({(figures / 'paths.png').as_posix()})",
+            "",
+        ]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rows", type=Path, nargs="+", required=True)
+    ap.add_argument("--scenario-dir", type=Path, help="the geometries' TOML files (for the scene)")
+    ap.add_argument("--study", default="small")
+    ap.add_argument("--figures", type=Path, help="folder of errors.* and paths.* (none: no figures)")
+    ap.add_argument("--formats", nargs="+", default=["pdf", "png"])
+    ap.add_argument("--out", type=Path, required=True)
+    args = ap.parse_args(argv)
+    rows = load_rows(args.rows)
+    if args.figures is not None:
+        apply_style()
+        errors_figure(rows, args.figures / "errors", args.formats)
+        paths_figure(rows, args.scenario_dir, args.figures / "paths", args.formats)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(section(rows, args.study, args.figures))
+
+
+if __name__ == "__main__":
+    main()
