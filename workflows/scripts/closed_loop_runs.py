@@ -19,6 +19,7 @@ import argparse
 import dataclasses
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -42,9 +43,12 @@ ROW_KEYS = (
     "heading_error_worst",
     "energy_ratio_mean",
     "energy_ratio_worst",
+    "objective_ratio_mean",
+    "objective_ratio_worst",
     "violations",
     "min_clearance",
     "failed_steps",
+    "steps",
     "step_seconds_mean",
     "step_seconds_max",
     "realtime_factor",
@@ -121,6 +125,7 @@ def numbers(rows: list[dict], optimum_energy: float, optimum_objective: float) -
         "violations": sum(c < 0 for c in clear) if clear else None,
         "min_clearance": min(clear) if clear else None,
         "failed_steps": int(sum(int(r["failed_steps"]) for r in rows)),
+        "steps": int(sum(int(r["steps"]) for r in rows)),
         "step_seconds_mean": _stat(rows, "solve_seconds_mean", np.mean),
         "step_seconds_max": _stat(rows, "solve_seconds_max", np.max),
         "realtime_factor": _stat(rows, "realtime_factor", np.max),
@@ -174,7 +179,9 @@ def run_setting(path: Path, geometry: str, level: float, controller: str, runs: 
         row["numbers"] = None
         write_text(out / "row.json", json.dumps(row, indent=2) + "\n")
         return row
+    load = os.getloadavg()[0]
     results = run_all(scenario, sol, controller, disturbance, runs)
+    row["machine"] = {"cpus": os.cpu_count(), "load_before": load, "load_after": os.getloadavg()[0]}
     results[0].write(out)
     rows = [run_row(i, disturbance.seed + i, r, scenario) for i, r in enumerate(results)]
     write_text(out / "runs.csv", runs_csv(rows))

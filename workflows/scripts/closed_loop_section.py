@@ -217,12 +217,48 @@ def paths_figure(rows: list[dict], scenario_dir: Path | None, stem: Path, format
             ax.plot(run["x"], run["y"], color=COLORS[c], lw=1.3, label=c)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set(xlabel="x (m)", ylabel="y (m)", title=f"{g}, level {fmt(level)} (first run)")
-        ax.legend(loc="best", fontsize=7)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="best", fontsize=7)
     save(fig, stem, formats)
 
 
 def ratio(a: float | None, b: float | None) -> float | None:
     return a / b if a is not None and b else None
+
+
+def closeness(g: str, top: float, ol: dict, tr: dict | None, mpc: dict) -> str:
+    """MPC's and tracking's final position error against the open-loop replay's, and MPC's reach rate."""
+    n_ol, n_mpc = ol["numbers"], mpc["numbers"]
+    k = ratio(n_ol["position_error_mean"], n_mpc["position_error_mean"])
+    t = ratio(n_ol["position_error_mean"], tr["numbers"]["position_error_mean"]) if tr else None
+    worst = ratio(n_mpc["position_error_worst"], n_ol["position_error_worst"])
+    return (
+        f"On **{g}** at level {top:g}, MPC ends {fmt(k, 3)} times closer to the goal than the open-loop "
+        f"replay on average (tracking: {fmt(t, 3)} times; MPC's worst run ends at {fmt(worst, 2)} of the "
+        f"open loop's worst error), reaching the goal in {n_mpc['reach_rate']:.0%} of the runs (open loop "
+        f"{n_ol['reach_rate']:.0%}, tracking {tr['numbers']['reach_rate'] if tr else 0:.0%})."
+    )
+
+
+def compute(g: str, rows: list[dict]) -> str:
+    """MPC's step times, realtime factor and failed steps over the geometry, and the machine's load."""
+    mine = [r for r in of(rows, g) if r["controller"] == "mpc" and r["numbers"]]
+    if not mine:
+        return ""
+    failed = sum(r["numbers"]["failed_steps"] for r in mine)
+    steps = sum(r["numbers"].get("steps") or 0 for r in mine)
+    loads = [r["machine"][k] for r in mine if r.get("machine") for k in ("load_before", "load_after")]
+    cpus = next((r["machine"]["cpus"] for r in mine if r.get("machine")), None)
+    load = (
+        f" while the machine's load average was {fmt(min(loads), 2)} to {fmt(max(loads), 2)} on {cpus} cores"
+        if loads
+        else ""
+    )
+    return (
+        f"MPC's worst realtime factor on **{g}** is {fmt(max(r['numbers']['realtime_factor'] for r in mine), 2)} "
+        f"(sample {mine[0]['sample_time']:g} s){load}; {failed} of its {steps} steps failed or hit Ipopt's "
+        "wall-time budget and followed the previous plan (a failed step counts as not reaching the goal)."
+    )
 
 
 def findings(rows: list[dict]) -> list[str]:
@@ -232,17 +268,10 @@ def findings(rows: list[dict]) -> list[str]:
         top = max((r["level"] for r in of(rows, g) if r["numbers"]), default=None)
         ol, tr, mpc = (find(rows, g, top, c) for c in CONTROLLERS)
         if ol and mpc:
-            k = ratio(ol["numbers"]["position_error_mean"], mpc["numbers"]["position_error_mean"])
-            t = ratio(ol["numbers"]["position_error_mean"], tr["numbers"]["position_error_mean"]) if tr else None
-            out.append(
-                f"On **{g}** at level {top:g}, MPC ends {fmt(k, 3)} times closer to the goal than the open-loop "
-                f"replay on average (tracking: {fmt(t, 3)} times), reaching it in "
-                f"{mpc['numbers']['reach_rate']:.0%} of the runs (open loop "
-                f"{ol['numbers']['reach_rate']:.0%}); its worst realtime factor is "
-                f"{fmt(mpc['numbers']['realtime_factor'], 2)}."
-            )
+            out.append(closeness(g, top, ol, tr, mpc))
         out += undisturbed(rows, g)
-    return out
+        out.append(compute(g, rows))
+    return [s for s in out if s]
 
 
 WHY = "the held controls and the MPC's own horizon grid differ from the optimum's N nodes"
