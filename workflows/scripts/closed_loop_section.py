@@ -104,7 +104,11 @@ def disturbance_text(d: dict) -> str:
 
 def settings_text(rows: list[dict], study: str) -> list[str]:
     """Which settings were run, read from the rows."""
-    lines = [f"Study grid **{study}** (config `closed_loop_study`); settings run:", ""]
+    lines = [
+        f"Study grid **{study}** (config `closed_loop_study`; the heavier grid: "
+        "`snakemake -c2 --config closed_loop_study=full`); settings run:",
+        "",
+    ]
     for g in geometries(rows):
         mine = of(rows, g)
         first = mine[0]
