@@ -6,6 +6,7 @@ import copy
 import math
 import tomllib
 
+import numpy as np
 import pytest
 
 import model.direct.bodies as bodies
@@ -30,8 +31,9 @@ def energy_doc(lane_width: float | None = None) -> dict:
 
 
 def solve(doc: dict, formulation: str):
+    """The default solve at N without the goal-accuracy refinement (it would solve again on 2N: not tested here)."""
     with use_formulation(formulation):
-        return parse_scenario(copy.deepcopy(doc)).ocp.solve(intervals=N)
+        return parse_scenario(copy.deepcopy(doc)).ocp.solve(intervals=N, accuracy=None)
 
 
 @pytest.fixture(scope="module")
@@ -76,3 +78,66 @@ def test_a_lane_the_rectangle_fits_but_its_cover_discs_do_not():
     assert sol.ok, (sol.status, sol.validation["checks"])
     exact = clearances(sol.ocp, sol.columns)["vehicle"]
     assert 0.0 <= exact.min() < 0.1  # 0.1 m each side at the start
+
+
+# --------------------------------------------------------------------------- the exact conditions, on random poses
+
+
+def _perimeter(ref, u, v, length: float, width: float, step: float = 0.01) -> np.ndarray:
+    """Points every ``step`` along the sides of a rectangle centred at ``ref`` with axes u, v."""
+    k, m = int(np.ceil(length / step)), int(np.ceil(width / step))
+    s = np.concatenate([np.linspace(-1, 1, k + 1), np.ones(m + 1), np.linspace(1, -1, k + 1), -np.ones(m + 1)])
+    t = np.concatenate([-np.ones(k + 1), np.linspace(-1, 1, m + 1), np.ones(k + 1), np.linspace(1, -1, m + 1)])
+    return ref + (s * length / 2)[:, None] * u + (t * width / 2)[:, None] * v
+
+
+def _conditions(ocp, apron: bool, ref, u, v, corners, length: float, width: float) -> np.ndarray:
+    """The "corners" formulation's conditions without smoothing, per pose: what a feasible NLP point satisfies."""
+    region = ocp.road.corridor("trailer" if apron else "vehicle")
+    ok = region.contains(corners.reshape(-1, 2)).reshape(-1, 4).all(axis=1)
+
+    def frame(q):
+        d = np.asarray(q, float) - ref
+        return (d * u).sum(axis=1), (d * v).sum(axis=1)
+
+    for _, centre, radius in bodies._keep_out_discs(ocp, apron):
+        x, y = frame(centre)
+        ok &= np.hypot(np.maximum(np.abs(x) - length / 2, 0), np.maximum(np.abs(y) - width / 2, 0)) >= radius
+    for _, (vertex, end), normal in bodies._keep_out_lines(ocp):
+        (xv, yv), (xe, ye) = frame(vertex), frame(end)
+        across = (corners - np.asarray(vertex)) @ np.asarray(normal)
+        ok &= ((np.minimum(xv, xe) >= length / 2) | (np.maximum(xv, xe) <= -length / 2)
+               | (np.minimum(yv, ye) >= width / 2) | (np.maximum(yv, ye) <= -width / 2)
+               | (across.min(axis=1) >= 0) | (across.max(axis=1) <= 0))  # fmt: skip
+    return ok
+
+
+@pytest.mark.parametrize(("traffic", "exit_", "apron"), [("right", 1, False), ("right", 3, True), ("left", 2, False)])
+def test_the_corner_conditions_hold_exactly_when_the_rectangle_is_in_the_corridor(traffic, exit_, apron):
+    """Random rectangles (13.6 m x 2.5 m) centred in the corridor: conditions <=> perimeter sampled every 1 cm inside.
+
+    Both ways: the formulation is conservative (no pose meets the conditions and leaves the corridor)
+    and, up to its smoothing, exact (no pose inside the corridor fails them). Some poses have all four
+    corners inside and a side outside: the keep-outs are needed.
+    """
+    doc = energy_doc()
+    doc["roundabout"]["traffic"] = traffic
+    doc["route"]["exit"] = exit_
+    ocp = parse_scenario(doc).ocp
+    region = ocp.road.corridor("trailer" if apron else "vehicle")
+    rng = np.random.default_rng(exit_)
+    ref = rng.uniform(-45.0, 45.0, (20000, 2))
+    ref = ref[region.contains(ref)]
+    heading = rng.uniform(-np.pi, np.pi, len(ref))
+    u = np.column_stack([np.cos(heading), np.sin(heading)])
+    v = np.column_stack([-u[:, 1], u[:, 0]])
+    length, width = 13.6, 2.5
+    local = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * [length / 2, width / 2]
+    corners = ref[:, None] + local[:, :1] * u[:, None] + local[:, 1:] * v[:, None]
+    ok = _conditions(ocp, apron, ref, u, v, corners, length, width)
+    corners_in = region.contains(corners.reshape(-1, 2)).reshape(-1, 4).all(axis=1)
+    inside = corners_in.copy()
+    for i in np.flatnonzero(corners_in):
+        inside[i] = region.contains(_perimeter(ref[i], u[i], v[i], length, width)).all()
+    assert np.array_equal(ok, inside)
+    assert (corners_in & ~inside).sum() > 20 and inside.sum() > 50

@@ -25,7 +25,8 @@ corridor by the validation.
 Other formulations (``FORMULATIONS``, chosen by ``add_body_constraints(..., formulation=...)`` or
 ``use_formulation``; docs/bodies-formulation.md compares them): "discs-tight", the same with more
 discs (``TIGHT_COVER_SLACK``) and a sharper union (``TIGHT_SHARPNESS``), and "corners"
-(``_add_corner_bodies``): the rectangle's corners in the union, the rectangle clear of the circles.
+(``_add_corner_bodies``): the rectangle's corners in the union, the rectangle clear of the island,
+the fillet discs and the centre line of a leg the route uses one lane of.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ SATURATION = 5.0  # M, m
 COVER_SLACK = 0.1  # each body's cover discs reach at most 10 % of its half-width beyond its sides
 TIGHT_SHARPNESS = 50.0  # k of "discs-tight": log(5) / k = 3.2 cm (k M = 250: exp and its square stay finite)
 TIGHT_COVER_SLACK = 0.03  # "discs-tight": discs reach at most 3 % of the half-width beyond the sides
-CORNER_SHARPNESS = 50.0  # k of "corners": a point's union gives away log(5) / k = 3.2 cm, a keep-out log(4) / k
+CORNER_SHARPNESS = 50.0  # k of "corners": a corner's union gives away log(5) / k = 3.2 cm, a keep-out log(4 or 6) / k
 FORMULATIONS = ("discs", "discs-tight", "corners")
 FORMULATION = "discs"  # the default (docs/bodies-formulation.md)
 
@@ -156,12 +157,12 @@ def _add_disc(
 
 
 def _add_corner_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool) -> None:
-    """Formulation "corners": each body's four corners in the corridor, its sides clear of the circles.
+    """Formulation "corners": each body's four corners in the corridor, the rectangle clear of its holes.
 
     The corners are points (discs of radius 0) outside the island and in the smooth union of the
-    pieces (sharpness ``CORNER_SHARPNESS``). The rectangle is kept clear of the island's circle,
-    of the two fillet circles of the route and of the points where a leg's centre line meets the
-    outer curb (``_keep_out_points``): docs/bodies-formulation.md, "Formulation B".
+    pieces (sharpness ``CORNER_SHARPNESS``). The rectangle misses the island's disc, the route's
+    two fillet discs (``_keep_out_discs``) and, where the route uses one lane of a leg, the leg's
+    centre line outside the outer curb (``_keep_out_lines``): docs/bodies-formulation.md.
     """
     rb = ocp.road.roundabout
     poses = ocp.vehicle.body_poses()
@@ -171,28 +172,39 @@ def _add_corner_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool) -> None:
         for j, (ox, oy) in enumerate(body.outline()):
             point = _pose_point(m, ocp, poses[name], float(ox), float(oy))
             corners.append(_add_disc(m, ocp, f"body_{name}_c{j}", point, 0.0, apron, relax, CORNER_SHARPNESS))
-        for tag, point, radius in _keep_out_points(ocp, apron):
-            for box in (0, 1) if radius > 0.0 else (0,):
-                _add_keep_out(m, f"body_{name}_{tag}_{box}", corners, body, point, radius, box, relax)
+        for tag, centre, radius in _keep_out_discs(ocp, apron):
+            for box in (0, 1):
+                _add_keep_out(m, f"body_{name}_{tag}_{box}", corners, body, centre, radius, box, relax)
+        for tag, ends, normal in _keep_out_lines(ocp):
+            _add_line_keep_out(m, f"body_{name}_{tag}", corners, body, ends, normal, relax)
 
 
-def _keep_out_points(ocp: OCP, apron: bool) -> list[tuple[str, tuple[float, float], float]]:
-    """(tag, centre, radius) of the circles a rectangle must stay clear of, the corridor's convex holes.
-
-    The island (or apron edge), the entry lane's and the exit lane's fillet circles, and, where the
-    route uses one lane of a leg, the point where that leg's centre line meets the outer curb
-    (radius 0: the corridor's reflex corner there).
-    """
+def _keep_out_discs(ocp: OCP, apron: bool) -> list[tuple[str, tuple[float, float], float]]:
+    """(tag, centre, radius) of the discs a rectangle must miss: the island (or apron edge) and the route's fillets."""
     rb, road = ocp.road.roundabout, ocp.road
     inner = rb.island_radius if apron else rb.inner_radius
     out = [("island", rb.center, inner)]
     for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit")):
         f = fillet_geometry(rb, leg, lane)
-        out.append((f"fillet_{lane}", tuple(float(v) for v in f["center"]), float(f["radius"])))
-    if road.route.enter != road.exit_leg:
-        for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit")):
-            vertex = leg_point(rb, leg, rb.outer_radius, 0.0)
-            out.append((f"vertex_{lane}", (float(vertex[0]), float(vertex[1])), 0.0))
+        out.append((f"fillet_{lane}", (float(f["center"][0]), float(f["center"][1])), float(f["radius"])))
+    return out
+
+
+def _keep_out_lines(ocp: OCP) -> list[tuple[str, tuple, tuple[float, float]]]:
+    """(tag, (V, E), leg normal): a leg's centre line from the outer curb (V) to the leg's end (E).
+
+    Only where the route uses one lane of the leg (not for a U-turn): there the centre line outside
+    the curb is an edge of the corridor with the corridor on one side only, and V a reflex corner.
+    """
+    rb, road = ocp.road.roundabout, ocp.road
+    if road.route.enter == road.exit_leg:
+        return []
+    out = []
+    for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit")):
+        ends = [leg_point(rb, leg, along, 0.0) for along in (rb.outer_radius, rb.outer_radius + rb.legs[leg].length)]
+        normal = rb.legs[leg].normal
+        out.append((f"centre_line_{lane}", tuple((float(p[0]), float(p[1])) for p in ends), (float(normal[0]),
+                    float(normal[1]))))  # fmt: skip
     return out
 
 
@@ -214,6 +226,35 @@ def _add_keep_out(m: pyo.ConcreteModel, tag: str, corners: list, body, point, ra
         return _smooth_max(margins, k) + slack(t) >= math.log(len(margins)) / k
 
     m.add_component(f"{tag}_keep_out", pyo.Constraint(m.tau, rule=rule))
+
+
+def _add_line_keep_out(m: pyo.ConcreteModel, tag: str, corners: list, body, ends, normal, relax: bool) -> None:
+    """The rectangle misses the segment ``ends``: a separating axis among the body's two and the segment's normal.
+
+    Six margins (the segment beyond each of the rectangle's four sides, the four corners on either
+    side of the segment's line), each a smooth minimum over its points; their smooth maximum
+    ``>= log(6) / k``. Exact, up to the smoothing, for a rectangle and a segment (both convex).
+    """
+    half_l, half_w = body.length / 2, body.width / 2
+    slack = _slack(m, tag, relax)
+    k = CORNER_SHARPNESS
+
+    def rule(_m, t):
+        p = [c(t) for c in corners]
+        (xv, yv), (xe, ye) = (_body_frame(p, body, end) for end in ends)
+        sides = [(xv - half_l, xe - half_l), (-xv - half_l, -xe - half_l),
+                 (yv - half_w, ye - half_w), (-yv - half_w, -ye - half_w)]  # fmt: skip
+        across = [(q[0] - ends[0][0]) * normal[0] + (q[1] - ends[0][1]) * normal[1] for q in p]
+        margins = [_smooth_min(list(pair), k) for pair in sides]
+        margins += [_smooth_min(across, k), _smooth_min([-a for a in across], k)]
+        return _smooth_max(margins, k) + slack(t) >= math.log(len(margins)) / k
+
+    m.add_component(f"{tag}_keep_out", pyo.Constraint(m.tau, rule=rule))
+
+
+def _smooth_min(margins: list, k: float):
+    """``-log(sum exp(-k g(m))) / k``, below the least saturated margin."""
+    return -_smooth_max([-mi for mi in margins], k)
 
 
 def _body_frame(p: list, body, point) -> tuple:
