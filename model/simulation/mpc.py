@@ -29,10 +29,22 @@ not make a disturbed step infeasible.
 
 Each step starts Ipopt from the previous iterate interpolated onto the new grid in time (primal;
 its tail beyond the old horizon continued by the nominal model) and from its multipliers moved the
-same way (duals), with an iteration cap and a wall-time budget. The control sent is the plan's
+same way (duals), with an iteration cap and a wall-time budget. A step stopped early (wall time,
+iteration cap, or any other non-converged stop) whose iterate satisfies the constraints to
+``feasible_inf_pr`` relative to the scene (``MPC._violation``) is used and counted as
+``truncated``; only a step without such an iterate is ``failed``. The control sent is the plan's
 mean over the sample it acts on (the plan's controls are piecewise linear between nodes, the plant
 holds one value over the sample). In the last ``stop_samples`` samples, or when a step fails
 (``failed``), the controller follows the last usable plan; after the plan's end it sends zero.
+
+Offset-free MPC (Pannocchia & Rawlings 2003; Maeder, Borrelli & Morari 2009): the prediction model
+is x' = f(x, u) + d with a constant disturbance d on the rates of the position and heading states
+(mutable Params of the built model, so the CasADi NLP is built once). At each sample d is updated
+from the one-step prediction error: x_pred is the previous measurement carried over the last
+sample under the control applied then, by f + d_hat (RK4); d_hat <- d_hat + alpha (y - x_pred) / h,
+each component saturated at ``disturbance_share`` of the largest rate of that state along the
+reference. The same model f + d_hat predicts through the pending (delayed) controls and continues
+a plan's tail. Undisturbed, the prediction error is the integrator's only, and d_hat stays ~0.
 """
 
 from __future__ import annotations
@@ -40,6 +52,7 @@ from __future__ import annotations
 import copy
 import math
 import time
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,6 +70,7 @@ from model.problem.ocp import OCP
 from model.vehicles import sym
 
 USABLE = ("optimal", "acceptable")
+LIMIT_CODES = (-1, -4, -5)  # Ipopt: iteration limit, CPU time, wall time (-5 reads "solver_error" in ipopt.py)
 
 
 @dataclass(frozen=True)
@@ -79,7 +93,8 @@ class MPCSettings:
     time_energy : float
         For the time objective, the weight of the (normalised) energy beside the final time.
     feasible_inf_pr : float
-        A step stopped by the iteration cap is still used if its primal infeasibility is below this.
+        A step stopped before convergence is still used (``truncated``) if its largest constraint
+        violation, relative to the scene's size (``max(1, path length)``), is below this.
     time_receding : bool
         Time objective: receding horizon with the reference as terminal target until the horizon
         reaches Tf (else the free-final-time problem over the whole remaining manoeuvre).
@@ -88,6 +103,16 @@ class MPCSettings:
         real-time iteration) rather than from the last usable plan.
     budget : float
         Ipopt's wall-time limit per step as a fraction of the sample time.
+    offset_free : bool
+        Estimate a constant disturbance on the position and heading rates and predict with it.
+    estimator_gain : float
+        The filter gain alpha of the disturbance estimate (0 < alpha <= 1).
+    disturbance_share : float
+        Saturation of each estimated rate, as a share of that state's largest rate on the reference.
+    estimator_window : int
+        Samples of the prediction error: the measurement this many samples back is carried to now
+        through the controls applied since, and the error divided by that time (1: the one-step
+        error; more averages measurement noise, at the price of a lag).
     """
 
     ipopt: dict = field(
@@ -109,6 +134,10 @@ class MPCSettings:
     time_receding: bool = True
     warm_from_iterate: bool = True
     budget: float = 0.8
+    offset_free: bool = True
+    estimator_gain: float = 0.4
+    disturbance_share: float = 0.3
+    estimator_window: int = 1
 
 
 @dataclass
@@ -159,6 +188,7 @@ class HorizonModel:
         with paused_gc():
             m = build_model(ocp, intervals, passing=None, relax=True)
             self._soften(m, scales, cost_scales, path_length)
+            self._add_disturbance(m)
             self.model = m
             self.nlp = CasadiNLP(m)
         self._layout()
@@ -181,6 +211,15 @@ class HorizonModel:
             + self.settings.obstacle_l1 / length * pyo.quicksum(slacks),
             sense=pyo.minimize,
         )
+
+    def _add_disturbance(self, m: pyo.ConcreteModel) -> None:
+        """dX/dtau = Tf (f(X, U) + d_hat): a mutable Param d_hat per state (zero: the nominal model)."""
+        m.d_hat = pyo.Param(list(self.states), mutable=True, initialize=0.0)
+        for name in self.states:
+            ode = m.component(f"ode_{name}")
+            for t in ode:
+                lhs, rhs = ode[t].expr.args
+                ode[t].set_value(lhs == rhs + m.tf * m.d_hat[name])
 
     def _soft_keep_out(self, m: pyo.ConcreteModel) -> list:
         """|p - c| >= R - s with a slack 0 <= s <= R (metres) per obstacle and node; the slacks."""
@@ -243,9 +282,13 @@ class HorizonModel:
 
     # -- a step -----------------------------------------------------------------------------
     def set_problem(self, start: dict[str, float], length: float, free: bool, target: dict[str, float],
-                    weights: dict[str, float]) -> None:  # fmt: skip
-        """Initial state, horizon length (a fixed value, or a guess if ``free``), terminal target."""
+                    weights: dict[str, float], disturbance: np.ndarray | None = None) -> None:  # fmt: skip
+        """Initial state, horizon length (a fixed value, or a guess if ``free``), terminal target and
+        the disturbance on the state rates (state order; None: zero)."""
         m = self.model
+        d = np.zeros(len(self.states)) if disturbance is None else disturbance
+        for name, val in zip(self.states, d, strict=True):
+            m.d_hat[name].set_value(float(val))
         for name, val in start.items():
             lo, hi = self.ocp.bounds.get(name, (-math.inf, math.inf))
             m.component(f"initial_{name}_value").set_value(min(max(val, lo), hi))
@@ -280,6 +323,13 @@ class HorizonModel:
         """Run Ipopt on the built NLP from ``x0`` (and the multipliers ``duals``)."""
         opts = {**(WARM_OPTIONS if duals is not None else {}), **options}
         return run_ipopt(self.nlp, opts, x0=x0, duals=duals)
+
+    def violation(self, x: np.ndarray) -> float:
+        """The largest violation of a row's bounds at the primal vector ``x`` (absolute units)."""
+        nlp = self.nlp
+        nlp.set_primals(x)
+        g = nlp.evaluate_constraints()
+        return float(np.max(np.maximum(nlp.constraints_lb() - g, g - nlp.constraints_ub()), initial=0.0))
 
     def horizon_length(self, x: np.ndarray, fixed: float) -> float:
         """The horizon's length in a primal vector (the fixed value unless the final time is free)."""
@@ -369,18 +419,24 @@ class MPC:
     control : ControlSettings
         Sample time and horizon (samples, or "shrinking": the scenario's N up to the final time).
     disturbance : Disturbance
-        Only the delay is used (it is known); the rest is what feedback must reject.
+        Only the delay is used (it is known); the rest is what feedback (and, with
+        ``offset_free``, the disturbance estimate) must reject.
     settings : MPCSettings, optional
 
     Attributes
     ----------
     name : str
     failed : bool
-        The last step's solve failed and the previous plan was followed.
+        The last step had no usable plan and the previous plan was followed.
+    truncated : bool
+        The last step's solve stopped early (time or iteration limit) with a usable iterate.
+    d_hat : ndarray
+        The current disturbance estimate on the state rates (state order; zero where not estimated).
     final_time : float
         When the current plan arrives (the reference's final time, or later for the time objective).
     steps : list of dict
-        Per step: t, seconds, iterations, status, horizon length.
+        Per step: t, seconds, iterations, status, horizon length, used, truncated, the relative
+        constraint violation of the iterate and the disturbance estimate used.
 
     Examples
     --------
@@ -405,8 +461,12 @@ class MPC:
         self.horizon = HorizonModel(self.ocp, intervals, self._scales(), self._cost_scales(), self.settings,
                                     self._path_length())  # fmt: skip
         self.rhs = _rhs_function(self.ocp)
-        self.name = f"mpc (warm-started Ipopt, {intervals} intervals, {control.horizon} horizon)"
-        self.failed = False
+        self.d_hat = np.zeros(len(self.ocp.vehicle.states))
+        self.d_bound = self._disturbance_bound()
+        self._history: deque[tuple[float, np.ndarray, np.ndarray]] = deque(maxlen=self.settings.estimator_window)
+        kind = "offset-free mpc" if self.settings.offset_free else "mpc"
+        self.name = f"{kind} (warm-started Ipopt, {intervals} intervals, {control.horizon} horizon)"
+        self.failed = self.truncated = False
         self.steps: list[dict] = []
         self.plan = self.warm = self._reference_plan()
         self._final_phase = False
@@ -431,8 +491,19 @@ class MPC:
             The plan's mean control over the sample it acts on.
         """
         pending = np.asarray(pending, dtype=float).reshape(-1, len(self.ocp.vehicle.controls))
-        start_time = float(t) + len(pending) * self.dt
-        state = self.predict(np.asarray(y, dtype=float), pending)
+        y = np.asarray(y, dtype=float)
+        self._estimate(float(t), y)
+        u = self._control(float(t), y, pending)
+        applied = pending[0] if len(pending) else u
+        if np.all(np.isfinite(y)):  # (t, y, the control applied over the sample from t)
+            self._history.append((float(t), y.copy(), applied.copy()))
+        return u
+
+    def _control(self, t: float, y: np.ndarray, pending: np.ndarray) -> np.ndarray:
+        """Solve from the state predicted through ``pending`` (or follow the plan near its end)."""
+        start_time = t + len(pending) * self.dt
+        state = self.predict(y, pending)
+        self.truncated = False
         if self.final_time - start_time < self.settings.stop_samples * self.dt:
             self.failed = False
             return self._follow(start_time)
@@ -447,20 +518,51 @@ class MPC:
         return self._follow(start_time)
 
     def predict(self, y: np.ndarray, pending: np.ndarray, substeps: int = 10) -> np.ndarray:
-        """The nominal model's state after the pending controls (RK4, ``substeps`` per sample)."""
+        """The prediction model's state (f + d_hat) after the pending controls (RK4, ``substeps`` per sample)."""
         x = y.copy()
         for u in pending:
-            for _ in range(substeps):
-                x = self._rk4(x, u, self.dt / substeps)
+            x = self._carry(x, u, self.dt, substeps)
+        return x
+
+    def _carry(self, x: np.ndarray, u: np.ndarray, duration: float, substeps: int = 10) -> np.ndarray:
+        """``x`` after ``duration`` with ``u`` held (RK4 of f + d_hat)."""
+        for _ in range(substeps):
+            x = self._rk4(x, u, duration / substeps)
         return x
 
     def _rk4(self, x: np.ndarray, u: np.ndarray, h: float) -> np.ndarray:
-        """One classical Runge-Kutta step of the nominal model."""
-        k1 = self.rhs(x, u)
-        k2 = self.rhs(x + h / 2 * k1, u)
-        k3 = self.rhs(x + h / 2 * k2, u)
-        k4 = self.rhs(x + h * k3, u)
+        """One classical Runge-Kutta step of the prediction model f(x, u) + d_hat."""
+        k1 = self._rate(x, u)
+        k2 = self._rate(x + h / 2 * k1, u)
+        k3 = self._rate(x + h / 2 * k2, u)
+        k4 = self._rate(x + h * k3, u)
         return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+    def _rate(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        return self.rhs(x, u) + self.d_hat
+
+    # -- the disturbance estimate ----------------------------------------------------------
+    def _estimate(self, t: float, y: np.ndarray) -> None:
+        """d_hat <- sat(d_hat + alpha (y - x_pred) / h): the prediction error over the last
+        ``estimator_window`` samples (x_pred: the measurement then, carried by f + d_hat)."""
+        if not self.settings.offset_free or not self._history or not np.all(np.isfinite(y)):
+            return
+        x, h = self._history[0][1], t - self._history[0][0]
+        if h <= 1e-12:
+            return
+        ends = [s[0] for s in list(self._history)[1:]] + [t]
+        for (t0, _, applied), t1 in zip(self._history, ends, strict=True):
+            x = self._carry(x, applied, t1 - t0)
+        step = self.settings.estimator_gain * (y - x) / h
+        self.d_hat = np.clip(self.d_hat + np.where(self.d_bound > 0, step, 0.0), -self.d_bound, self.d_bound)
+
+    def _disturbance_bound(self) -> np.ndarray:
+        """Per state: ``disturbance_share`` x its largest rate on the reference for the position and
+        heading states, 0 (not estimated) for the others."""
+        v, ref = self.ocp.vehicle, self.reference
+        estimated = [s in v.position or s.startswith("theta") for s in v.states]
+        rates = [np.max(np.abs(np.gradient(ref[s], ref["t"]))) if ref["t"].size > 1 else 0.0 for s in v.states]
+        return np.where(estimated, self.settings.disturbance_share * np.asarray(rates, dtype=float), 0.0)
 
     # -- internals -----------------------------------------------------------------------
     def _follow(self, start: float) -> np.ndarray:
@@ -478,7 +580,7 @@ class MPC:
         length, free = self._horizon(start)
         target, weights = self._target(start + length, final=free or self._final_phase)
         hm = self.horizon
-        hm.set_problem(state, length, free, target, weights)
+        hm.set_problem(state, length, free, target, weights, self.d_hat)
         times = start + np.linspace(0.0, length, hm.n + 1)
         prev = self.warm
         x0 = hm.columns.move(prev.x, prev.times, times)
@@ -496,7 +598,10 @@ class MPC:
             duals = (hm.rows.move(prev.mult_g, prev.times, times), *bounds)
         options = {**self.settings.ipopt, **({"max_wall_time": self.settings.budget * self.dt} if record else {})}
         res = hm.solve(x0, duals, options)
-        ok = res.status in USABLE or (res.log and res.log[-1][2] <= self.settings.feasible_inf_pr)
+        converged = res.status in USABLE
+        violation = self._violation(res.x)
+        ok = converged or violation <= self.settings.feasible_inf_pr
+        self.truncated = ok and not converged
         iterate = self._plan(res, start, hm.horizon_length(res.x, length))
         if np.all(np.isfinite(res.x)) and (ok or self.settings.warm_from_iterate):
             self.warm = iterate  # the next step continues from here, converged or not
@@ -505,9 +610,18 @@ class MPC:
             self.final_time = float(plan.times[-1])
         if record:
             self.steps.append({"t": start, "seconds": time.perf_counter() - t0, "ipopt_seconds": res.seconds,
-                               "iterations": res.iterations, "status": res.status, "horizon": length,
-                               "used": plan is not None})  # fmt: skip
+                               "iterations": res.iterations, "status": res.status, "code": res.code,
+                               "limit": res.code in LIMIT_CODES, "horizon": length, "used": plan is not None,
+                               "truncated": self.truncated, "violation": violation,
+                               "d_hat": self.d_hat.tolist()})  # fmt: skip
         return plan
+
+    def _violation(self, x: np.ndarray) -> float:
+        """The iterate's largest constraint violation relative to the scene (``max(1, path length)``);
+        infinite for a non-finite iterate."""
+        if not np.all(np.isfinite(x)):
+            return math.inf
+        return self.horizon.violation(x) / max(1.0, self._path_length())
 
     def _extended(self, plan: Plan, until: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """The plan's node times and values, continued to ``until`` by the nominal model with its last
