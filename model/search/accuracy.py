@@ -3,7 +3,9 @@
 The trapezoid rule is second order: on a coarse grid the optimal controls, re-integrated by
 an accurate integrator (the validation's ``reintegration``), end a little off the goal. A
 solution whose drift at the goal exceeds the tolerance is solved again on a grid twice as
-fine, warm from itself, at most ``MAX_DOUBLINGS`` times; the summary says what was reached.
+fine, warm from itself, at most ``MAX_DOUBLINGS`` times, and kept unless the finer grid landed in
+another local optimum (objective more than ``SAME_OPTIMUM`` above); the summary says what was
+reached.
 
 Tolerance: ``GOAL_ACCURACY * max(1, L)`` for the position states (L the start-goal distance,
 metres) and ``GOAL_ACCURACY`` for every other state fixed at the goal (radians for angles).
@@ -19,6 +21,7 @@ from model.problem.ocp import OCP
 GOAL_ACCURACY = 1e-3
 MAX_DOUBLINGS = 1
 MAX_INTERVALS = 1600  # never refine beyond this grid
+SAME_OPTIMUM = 0.02  # a finer grid's objective more than 2 % above the coarse one is another local optimum
 
 
 def goal_tolerances(ocp: OCP, accuracy: float = GOAL_ACCURACY) -> dict[str, float]:
@@ -63,6 +66,9 @@ def refine_for_accuracy(
         finer = solve(2 * sol.intervals, sol)
         if not finer.ok:
             record["refinement_failed"] = finer.status
+            break
+        if finer.objective > sol.objective + SAME_OPTIMUM * abs(sol.objective):
+            record["refinement_failed"] = f"N = {finer.intervals} found another local optimum ({finer.objective:.6g})"
             break
         sol = finer
         ratio, state = goal_drift(sol, accuracy)
