@@ -1,6 +1,6 @@
 """Studies (issue 5): time-optimal arcs, time-energy trade-off, wheelbase sweep, grid convergence, shooting."""
 
-STUDY_CODE = closure(*sorted(SCRIPTS.glob("studies_*.py")))
+STUDY_CODE = closure(*sorted(p for p in SCRIPTS.glob("studies_*.py") if not p.name.startswith("studies_roads_")))
 TIME_STUDY = [s for s in SCENARIOS if s.startswith("time-")]
 PAPER_ENERGY = [s for s in ("s1", "s2-case1", "s2-case2", "s2-case3", "s3") if s in SCENARIO_FILES]
 # N = 100..800 for s2-case1, 100..400 elsewhere: the CPU budget of the rebuild (time-s2 at N = 800 alone costs ~20 s)
