@@ -47,6 +47,10 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals")
     s.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log and the time of each phase")
     s.add_argument(
+        "--search", choices=("quick", "default", "thorough"), default="default",
+        help="starts tried: quick (one per pass direction), default, thorough (more, screened on a coarse grid)",
+    )  # fmt: skip
+    s.add_argument(
         "--ipopt", action="append", default=[], metavar="KEY=VALUE",
         help="an Ipopt option, e.g. mumps_pivot_order=5 or mu_strategy=adaptive (repeatable)",
     )  # fmt: skip
@@ -193,6 +197,7 @@ def open_loop_solve(scenario, args, options: dict):
         verbose=args.verbose,
         options=options,
         progress=lambda line: print("  " + line, file=sys.stderr, flush=True),
+        **({"search": args.search} if getattr(args, "search", "default") != "default" else {}),
     )
     return sol, t1 - t0
 

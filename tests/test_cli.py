@@ -156,3 +156,18 @@ def test_a_failed_write_leaves_no_half_written_file(tmp_path, monkeypatch):
     with pytest.raises(OSError):
         sol.write(tmp_path / "out")
     assert calls and list((tmp_path / "out").iterdir()) == []
+
+
+def test_search_levels_trade_starts_for_time_and_keep_the_optimum(tmp_path):
+    scenario = ROOT / "workflows" / "scenarios" / "time-s1.toml"
+    found = {}
+    for level in ("quick", "thorough"):
+        res = run("solve", scenario, "--out", tmp_path / level, "--search", level)
+        assert res.returncode == 0, res.stderr
+        found[level] = json.loads((tmp_path / level / "summary.json").read_text())
+    assert len(found["quick"]["attempts"]) == 1
+    routes = [a["route"] for a in found["thorough"]["attempts"]]
+    assert len(routes) > 8 and any(r.startswith("screening") for r in routes)
+    assert found["thorough"]["objective"] <= found["quick"]["objective"] * (1 + 1e-6)
+    bad = run("solve", scenario, "--out", tmp_path / "bad", "--search", "deep")
+    assert bad.returncode == 2 and not (tmp_path / "bad").exists()

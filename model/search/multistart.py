@@ -18,7 +18,7 @@ from model.direct.solve import Start, solve_starts
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
 from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess
-from model.search.screening import screen_starts, screening_intervals
+from model.search.screening import SCREEN_MIN, screen_starts, screening_intervals
 
 TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
@@ -43,6 +43,7 @@ def solve_ocp(
     continuation: bool = True,
     screen: bool | int | None = None,
     accuracy: float | None = GOAL_ACCURACY,
+    search: str = "default",
 ) -> Solution:
     """Solve every pass direction asked for and keep the best validated solution.
 
@@ -63,6 +64,9 @@ def solve_ocp(
         for that coarse grid. If no refined solution validates, every start is solved at N.
     accuracy : goal tolerance of the re-integrated controls (``model.search.accuracy``): a
         solution that drifts further is solved again on 2N intervals; None never refines.
+    search : "quick" (the first default start per pass direction), "default", or "thorough"
+        (more Tf scales and both routes, every start screened on a coarse grid): time against
+        thoroughness. Ignored where ``starts`` or ``guess`` is given.
 
     Returns
     -------
@@ -72,7 +76,9 @@ def solve_ocp(
     """
     start = time.perf_counter()
     if starts is None:
-        starts = default_starts(ocp) if guess is None else ((1.0, "arc"),)
+        starts = search_starts(ocp, search) if guess is None else ((1.0, "arc"),)
+    if search == "thorough" and screen is None and guess is None:
+        screen = max(SCREEN_MIN, intervals // 4) if intervals > SCREEN_MIN else False
     attempts: list[dict] = []
     solutions: list[Solution] = []
     coarse = screening_intervals(intervals, screen) if guess is None else None
@@ -214,6 +220,23 @@ def default_starts(ocp: OCP) -> tuple[tuple[float, str], ...]:
         starts = DETOUR_STARTS if ocp.obstacles else ((1.0, "arc"),)
     if ocp.road is None and reeds_shepp_guess(ocp, 2) is not None:
         starts += (REEDS_SHEPP_START,)
+    return starts
+
+
+SEARCHES = ("quick", "default", "thorough")
+
+
+def search_starts(ocp: OCP, search: str = "default") -> tuple[tuple[float, str], ...]:
+    """The cold starts of a search level (see ``solve_ocp``)."""
+    if search not in SEARCHES:
+        raise ValueError(f"search must be one of {', '.join(SEARCHES)}, got {search!r}")
+    starts = default_starts(ocp)
+    if search == "quick":
+        return starts[:1]
+    if search == "thorough":
+        scales = (0.75, 1.0, 1.5, 2.0, 3.0) if ocp.cost.free_final_time else (1.0,)
+        extra = tuple((k, r) for k in scales for r in ("arc", "line") if ocp.road is None or r == "arc")
+        starts = tuple(dict.fromkeys(starts + extra))
     return starts
 
 
