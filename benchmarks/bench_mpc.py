@@ -88,6 +88,7 @@ class OptiPeer:
         S = [opti.variable(1, n + 1) for _ in obstacles]
         above, below = opti.variable(4), opti.variable(4)
         self.x0, self.target, self.weight = opti.parameter(4), opti.parameter(4), opti.parameter(4)
+        self.dist = opti.parameter(4)  # the MPC's disturbance estimate on the state rates
         self.w_time, self.w_energy = opti.parameter(), opti.parameter()
         d, h = ocp.vehicle.wheelbase, self.T / n
         x, y, th, ph = X
@@ -96,7 +97,7 @@ class OptiPeer:
         g_frac = []  # each constraint entry's place in the horizon (TimeLayout)
         nodes, steps = np.arange(n + 1) / n, np.arange(1, n + 1) / n
         for k in range(4):
-            opti.subject_to(X[k][1:] - X[k][:-1] == h / 2 * (rhs[k][:-1] + rhs[k][1:]))
+            opti.subject_to(X[k][1:] - X[k][:-1] == h / 2 * (rhs[k][:-1] + rhs[k][1:]) + h * self.dist[k])
             g_frac.append(steps)
         for k in range(4):
             opti.subject_to(X[k][0] == self.x0[k])
@@ -142,12 +143,14 @@ class OptiPeer:
     def configure(self, options: dict) -> None:
         self.opti.solver("ipopt", {"expand": True, "print_time": False, "detect_simple_bounds": True}, options)
 
-    def solve(self, start: float, state: dict, length: float, free: bool, target: dict, weights: dict) -> None:
+    def solve(self, start: float, state: dict, length: float, free: bool, target: dict, weights: dict,
+              disturbance: np.ndarray | None = None) -> None:  # fmt: skip
         """Solve the step's problem (same data as the MPC's) from the shifted previous solution."""
         opti, n = self.opti, self.n
         t0 = time.perf_counter()
         states = ("x", "y", "theta", "phi")
         opti.set_value(self.x0, [state[k] for k in states])
+        opti.set_value(self.dist, np.zeros(4) if disturbance is None else disturbance)
         opti.set_value(self.target, [target[k] for k in states])
         opti.set_value(self.weight, [weights[k] for k in states])
         opti.set_value(self.w_time, 1.0 if free else 0.0)
@@ -190,9 +193,10 @@ def shadow(mpc: MPC, peer: OptiPeer) -> None:
     queue = []
     original = mpc.horizon.set_problem
 
-    def set_problem(start, length, free, target, weights):
-        queue.append((dict(start), length, free, dict(target), dict(weights)))
-        original(start, length, free, target, weights)
+    def set_problem(start, length, free, target, weights, disturbance=None):
+        d = None if disturbance is None else np.array(disturbance, dtype=float)
+        queue.append((dict(start), length, free, dict(target), dict(weights), d))
+        original(start, length, free, target, weights, disturbance)
 
     mpc.horizon.set_problem = set_problem
     original_step = mpc.make_step

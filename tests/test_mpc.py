@@ -90,6 +90,13 @@ def paper():
 
 
 @pytest.fixture(scope="module")
+def truck_energy():
+    """The closed-loop study's real truck (d = 5 m, energy-optimal right turn in 7 s)."""
+    sc = load_scenario(SCENARIOS / "closed-loop" / "truck.toml")
+    return sc.ocp.solve(intervals=sc.intervals)
+
+
+@pytest.fixture(scope="module")
 def real():
     """The real truck (d = 5 m, 10 m/s), first exit, time-optimal."""
     sc = load_scenario(SCENARIOS / "time-real-s1.toml")
@@ -109,12 +116,14 @@ def test_undisturbed_paper_scale_reproduces_the_optimum_energy(paper):
     assert run.energy == pytest.approx(paper.energy, rel=0.01)
     assert position < 0.005 and heading < 0.02  # m on a 1 m scene; rad
     assert not any(s.get("used") is False for s in mpc.steps)
+    assert np.max(np.abs(mpc.d_hat)) < 1e-3  # the estimate sees the integrator's error only
 
 
 def test_undisturbed_real_truck_reaches_the_goal_at_the_optimum_time(real):
     mpc = MPC(real, ControlSettings(0.1, 40))
     run = simulate(mpc.make_step, start(real.ocp), lambda: mpc.final_time, 0.1, truck_plant(5.0))
     position, heading = errors(real.ocp, run.final)
+    assert not mpc.offset_free  # the time objective: no disturbance estimate by default
     assert mpc.final_time == pytest.approx(real.final_time, rel=0.01)
     assert run.energy == pytest.approx(real.energy, rel=0.01)
     assert position < 0.05 and heading < 0.01
@@ -218,3 +227,53 @@ def test_time_layout_moves_node_values_in_time():
     assert moved[: n + 1] == pytest.approx(expect_nodes)
     assert moved[n + 1 : 2 * n + 1] == pytest.approx(3 * np.minimum(new[1:], 2.0) + 1)
     assert moved[-1] == 7.0
+
+
+def offset_runs(sol, dt: float, gain: float, bias: float) -> dict[bool, tuple[MPC, Run]]:
+    """The same disturbed plant against the MPC with and without the disturbance estimate."""
+    plant = truck_plant(sol.ocp.vehicle.wheelbase, gain, bias)
+    out = {}
+    for offset_free in (False, True):
+        mpc = MPC(sol, ControlSettings(dt, 40), settings=MPCSettings(offset_free=offset_free, budget=100.0))
+        out[offset_free] = (mpc, simulate(mpc.make_step, start(sol.ocp), lambda m=mpc: m.final_time, dt, plant))
+    return out
+
+
+def test_offset_free_mpc_ends_closer_under_a_persistent_disturbance(paper):
+    """Paper scale, 3 % slower and a 5 mrad steering bias: the estimate ends closer in position and
+    heading than the nominal model (measured 0.0018 m / 0.015 rad against 0.0082 m / 0.034 rad)."""
+    runs = offset_runs(paper, PAPER_DT, 0.97, 0.005)
+    (_, nominal), (mpc, estimated) = runs[False], runs[True]
+    (position, heading), (position0, heading0) = errors(paper.ocp, estimated.final), errors(paper.ocp, nominal.final)
+    assert position < 0.5 * position0 and heading < 0.7 * heading0
+    assert mpc.d_hat[2] > 0  # the bias turns the truck faster than the model (positive phi + b)
+
+
+def test_offset_free_mpc_reaches_the_real_truck_goal(truck_energy):
+    """The study's real truck, 5 % slower and a 1-degree steering bias (level 1 without wind, delay or
+    noise): within 2 % of the start-goal distance and 0.05 rad. The nominal model ends there too; the
+    estimate ends with a smaller heading error, the position limited by u1 at its bound near the end."""
+    ocp = truck_energy.ocp
+    runs = offset_runs(truck_energy, 0.1, 0.95, 0.017)
+    (plain, nominal), (mpc, estimated) = runs[False], runs[True]
+    position, heading = errors(ocp, estimated.final)
+    assert position <= 0.02 * ocp.straight_distance() and heading <= 0.05
+    assert heading < errors(ocp, nominal.final)[1]
+    assert not any(s.get("used") is False for s in plain.steps + mpc.steps)
+
+
+@pytest.mark.parametrize("tolerance", [1.0, 0.0])
+def test_a_step_stopped_early_is_used_exactly_when_feasible(real, tolerance):
+    """One Ipopt iteration per step: an iterate within ``feasible_inf_pr`` is used and ``truncated``,
+    one outside it is ``failed`` (the previous plan followed)."""
+    ipopt = {**MPCSettings().ipopt, "max_iter": 1}
+    mpc = MPC(real, ControlSettings(0.1, 40), settings=MPCSettings(ipopt=ipopt, feasible_inf_pr=tolerance))
+    y = np.array(start(real.ocp))
+    y[1] += 0.5
+    mpc.make_step(0.0, y, np.zeros((0, 2)))
+    step = mpc.steps[-1]
+    assert step["status"] == "iteration_limit" and step["limit"]
+    feasible = step["violation"] <= tolerance
+    assert feasible == (tolerance > 0)
+    assert step["used"] == step["truncated"] == mpc.truncated == feasible
+    assert mpc.failed == (not feasible)
