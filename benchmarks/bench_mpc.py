@@ -8,7 +8,8 @@ once per sample and timed (wall seconds of ``make_step``, the loop's own measure
 replay of the optimum's controls runs through the same disturbed integrator.
 
 The peer shadows the controller in the same run: at every step it is handed the same problem
-(start state, horizon length, terminal target and weights) and solves the same horizon OCP written
+(start state, horizon length, terminal target and weights, and the MPC's disturbance estimate on
+the state rates: offset-free MPC) and solves the same horizon OCP written
 in plain CasADi Opti (trapezoid defects, soft terminal target, soft keep-out slacks, the same cost
 and Ipopt options), warm-started the same way: its own previous primal and dual point moved onto
 the new grid in time (model.simulation.mpc.TimeLayout). Ratio = our mean (max) step seconds over
@@ -254,6 +255,7 @@ def run_case(name: str, peer: bool) -> list[dict]:
             "rt": secs.max() / dt,
             "it": f"{its.mean():.1f}/{its.max()}",
             "failed": sum(1 for s in mpc.steps if not s.get("used", True)),
+            "truncated": sum(1 for s in mpc.steps if s.get("truncated")),
             "err": math.hypot(x[0] - fin["x"], x[1] - fin["y"]),
             "heading": abs(x[2] - fin["theta"]),
             "err_open": math.hypot(xo[0] - fin["x"], xo[1] - fin["y"]),
@@ -288,8 +290,8 @@ def main(argv: list[str] | None = None) -> int:
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, CasADi {ca.__version__}, load average {load:.2f}")  # fmt: skip
-    head = ("| case | N | dt s | steps | mean s | max s | max/dt | iters mean/max | failed | end error m / rad "
-            "| open-loop m | energy | arrival |")  # fmt: skip
+    head = ("| case | N | dt s | steps | mean s | max s | max/dt | iters mean/max | failed (truncated) "
+            "| end error m / rad | open-loop m | energy | arrival |")  # fmt: skip
     sep = "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     if not args.no_peer:
         head += " Opti mean s | Opti max s | Opti iters | ratio mean (max) | du median (max) |"
@@ -299,7 +301,8 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.cases:
         for r in run_case(name, not args.no_peer):
             line = (f"| {r['case']} | {r['N']} | {r['dt']:g} | {r['steps']} | {r['mean']:.4f} | {r['max']:.4f} | "
-                    f"{r['rt']:.2f} | {r['it']} | {r['failed']} | {r['err']:.3g} / {r['heading']:.2g} | "
+                    f"{r['rt']:.2f} | {r['it']} | {r['failed']} ({r['truncated']}) | "
+                    f"{r['err']:.3g} / {r['heading']:.2g} | "
                     f"{r['err_open']:.3g} | "
                     f"{r['energy']:+.2%} | {r['time']:+.2%} |")  # fmt: skip
             if not args.no_peer and "peer_mean" not in r:
