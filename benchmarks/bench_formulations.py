@@ -126,8 +126,11 @@ def solve_once(case: Case, formulation: str) -> dict:
     }
 
 
-def run(cases: list[Case], repeats: int, log=print) -> dict:
-    """Every case x formulation, ``repeats`` interleaved passes; the first pass's answer, the least seconds."""
+def run(cases: list[Case], repeats: int, log=print, after_pass=None) -> dict:
+    """Every case x formulation, ``repeats`` interleaved passes; the first pass's answer, the least seconds.
+
+    ``after_pass(results, passes)`` is called after each pass (the report is written each time).
+    """
     results: dict = {}
     for rep in range(repeats):
         for case in cases:
@@ -142,8 +145,10 @@ def run(cases: list[Case], repeats: int, log=print) -> dict:
                 log(f"[{rep + 1}/{repeats}] {case.name} {form}: {r['status']} valid={r['valid']} "
                     f"obj={_fmt(r['objective'], 6)} clear={_fmt(r['clearance'], 4)} it={r['iterations']} "
                     f"{r['seconds']:.1f} s")  # fmt: skip
-    for r in results.values():
-        r["seconds"] = min(r["times"])
+        for r in results.values():
+            r["seconds"] = min(r["times"])
+        if after_pass is not None:
+            after_pass(results, rep + 1)
     return results
 
 
@@ -236,10 +241,12 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     cases = [c for c in all_cases() if not args.only or c.name in args.only]
     before = machine()
-    results = run(cases, args.repeats, log=lambda s: print(s, flush=True))
-    text = report(cases, results, args.repeats, before, machine())
-    args.out.write_text(text)
-    print(text)
+
+    def write(results: dict, passes: int) -> None:
+        args.out.write_text(report(cases, results, passes, before, machine()))
+
+    run(cases, args.repeats, log=lambda s: print(s, flush=True), after_pass=write)
+    print(args.out.read_text())
 
 
 if __name__ == "__main__":

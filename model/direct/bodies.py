@@ -26,7 +26,7 @@ Other formulations (``FORMULATIONS``, chosen by ``add_body_constraints(..., form
 ``use_formulation``; docs/bodies-formulation.md compares them): "discs-tight", the same with more
 discs (``TIGHT_COVER_SLACK``) and a sharper union (``TIGHT_SHARPNESS``), and "corners"
 (``_add_corner_bodies``): the rectangle's corners in the union, the rectangle clear of the island,
-the fillet discs and the centre line of a leg the route uses one lane of.
+the fillet discs and the route lanes' edge and centre lines outside the outer curb.
 """
 
 from __future__ import annotations
@@ -161,8 +161,8 @@ def _add_corner_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool) -> None:
 
     The corners are points (discs of radius 0) outside the island and in the smooth union of the
     pieces (sharpness ``CORNER_SHARPNESS``). The rectangle misses the island's disc, the route's
-    two fillet discs (``_keep_out_discs``) and, where the route uses one lane of a leg, the leg's
-    centre line outside the outer curb (``_keep_out_lines``): docs/bodies-formulation.md.
+    two fillet discs (``_keep_out_discs``) and the route lanes' lines outside the outer curb
+    (``_keep_out_lines``): docs/bodies-formulation.md.
     """
     rb = ocp.road.roundabout
     poses = ocp.vehicle.body_poses()
@@ -191,20 +191,23 @@ def _keep_out_discs(ocp: OCP, apron: bool) -> list[tuple[str, tuple[float, float
 
 
 def _keep_out_lines(ocp: OCP) -> list[tuple[str, tuple, tuple[float, float]]]:
-    """(tag, (V, E), leg normal): a leg's centre line from the outer curb (V) to the leg's end (E).
+    """(tag, (start, end), leg normal): the lane lines a rectangle must not cross outside the curb.
 
-    Only where the route uses one lane of the leg (not for a U-turn): there the centre line outside
-    the curb is an edge of the corridor with the corridor on one side only, and V a reflex corner.
+    Each route lane's outer edge from its fillet's tangent point to the leg's end and, where the
+    route uses one lane of a leg (not for a U-turn), the leg's centre line from the outer curb
+    (``V``, a reflex corner of the corridor) to the leg's end: edges with the corridor on one side.
     """
     rb, road = ocp.road.roundabout, ocp.road
-    if road.route.enter == road.exit_leg:
-        return []
     out = []
     for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit")):
-        ends = [leg_point(rb, leg, along, 0.0) for along in (rb.outer_radius, rb.outer_radius + rb.legs[leg].length)]
-        normal = rb.legs[leg].normal
-        out.append((f"centre_line_{lane}", tuple((float(p[0]), float(p[1])) for p in ends), (float(normal[0]),
-                    float(normal[1]))))  # fmt: skip
+        end = rb.outer_radius + rb.legs[leg].length
+        lines = {"edge": (fillet_geometry(rb, leg, lane)["axial"], lane_side(rb, lane) * rb.legs[leg].lane_width)}
+        if road.route.enter != road.exit_leg:
+            lines["centre_line"] = (rb.outer_radius, 0.0)
+        normal = (float(rb.legs[leg].normal[0]), float(rb.legs[leg].normal[1]))
+        for name, (start, across) in lines.items():
+            ends = tuple(tuple(float(c) for c in leg_point(rb, leg, along, across)) for along in (start, end))
+            out.append((f"{name}_{lane}", ends, normal))
     return out
 
 
