@@ -25,6 +25,7 @@ STATUS_WORDS = {
     -2: "restoration_failed",
     -3: "step_computation_error",
     -4: "time_limit",
+    -5: "wall_time_limit",
     -10: "too_few_degrees_of_freedom",
     -11: "invalid_problem",
     -12: "invalid_option",

@@ -250,6 +250,7 @@ def _summary(scenario, solution, controller, columns, seconds, failed: int, h: f
         "solve_seconds_max": float(np.max(seconds)),
         "realtime_factor": float(np.max(seconds) / h),
         "failed_steps": int(failed),
+        "truncated_steps": sum(bool(step.get("truncated")) for step in getattr(controller, "steps", [])),
         "reached_goal": failed == 0 and reached(errors, tol),
         "goal_tolerance": tol,
         "final_errors": errors,
