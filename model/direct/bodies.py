@@ -51,6 +51,7 @@ COVER_SLACK = 0.1  # each body's cover discs reach at most 10 % of its half-widt
 TIGHT_SHARPNESS = 50.0  # k of "discs-tight": log(5) / k = 3.2 cm (k M = 250: exp and its square stay finite)
 TIGHT_COVER_SLACK = 0.03  # "discs-tight": discs reach at most 3 % of the half-width beyond the sides
 CORNER_SHARPNESS = 50.0  # k of "corners": a corner's union gives away log(5) / k = 3.2 cm, a keep-out log(4 or 6) / k
+CORNER_BUFFER = 1e-3  # m: every "corners" row asks this much more, above Ipopt's constraint violation
 FORMULATIONS = ("discs", "discs-tight", "corners")
 FORMULATION = "discs"  # the default (docs/bodies-formulation.md)
 
@@ -159,10 +160,10 @@ def _add_disc(
 def _add_corner_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool) -> None:
     """Formulation "corners": each body's four corners in the corridor, the rectangle clear of its holes.
 
-    The corners are points (discs of radius 0) outside the island and in the smooth union of the
-    pieces (sharpness ``CORNER_SHARPNESS``). The rectangle misses the island's disc, the route's
-    two fillet discs (``_keep_out_discs``) and the route lanes' lines outside the outer curb
-    (``_keep_out_lines``): docs/bodies-formulation.md.
+    The corners are points (discs of radius ``CORNER_BUFFER``) outside the island and in the smooth
+    union of the pieces (sharpness ``CORNER_SHARPNESS``). The rectangle misses the island's disc, the
+    route's two fillet discs (``_keep_out_discs``) and the route lanes' lines outside the outer curb
+    (``_keep_out_lines``); these rows too ask ``CORNER_BUFFER`` more: docs/bodies-formulation.md.
     """
     rb = ocp.road.roundabout
     poses = ocp.vehicle.body_poses()
@@ -171,7 +172,8 @@ def _add_corner_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool) -> None:
         corners = []
         for j, (ox, oy) in enumerate(body.outline()):
             point = _pose_point(m, ocp, poses[name], float(ox), float(oy))
-            corners.append(_add_disc(m, ocp, f"body_{name}_c{j}", point, 0.0, apron, relax, CORNER_SHARPNESS))
+            tag = f"body_{name}_c{j}"  # a disc of radius CORNER_BUFFER: the corner with its buffer
+            corners.append(_add_disc(m, ocp, tag, point, CORNER_BUFFER, apron, relax, CORNER_SHARPNESS))
         for tag, centre, radius in _keep_out_discs(ocp, apron):
             for box in (0, 1):
                 _add_keep_out(m, f"body_{name}_{tag}_{box}", corners, body, centre, radius, box, relax)
@@ -226,7 +228,7 @@ def _add_keep_out(m: pyo.ConcreteModel, tag: str, corners: list, body, point, ra
     def rule(_m, t):
         along, across = _body_frame([c(t) for c in corners], body, point)
         margins = [along - reach[0], -along - reach[0], across - reach[1], -across - reach[1]]
-        return _smooth_max(margins, k) + slack(t) >= math.log(len(margins)) / k
+        return _smooth_max(margins, k) + slack(t) >= math.log(len(margins)) / k + CORNER_BUFFER
 
     m.add_component(f"{tag}_keep_out", pyo.Constraint(m.tau, rule=rule))
 
@@ -250,7 +252,7 @@ def _add_line_keep_out(m: pyo.ConcreteModel, tag: str, corners: list, body, ends
         across = [(q[0] - ends[0][0]) * normal[0] + (q[1] - ends[0][1]) * normal[1] for q in p]
         margins = [_smooth_min(list(pair), k) for pair in sides]
         margins += [_smooth_min(across, k), _smooth_min([-a for a in across], k)]
-        return _smooth_max(margins, k) + slack(t) >= math.log(len(margins)) / k
+        return _smooth_max(margins, k) + slack(t) >= math.log(len(margins)) / k + CORNER_BUFFER
 
     m.add_component(f"{tag}_keep_out", pyo.Constraint(m.tau, rule=rule))
 
