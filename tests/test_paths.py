@@ -371,3 +371,17 @@ def test_reeds_shepp_time_is_length_over_top_speed():
     assert times == sorted(times)  # a tighter radius never makes it shorter
     with pytest.raises(ValueError, match="u1max"):
         reeds_shepp_time(start, goal, 1.0, 0.0)
+
+
+def test_reeds_shepp_restricted_to_reverse_into_the_goal_or_out_of_the_start():
+    from model.search.paths import reeds_shepp
+
+    start, goal = (0.0, 0.0, 0.0), (3.0, 1.0, 0.5)
+    shortest = reeds_shepp(start, goal, 1.0)
+    for ends, index in (("reverse-in", -1), ("reverse-out", 0)):
+        path = reeds_shepp(start, goal, 1.0, ends)
+        assert path.segments[index][1] < 0  # drives backwards at that end
+        assert path.length >= shortest.length - 1e-12
+        assert np.allclose(path.goal[:2], goal[:2]) and math.isclose(
+            math.remainder(path.goal[2] - goal[2], math.tau), 0.0, abs_tol=1e-9
+        )

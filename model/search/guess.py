@@ -129,17 +129,29 @@ def _clip(values: np.ndarray, bounds: tuple[float, float] | None) -> np.ndarray:
     return values if bounds is None else np.clip(values, bounds[0], bounds[1])
 
 
-def reeds_shepp_guess(ocp: OCP, n: int, tf_scale: float = 1.0) -> tuple[dict[str, np.ndarray], float] | None:
+RS_DETOUR = 2.0  # a Reeds-Shepp start that must reverse is used only up to this x the shortest length
+
+
+def reeds_shepp_guess(
+    ocp: OCP, n: int, tf_scale: float = 1.0, ends: str | None = None
+) -> tuple[dict[str, np.ndarray], float] | None:
     """The shortest Reeds-Shepp path (cusps, reversing; obstacles ignored) as node values, and its time.
 
     Driven at constant speed in the given final time, or (free Tf) at 70 % of the top speed times
-    ``1 / tf_scale``. None where it does not apply: no turning radius to both sides, no top speed,
-    or x, y, theta not all fixed at the goal.
+    ``1 / tf_scale``. ``ends`` ("reverse-in", "reverse-out"): the shortest that reverses into the
+    goal or out of the start, if it differs from the shortest and is at most RS_DETOUR x as long.
+    None where it does not apply: no turning radius to both sides, no top speed, or x, y, theta
+    not all fixed at the goal.
     """
     rho = min_turning_radius(ocp.vehicle, ocp.bounds, both_ways=True)
     keys = ("x", "y", "theta")
     if rho is None or math.isinf(rho) or not all(k in ocp.final for k in keys) or ocp.max_speed() is None:
         return None
-    path = reeds_shepp(tuple(ocp.initial[k] for k in keys), tuple(ocp.final[k] for k in keys), rho)
+    start, goal = tuple(ocp.initial[k] for k in keys), tuple(ocp.final[k] for k in keys)
+    path = reeds_shepp(start, goal, rho)
+    if ends is not None:
+        shortest, path = path, reeds_shepp(start, goal, rho, ends)
+        if path.word == shortest.word or path.length > RS_DETOUR * shortest.length:
+            return None
     tf = ocp.final_time if ocp.final_time is not None else tf_scale * max(path.length, 1e-3) / (0.7 * ocp.max_speed())
     return path_guess(ocp.vehicle, path, tf, n, initial=ocp.initial), tf

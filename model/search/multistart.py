@@ -22,7 +22,7 @@ from model.search.screening import SCREEN_MIN, screen_starts, screening_interval
 
 TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
-REEDS_SHEPP_START = (1.0, "reeds-shepp")
+REEDS_SHEPP_STARTS = ((1.0, "reeds-shepp"), (1.0, "reeds-shepp-reverse-in"), (1.0, "reeds-shepp-reverse-out"))
 
 
 def passes_to_try(ocp: OCP) -> list[str]:
@@ -212,15 +212,21 @@ def phase_totals(solutions: list[Solution]) -> dict[str, float]:
 def default_starts(ocp: OCP) -> tuple[tuple[float, str], ...]:
     """The cold starts ``solve_ocp`` tries per pass direction when none are given.
 
-    Off the road, also the shortest Reeds-Shepp path (reversing where it pays) where it applies.
+    Off the road, also the shortest Reeds-Shepp path (reversing where it pays) where it applies,
+    and the shortest that reverses into the goal, and out of the start, where those differ from it.
     """
     if ocp.cost.free_final_time:
         starts = TIME_STARTS
     else:
         starts = DETOUR_STARTS if ocp.obstacles else ((1.0, "arc"),)
-    if ocp.road is None and reeds_shepp_guess(ocp, 2) is not None:
-        starts += (REEDS_SHEPP_START,)
+    if ocp.road is None:
+        starts += tuple(start for start in REEDS_SHEPP_STARTS if reeds_shepp_guess(ocp, 2, ends=_ends(start)))
     return starts
+
+
+def _ends(start: tuple[float, str]) -> str | None:
+    """The Reeds-Shepp filter of a start's route ("reeds-shepp-reverse-in" -> "reverse-in")."""
+    return start[1].removeprefix("reeds-shepp-") if start[1].startswith("reeds-shepp-") else None
 
 
 SEARCHES = ("quick", "default", "thorough")
@@ -268,8 +274,8 @@ def start_values(
     free = ocp.cost.free_final_time
     if guess is not None:
         return Start(resample(ocp, guess, intervals), float(np.asarray(guess["t"])[-1]) if free else None)
-    if route == "reeds-shepp":
-        values, tf = reeds_shepp_guess(ocp, intervals, scale)
+    if route.startswith("reeds-shepp"):
+        values, tf = reeds_shepp_guess(ocp, intervals, scale, _ends((scale, route)))
         return Start(values, tf if free else None)
     tf_guess = guess_final_time(ocp, passing) * (scale if free else 1.0)
     return Start(initial_guess(ocp, passing, intervals, tf_guess, route), tf_guess if free else None)

@@ -271,7 +271,7 @@ def _rs_candidates(x: float, y: float, phi: float) -> Iterator[tuple[str, tuple[
                     yield word, params
 
 
-def reeds_shepp(start: Pose, goal: Pose, rho: float) -> Path:
+def reeds_shepp(start: Pose, goal: Pose, rho: float, ends: str | None = None) -> Path:
     """The shortest path with cusps allowed (Reeds & Shepp 1990) between two poses.
 
     Parameters
@@ -280,6 +280,9 @@ def reeds_shepp(start: Pose, goal: Pose, rho: float) -> Path:
         (x, y, theta), m and rad.
     rho : float
         Minimum turning radius, m (> 0).
+    ends : {None, "reverse-in", "reverse-out"}
+        Only words that end (reverse-in) or begin (reverse-out) driving backwards: the shortest
+        manoeuvre that reverses into the goal or out of the start (a start for the NLP, not a bound).
 
     Returns
     -------
@@ -295,7 +298,17 @@ def reeds_shepp(start: Pose, goal: Pose, rho: float) -> Path:
     'S-'
     """
     rho = _check_rho(rho)
-    return _shortest(start, rho, _rs_candidates(*_local(start, goal, rho)))
+    candidates = _rs_candidates(*_local(start, goal, rho))
+    if ends is not None:
+        end = {"reverse-in": -1, "reverse-out": 0}[ends]
+        candidates = ((k, p) for k, p in candidates if _driving(p, end) < 0.0)
+    return _shortest(start, rho, candidates)
+
+
+def _driving(params: tuple[float, ...], end: int) -> float:
+    """The signed length of the first (end 0) or last (end -1) segment that moves."""
+    moving = [q for q in params if q != 0.0]
+    return moving[end] if moving else 0.0
 
 
 def _shortest(start: Pose, rho: float, candidates) -> Path:
