@@ -11,7 +11,7 @@ full) names the grid; the paper's section says which one was run.
 CL_STUDY = config.get("closed_loop_study", "small")
 CL_GRIDS = config.get("closed_loop_studies", {})
 CL_GRID = CL_GRIDS.get(CL_STUDY, {})
-CL_SCENARIO_DIR = "workflows/scenarios/closed-loop"
+CL_SCENARIO_DIR = str(repo_path("workflows/scenarios/closed-loop"))
 CL_DIR = f"results/closed-loop/{CL_STUDY}"
 CL_CONTROLLERS = ("open-loop", "tracking", "mpc")
 CL_RUNS_CODE = closure(SCRIPTS / "closed_loop_runs.py", "model.search.multistart")
@@ -31,7 +31,7 @@ def cl_settings(grid: dict) -> list[tuple[str, str, str]]:
     return full + [(g, cl_level(lv), c) for g, lv, c in extra]
 
 
-CL_GEOMETRIES = sorted(Path(f).stem for f in glob(str(repo_path(CL_SCENARIO_DIR) / "*.toml")))
+CL_GEOMETRIES = sorted(Path(f).stem for f in glob(str(Path(CL_SCENARIO_DIR) / "*.toml")))
 CL_SETTINGS = cl_settings(CL_GRID)
 CL_ROWS = [f"{CL_DIR}/{g}/level{lv}/{c}/row.json" for g, lv, c in CL_SETTINGS]
 CL_FIGURES = [f"{CL_DIR}/{name}.png" for name in ("errors", "paths")]

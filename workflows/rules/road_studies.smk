@@ -2,11 +2,11 @@
 
 ROAD_STUDY = config.get("road_studies", "small")
 ROAD_GRID = config["road_studies_grids"][ROAD_STUDY]
-ROAD_TEMPLATE = "workflows/scenarios/roads/left-turn.toml"
+ROAD_TEMPLATE = repo_path("workflows/scenarios/roads/left-turn.toml")
 ROAD_CELLS = [f"{v}_icd{float(i):g}_apron{float(a):g}" for v in ROAD_GRID["vehicles"] for i in ROAD_GRID["icd"]
               for a in ROAD_GRID["apron"]]  # model.studies.roads.cell_name
 ROAD_TRADEOFF = config.get("road_tradeoff", {})
-ROAD_TRADEOFF_SCENARIO = ROAD_TRADEOFF.get("scenario", "workflows/scenarios/roads/su30-left-turn.toml")
+ROAD_TRADEOFF_SCENARIO = repo_path(ROAD_TRADEOFF.get("scenario", "workflows/scenarios/roads/su30-left-turn.toml"))
 ROAD_ENERGY_RATIO = config.get("road_studies_energy_ratio", 1.2)
 ROAD_STUDY_DIR = "results/studies/roads"
 
