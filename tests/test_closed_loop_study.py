@@ -110,7 +110,9 @@ def test_rule_file_plans_one_job_per_setting(tmp_path):
         "    controllers: [open-loop, mpc]\n    runs: 2\n    extra: ['truck-weighted:1:mpc']\n"
     )
     target = "results/sections/80-closed-loop.md"  # before --configfile, which takes several paths
-    cmd = [sys.executable, "-m", "snakemake", "-n", "--nolock", "-c1", target, "--configfile", str(config)]
+    cmd = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "--directory", str(tmp_path), "-n",
+           "--nolock", "-c1", target, "--configfile", str(config)]  # fmt: skip
+    # an empty working directory: nothing built yet, whatever the repository's results/ holds
     done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "results/closed-loop/tiny/s2/level1/mpc/row.json" in done.stdout
