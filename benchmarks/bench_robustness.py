@@ -312,8 +312,8 @@ def recheck(data: dict, path: Path, summary: dict | None) -> dict:
     states = reintegrate(traj, data["initial"], data["vehicle"]["wheelbase"])
     names = ("x", "y", "theta", "phi")
     goal = data["final"]
-    dx, dy = (goal.get(k, math.nan) - data["initial"][k] for k in ("x", "y"))
-    scale = max(1.0, math.hypot(dx, dy)) if math.isfinite(math.hypot(dx, dy)) else 1.0
+    distance = math.hypot(*(goal.get(k, math.nan) - data["initial"][k] for k in ("x", "y")))
+    scale = max(1.0, distance) if math.isfinite(distance) else 1.0
     tolerance = {k: GOAL_TOL * (scale if k in ("x", "y") else 1.0) for k in goal}
     goal_error = max(abs(states[names.index(k), -1] - v) / tolerance[k] * GOAL_TOL for k, v in goal.items())
     node_goal_error = max(abs(traj[k][-1] - v) for k, v in goal.items())

@@ -225,7 +225,7 @@ def derive(ocp: OCP, abnormal: bool = False, symbolic_obstacles: bool = True) ->
     states = vehicle.state_symbols()
     controls = vehicle.control_symbols()
     dynamics = vehicle.rhs(numeric=False)
-    lagrangian = sp.nsimplify(sp.sympify(ocp.cost.lagrangian(vehicle)), rational=True)
+    lagrangian = sp.nsimplify(sp.sympify(ocp.cost.lagrangian(vehicle), strict=True), rational=True)
     parameters = {vehicle.parameter_symbols()[k]: v for k, v in vehicle.parameters().items()}
     constraints, multipliers, obstacle_values = _obstacle_terms(ocp, symbolic_obstacles)
     parameters.update(obstacle_values)

@@ -8,7 +8,7 @@ import numpy as np
 import sympy as sp
 
 from model.problem.ocp import OCP
-from model.search.paths import min_turning_radius, path_guess, reeds_shepp, trailer_angle
+from model.search.paths import Path, min_turning_radius, path_guess, reeds_shepp, trailer_angle
 from model.vehicles import sym
 
 
@@ -132,6 +132,21 @@ def _clip(values: np.ndarray, bounds: tuple[float, float] | None) -> np.ndarray:
 RS_DETOUR = 2.0  # a Reeds-Shepp start that must reverse is used only up to this x the shortest length
 
 
+def reeds_shepp_start_path(ocp: OCP, ends: str | None = None) -> Path | None:
+    """The Reeds-Shepp path of ``reeds_shepp_guess`` (same rules), or None where it does not apply."""
+    rho = min_turning_radius(ocp.vehicle, ocp.bounds, both_ways=True)
+    keys = ("x", "y", "theta")
+    if rho is None or math.isinf(rho) or not all(k in ocp.final for k in keys) or ocp.max_speed() is None:
+        return None
+    start, goal = tuple(ocp.initial[k] for k in keys), tuple(ocp.final[k] for k in keys)
+    path = reeds_shepp(start, goal, rho)
+    if ends is not None:
+        shortest, path = path, reeds_shepp(start, goal, rho, ends)
+        if path.word == shortest.word or path.length > RS_DETOUR * shortest.length:
+            return None
+    return path
+
+
 def reeds_shepp_guess(
     ocp: OCP, n: int, tf_scale: float = 1.0, ends: str | None = None
 ) -> tuple[dict[str, np.ndarray], float] | None:
@@ -143,15 +158,8 @@ def reeds_shepp_guess(
     None where it does not apply: no turning radius to both sides, no top speed, or x, y, theta
     not all fixed at the goal.
     """
-    rho = min_turning_radius(ocp.vehicle, ocp.bounds, both_ways=True)
-    keys = ("x", "y", "theta")
-    if rho is None or math.isinf(rho) or not all(k in ocp.final for k in keys) or ocp.max_speed() is None:
+    path = reeds_shepp_start_path(ocp, ends)
+    if path is None:
         return None
-    start, goal = tuple(ocp.initial[k] for k in keys), tuple(ocp.final[k] for k in keys)
-    path = reeds_shepp(start, goal, rho)
-    if ends is not None:
-        shortest, path = path, reeds_shepp(start, goal, rho, ends)
-        if path.word == shortest.word or path.length > RS_DETOUR * shortest.length:
-            return None
     tf = ocp.final_time if ocp.final_time is not None else tf_scale * max(path.length, 1e-3) / (0.7 * ocp.max_speed())
     return path_guess(ocp.vehicle, path, tf, n, initial=ocp.initial), tf

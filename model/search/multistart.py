@@ -17,8 +17,8 @@ from model.direct.solution import Solution
 from model.direct.solve import Start, solve_starts
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
-from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess
-from model.search.screening import SCREEN_MIN, screen_starts, screening_intervals
+from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess, reeds_shepp_start_path
+from model.search.screening import screen_starts, screening_intervals
 
 TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
@@ -77,8 +77,8 @@ def solve_ocp(
     start = time.perf_counter()
     if starts is None:
         starts = search_starts(ocp, search) if guess is None else ((1.0, "arc"),)
-    if search == "thorough" and screen is None and guess is None:
-        screen = max(SCREEN_MIN, intervals // 4) if intervals > SCREEN_MIN else False
+    if search == "thorough" and screen is None:
+        screen = True
     attempts: list[dict] = []
     solutions: list[Solution] = []
     coarse = screening_intervals(intervals, screen) if guess is None else None
@@ -220,7 +220,7 @@ def default_starts(ocp: OCP) -> tuple[tuple[float, str], ...]:
     else:
         starts = DETOUR_STARTS if ocp.obstacles else ((1.0, "arc"),)
     if ocp.road is None:
-        starts += tuple(start for start in REEDS_SHEPP_STARTS if reeds_shepp_guess(ocp, 2, ends=_ends(start)))
+        starts += tuple(start for start in REEDS_SHEPP_STARTS if reeds_shepp_start_path(ocp, _ends(start)))
     return starts
 
 

@@ -23,14 +23,14 @@ def screening_intervals(intervals: int, screen: bool | int | None = None) -> int
     """The coarse grid for ``intervals``, or None where screening would not pay.
 
     ``screen``: None for the default (N / 4 but at least SCREEN_MIN, used when N is at least
-    three times that), False for none, an int for that grid.
+    three times that), True for that grid whenever it is coarser than N, False for none, an int
+    for that grid.
     """
     if screen is False:
         return None
-    if screen is not None and screen is not True:
-        return int(screen) if int(screen) < intervals else None
-    coarse = max(SCREEN_MIN, intervals // 4)
-    return coarse if intervals >= 3 * coarse else None
+    coarse = max(SCREEN_MIN, intervals // 4) if screen is None or screen is True else int(screen)
+    needed = 3 * coarse if screen is None else coarse + 1
+    return coarse if intervals >= needed else None
 
 
 def screen_starts(

@@ -16,6 +16,11 @@ class Controller(Protocol):
         What the summary calls it, e.g. ``"tracking (time-varying LQR)"``.
     failed : bool
         True if the last step's own computation failed and a fallback control was returned.
+    final_time : float, optional
+        A controller may move the arrival (MPC on a time problem under a slower plant); the
+        loop then runs until it (``loop.LATEST`` x the optimum's Tf at most).
+    steps : list of dict, optional
+        Per-step records; a ``truncated`` key counts into the summary's ``truncated_steps``.
     """
 
     name: str

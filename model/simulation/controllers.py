@@ -195,15 +195,10 @@ def _rate_limit(ocp) -> tuple[int, int, float, float] | None:
 
 
 def jacobians(vehicle):
-    """NumPy functions f(x, u), df/dx(x, u), df/du(x, u) of the vehicle's SymPy dynamics (derived once)."""
+    """NumPy functions df/dx(x, u), df/du(x, u) of the vehicle's SymPy dynamics (derived once)."""
     rhs = sp.Matrix(vehicle.rhs(numeric=True))
     xs, us = vehicle.state_symbols(), vehicle.control_symbols()
-    args = xs + us
-    return (
-        sp.lambdify(args, list(rhs), "numpy"),
-        sp.lambdify(args, rhs.jacobian(xs), "numpy"),
-        sp.lambdify(args, rhs.jacobian(us), "numpy"),
-    )
+    return sp.lambdify(xs + us, rhs.jacobian(xs), "numpy"), sp.lambdify(xs + us, rhs.jacobian(us), "numpy")
 
 
 def discretise(vehicle, states: np.ndarray, controls: np.ndarray, durations: np.ndarray):
@@ -214,14 +209,14 @@ def discretise(vehicle, states: np.ndarray, controls: np.ndarray, durations: np.
     """
     from scipy.integrate import solve_ivp
 
-    f, fx, fu = jacobians(vehicle)
+    f, (fx, fu) = vehicle.rhs_function(), jacobians(vehicle)
     n, m = states.shape[1], controls.shape[1]
 
     def rhs(_t, z, u):
         x, phi, gamma = z[:n], z[n : n + n * n].reshape(n, n), z[n + n * n :].reshape(n, m)
         a = np.array(fx(*x, *u), dtype=float)
         b = np.array(fu(*x, *u), dtype=float)
-        return np.concatenate([np.array(f(*x, *u), dtype=float), (a @ phi).ravel(), (a @ gamma + b).ravel()])
+        return np.concatenate([f(x, u), (a @ phi).ravel(), (a @ gamma + b).ravel()])
 
     A, B = np.empty((len(durations), n, n)), np.empty((len(durations), n, m))
     for k, (x0, u, h) in enumerate(zip(states, controls, durations, strict=True)):

@@ -62,7 +62,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pyomo.environ as pyo
-import sympy as sp
 
 from model.direct.resolve import WARM_OPTIONS
 from model.direct.solution import Solution
@@ -72,7 +71,6 @@ from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import IpoptResult, run_ipopt
 from model.problem.closed_loop import ControlSettings, Disturbance
 from model.problem.ocp import OCP
-from model.vehicles import sym
 
 USABLE = ("optimal", "acceptable")
 LIMIT_CODES = (-1, -4, -5)  # Ipopt: iteration limit, CPU time, wall time (-5 reads "solver_error" in ipopt.py)
@@ -469,7 +467,7 @@ class MPC:
             self.horizon_time = math.inf
         self.horizon = HorizonModel(self.ocp, intervals, self._scales(), self._cost_scales(), self.settings,
                                     self._path_length())  # fmt: skip
-        self.rhs = _rhs_function(self.ocp)
+        self.rhs = self.ocp.vehicle.rhs_function()
         self.d_hat = np.zeros(len(self.ocp.vehicle.states))
         self.d_bound = self._disturbance_bound()
         self._history: deque[tuple[float, np.ndarray, np.ndarray]] = deque(maxlen=self.settings.estimator_window)
@@ -706,19 +704,6 @@ class MPC:
         ref = self.reference
         energy = float(np.trapezoid(sum(ref[c] ** 2 for c in self.ocp.vehicle.controls) / 2, ref["t"]))
         return self.final_time, max(energy, 1e-9)
-
-
-def _rhs_function(ocp: OCP):
-    """f(x, u) of the nominal model as a numpy function of two arrays."""
-    v = ocp.vehicle
-    args = [sym(s) for s in v.states] + [sym(c) for c in v.controls]
-    fn = sp.lambdify(args, v.rhs(numeric=True), "numpy")
-    n = len(v.states)
-
-    def rhs(x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return np.array(fn(*x[:n], *u), dtype=float)
-
-    return rhs
 
 
 __all__ = ["MPC", "HorizonModel", "MPCSettings", "Plan", "TimeLayout"]

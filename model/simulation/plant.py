@@ -54,7 +54,7 @@ def plant_rhs(vehicle: Vehicle, disturbance: Disturbance) -> list[sp.Expr]:
     drift = dict(zip(vehicle.position, disturbance.drift, strict=True))
     out = []
     for name in vehicle.states:
-        expr = sp.sympify(f[name]).subs(u1, disturbance.speed_gain * u1, simultaneous=True)
+        expr = sp.sympify(f[name], strict=True).subs(u1, disturbance.speed_gain * u1, simultaneous=True)
         if has_phi and name != "phi":
             expr = expr.subs(sym("phi"), sym("phi") + disturbance.steering_bias)
         out.append(expr.subs(params) + drift.get(name, 0.0))

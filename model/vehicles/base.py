@@ -58,13 +58,23 @@ class Vehicle:
         Returns a function of a mapping state name -> array giving one float array per expression.
         """
         values = {sym(k): v for k, v in self.parameters().items()}
-        fn = sp.lambdify(self.state_symbols(), [sp.sympify(e).subs(values) for e in exprs], "numpy")
+        fn = sp.lambdify(self.state_symbols(), [sp.sympify(e, strict=True).subs(values) for e in exprs], "numpy")
 
         def evaluate(states) -> list[np.ndarray]:
             shape = np.shape(states[self.states[0]])
             return [np.broadcast_to(np.asarray(a, float), shape) for a in fn(*[states[s] for s in self.states])]
 
         return evaluate
+
+    def rhs_function(self):
+        """f(x, u) of the dynamics (parameters substituted) as a NumPy function of a state and a control array."""
+        fn = sp.lambdify(self.state_symbols() + self.control_symbols(), self.rhs(numeric=True), "numpy")
+        n = len(self.states)
+
+        def f(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+            return np.array(fn(*x[:n], *u), dtype=float)
+
+        return f
 
     def rhs(self, numeric: bool = True) -> list[sp.Expr]:
         """Dynamics in state order; with ``numeric`` the parameters are substituted."""
