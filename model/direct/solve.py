@@ -63,19 +63,20 @@ def solve_starts(
     ``analyse=False``: skip validation and certificate (a screening solve, used only as a guess).
     """
     t0 = time.perf_counter()
-    with paused_gc():  # Pyomo creates many small objects: collections cost 3x the build
+    # Pyomo creates many small objects: with the collector on, its full collections over the
+    # model cost 3x the build and seconds in loading the duals of a large road model
+    with paused_gc():
         m = build_model(ocp, intervals, passing, relax)
-    nlp, sols, timings = None, [], {}
-    opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
-    for start in starts:
-        load_start(m, start)
-        if nlp is None:
-            t1 = time.perf_counter()
-            with paused_gc():
+        nlp, sols, timings = None, [], {}
+        opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
+        for start in starts:
+            load_start(m, start)
+            if nlp is None:
+                t1 = time.perf_counter()
                 nlp = CasadiNLP(m)
-            timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
-        res = run_ipopt(nlp, opts, x0=nlp.init_primals())
-        sols.append(finish(ocp, m, nlp, res, passing, timings, analyse))
+                timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
+            res = run_ipopt(nlp, opts, x0=nlp.init_primals())
+            sols.append(finish(ocp, m, nlp, res, passing, timings, analyse))
     return sols
 
 
@@ -99,7 +100,8 @@ def finish(
     """
     t0 = time.perf_counter()
     nlp.load_primals(res.x)
-    nlp.load_duals(res.mult_g, res.x)
+    if analyse:  # a screening answer is only a guess: its duals are never read
+        nlp.load_duals(res.mult_g, res.x)
     cols = node_columns(m, ocp) if analyse else primal_columns(m, ocp)
     tf = float(pyo.value(m.tf))
     sol = Solution(

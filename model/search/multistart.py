@@ -14,11 +14,11 @@ import numpy as np
 
 from model.analysis.columns import Columns, as_arrays
 from model.direct.solution import Solution
-from model.direct.solve import Start, solve_starts
+from model.direct.solve import Start, paused_gc, solve_starts
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
 from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess, reeds_shepp_start_path
-from model.search.screening import screen_starts, screening_intervals
+from model.search.screening import REFINE_OPTIONS, screen_starts, screening_intervals
 
 TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
@@ -97,8 +97,9 @@ def solve_ocp(
     elif not best.ok:
         best = _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, progress, continuation)
     best = _accurate(ocp, best, attempts, verbose, options, progress, accuracy)
-    best.nlp.load_primals(best.ipopt.x)  # the model may hold a later start's values
-    best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
+    with paused_gc():  # the model may hold a later start's values
+        best.nlp.load_primals(best.ipopt.x)
+        best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
     best.attempts = attempts
     best.solve_seconds = time.perf_counter() - start
     best.timings = {**best.timings, "all_starts": phase_totals(solutions)}
@@ -156,7 +157,9 @@ def _screen_and_refine(ocp, intervals, coarse, starts, verbose, options, attempt
     best = None
     for cand in kept:
         values = start_values(ocp, intervals, cand.passing, cand.columns)
-        sol = solve_starts(ocp, intervals, cand.passing, [values], verbose, options)[0]
+        sol = solve_starts(ocp, intervals, cand.passing, [values], verbose, {**REFINE_OPTIONS, **(options or {})})[0]
+        if not sol.ok:  # the small barrier parameter presumes a good guess: once more as a cold start
+            sol = solve_starts(ocp, intervals, cand.passing, [values], verbose, options)[0]
         _record(attempts, solutions, progress, sol, cand.passing, 1.0, f"refined from N={coarse}")
         if best is None or _better(sol, best):
             best = sol
