@@ -441,11 +441,21 @@ def compare(rec: dict, peer: dict) -> dict:
     elif theirs is None:
         row["flag"] = "peer found nothing"
     else:
-        row["gap"] = (mine - theirs) / abs(theirs)
+        on_n = objective_on_grid(rec)  # the peer solves on N: compare on N where the answer was refined on 2N
+        row["gap"] = ((on_n if on_n is not None else mine) - theirs) / abs(theirs)
         row["flag"] = "within 0.1 % or better" if row["gap"] <= GAP_TOL else "worse by > 0.1 %"
+        if on_n is not None and on_n != mine:
+            row["flag"] += f" (on N: {on_n:.6g}; the answer, on 2N for accuracy: {mine:.6g})"
     if rec["objective_name"] == "time" and theirs is not None:
         row["peer_below_rs"] = theirs < rec["rs_time"] * (1 - 1e-9)
     return row
+
+
+def objective_on_grid(rec: dict) -> float | None:
+    """The least objective of a validated start on the scenario's own N (not a re-solve on 2N for accuracy)."""
+    values = [a["objective"] for a in rec.get("attempts") or []
+              if a.get("valid") is True and "for accuracy" not in str(a.get("route", ""))]  # fmt: skip
+    return min(values) if values else None
 
 
 # -- the report --------------------------------------------------------------------------------------
@@ -580,6 +590,27 @@ def tree_state() -> dict:
     return {"head": git("rev-parse", "HEAD"), "changes": git("status", "--porcelain", "--", "model").splitlines()}
 
 
+def reused_peers(records: list[dict], args: argparse.Namespace) -> list[dict]:
+    """The comparison rows against an earlier run's peer results (same scenarios: checked by name)."""
+    old = json.loads(args.peers.read_text())
+    if (old["count"], old["seed"]) != (args.count, args.seed):
+        raise SystemExit(f"--peers {args.peers}: made with count {old['count']}, seed {old['seed']}")
+    by_index = {row["index"]: row for row in old["peer"]}
+    rows = []
+    for rec in records:
+        row = by_index.get(rec["index"])
+        if row is None:
+            continue
+        if row["name"] != rec["name"]:
+            raise SystemExit(f"--peers {args.peers}: scenario {rec['index']} is {row['name']}, not {rec['name']}")
+        best = {"objective": row["peer"], "label": row["peer_start"]} if row["peer"] is not None else None
+        peer = {"best": best, "seconds": row["peer_seconds"], "feasible_starts": row["peer_feasible_starts"],
+                "error": row["peer_error"], "min_time": {"objective": row["peer_min_time"]},
+                "starts": row["peer_starts"]}  # fmt: skip
+        rows.append(compare(rec, peer))
+    return rows
+
+
 def run_all(items: list[tuple[int, Path, dict]], outdir: Path, jobs: int, timeout: float) -> list[dict]:
     """``solve`` and ``rs_check`` every scenario, ``jobs`` at a time; one progress line each on stderr."""
 
@@ -631,15 +662,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--keep", type=Path, help="keep scenario files and outputs in this folder (default: a temp one)")
     ap.add_argument("--records", type=Path, help="reuse the solve records of an earlier --json run made with --keep "
                     "(its scenario files must still exist): only the peer runs")  # fmt: skip
+    ap.add_argument("--peers", type=Path, help="reuse the peer results of an earlier --json run of the same count "
+                    "and seed (the peer does not run the project's code): only the project solves")  # fmt: skip
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="robustness-") as tmp:
         records, solve_wall, tree = solve_or_reuse(args, args.keep or Path(tmp))
         t0 = time.perf_counter()
-        peers = run_peers(records, args.subset, args.jobs, args.peer_timeout) if args.subset > 0 else []
-        peer_wall = time.perf_counter() - t0
+        if args.peers:
+            peers, peer_wall = reused_peers(records, args), json.loads(args.peers.read_text())["peer_wall_seconds"]
+        else:
+            peers = run_peers(records, args.subset, args.jobs, args.peer_timeout) if args.subset > 0 else []
+            peer_wall = time.perf_counter() - t0
     report = "\n\n".join([
         f"## Robustness: {args.count} scenarios, seed {args.seed}, {args.jobs} job(s); "
-        f"solves {solve_wall:.0f} s, peer {peer_wall:.0f} s wall; HEAD {tree['head'][:7]}"
+        f"solves {solve_wall:.0f} s, peer {peer_wall:.0f} s wall"
+        + (f" (the peer's results reused from {args.peers.name}: same code and scenarios)" if args.peers else "")
+        + f"; HEAD {tree['head'][:7]}"
         + (f" + uncommitted {', '.join(c.split()[-1] for c in tree['changes'])}" if tree["changes"] else ""),
         markdown_counts(records), markdown_by_kind(records), markdown_times(records),
         "### Crashes and silent failures\n\n" + markdown_failures(records),

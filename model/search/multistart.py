@@ -17,10 +17,14 @@ from model.direct.solution import Solution
 from model.direct.solve import Start, paused_gc, solve_starts
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
+from model.search.curves import curve_guess, curve_routes
 from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess, reeds_shepp_start_path
 from model.search.screening import REFINE_OPTIONS, screen_starts, screening_intervals
 
 TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
+CURVE_TF_SCALES = (1.0, 2.0)  # Tf guesses of a smooth route's start (free final time)
+CURVE_MARGIN = 0.02  # a route's coarse optimum is refined if below (1 + this) x the objective so far
+SAME_OPTIMUM = 1e-6  # relative: a route's answer replaces the default starts' only if better by more
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
 REEDS_SHEPP_STARTS = ((1.0, "reeds-shepp"), (1.0, "reeds-shepp-reverse-in"), (1.0, "reeds-shepp-reverse-out"))
 
@@ -75,6 +79,7 @@ def solve_ocp(
         ``attempts`` lists every start with its status and objective.
     """
     start = time.perf_counter()
+    curves = starts is None and guess is None  # the smooth routes join a search of the default starts
     if starts is None:
         starts = search_starts(ocp, search) if guess is None else ((1.0, "arc"),)
     if search == "thorough" and screen is None:
@@ -87,6 +92,8 @@ def solve_ocp(
         best = _screen_and_refine(ocp, intervals, coarse, starts, verbose, options, attempts, solutions, progress)
     if best is None or not best.ok:  # no screening, or nothing refined validated: every cold start at N
         best = _cold_starts(ocp, intervals, starts, guess, verbose, options, attempts, solutions, progress, best)
+    if curves and search != "quick":
+        best = _curve_search(ocp, intervals, best, verbose, options, attempts, solutions, progress)
     if not best.ok and ocp.road is not None and ocp.bodies:
         from model.search.diagnosis import failed_road, finite
 
@@ -147,23 +154,66 @@ def _screen_and_refine(ocp, intervals, coarse, starts, verbose, options, attempt
     """Screen the starts at ``coarse``, refine the distinct optima at N; the best refined (or None)."""
 
     def make_starts(n, passing):
-        return [start_values(ocp, n, passing, None, scale, route) for scale, route in starts]
+        return [(route, start_values(ocp, n, passing, None, scale, route)) for scale, route in starts]
 
     kept, screened, coarse_sols = screen_starts(ocp, coarse, passes_to_try(ocp), make_starts, options)
+    return _refine_kept(ocp, intervals, coarse, kept, screened, coarse_sols, verbose, options, attempts, solutions,
+                        progress)  # fmt: skip
+
+
+def _refine_kept(ocp, intervals, coarse, kept, screened, coarse_sols, verbose, options, attempts, solutions, progress):
+    """Record a screening; refine its kept coarse optima at N (one build per pass); the best (or None)."""
     attempts.extend(screened)
     solutions.extend(coarse_sols)
     if progress is not None:
         progress(f"screening on N = {coarse}: {len(screened)} starts, {len(kept)} distinct optima to refine")
     best = None
-    for cand in kept:
-        values = start_values(ocp, intervals, cand.passing, cand.columns)
-        sol = solve_starts(ocp, intervals, cand.passing, [values], verbose, {**REFINE_OPTIONS, **(options or {})})[0]
-        if not sol.ok:  # the small barrier parameter presumes a good guess: once more as a cold start
-            sol = solve_starts(ocp, intervals, cand.passing, [values], verbose, options)[0]
-        _record(attempts, solutions, progress, sol, cand.passing, 1.0, f"refined from N={coarse}")
-        if best is None or _better(sol, best):
-            best = sol
+    for passing in dict.fromkeys(k.passing for k in kept):
+        values = [start_values(ocp, intervals, passing, k.columns) for k in kept if k.passing == passing]
+        for sol in _refine(ocp, intervals, passing, values, verbose, options):
+            _record(attempts, solutions, progress, sol, passing, 1.0, f"refined from N={coarse}")
+            if best is None or _better(sol, best):
+                best = sol
     return best
+
+
+def _refine(ocp, intervals, passing, values, verbose, options) -> list[Solution]:
+    """Solve from coarse answers at N (one build); those that fail once more as cold starts."""
+    sols = solve_starts(ocp, intervals, passing, values, verbose, {**REFINE_OPTIONS, **(options or {})})
+    again = [i for i, sol in enumerate(sols) if not sol.ok]  # the small barrier parameter presumes a good guess
+    if again:
+        for i, sol in zip(again, solve_starts(ocp, intervals, passing, [values[i] for i in again], verbose, options),
+                          strict=True):  # fmt: skip
+            sols[i] = sol
+    return sols
+
+
+def _curve_search(ocp, intervals, best, verbose, options, attempts, solutions, progress) -> Solution | None:
+    """The smooth routes of ``model.search.curves`` screened on a coarse grid; the distinct coarse optima
+    below (1 + CURVE_MARGIN) x the answer so far (``best``) refined at N. No pass constraint unless the
+    scenario asks for one. The better answer: ``best`` where no route applies or none is better by
+    more than SAME_OPTIMUM."""
+    routes = curve_routes(ocp)
+    if not routes:
+        return best
+    scales = CURVE_TF_SCALES if ocp.cost.free_final_time else (1.0,)
+    starts = [(k, route) for route in routes for k in scales]
+    coarse = screening_intervals(intervals, True) or intervals
+    passes = ["none"] if ocp.passing == "auto" or not ocp.obstacles else [ocp.passing]  # a pass asked for holds
+
+    def make_starts(n, passing):
+        return [(route, start_values(ocp, n, passing, None, scale, route)) for scale, route in starts]
+
+    kept, screened, coarse_sols = screen_starts(ocp, coarse, passes, make_starts, options)
+    if best is not None and best.ok:  # coarse optima rank roughly as refined ones do
+        kept = [k for k in kept if k.objective < best.objective * (1 + CURVE_MARGIN)]
+    found = _refine_kept(ocp, intervals, coarse, kept, screened, coarse_sols, verbose, options, attempts, solutions,
+                         progress)  # fmt: skip
+    if found is None or (best is not None and not _better(found, best)):
+        return best
+    if best is not None and best.ok and found.objective > best.objective * (1 - SAME_OPTIMUM):
+        return best  # the same optimum (or no better): the default starts' answer stands
+    return found
 
 
 def _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, progress, continuation) -> Solution:
@@ -279,6 +329,9 @@ def start_values(
         return Start(resample(ocp, guess, intervals), float(np.asarray(guess["t"])[-1]) if free else None)
     if route.startswith("reeds-shepp"):
         values, tf = reeds_shepp_guess(ocp, intervals, scale, _ends((scale, route)))
+        return Start(values, tf if free else None)
+    if route not in ("arc", "line"):
+        values, tf = curve_guess(ocp, curve_routes(ocp)[route], intervals, scale)
         return Start(values, tf if free else None)
     tf_guess = guess_final_time(ocp, passing) * (scale if free else 1.0)
     return Start(initial_guess(ocp, passing, intervals, tf_guess, route), tf_guess if free else None)

@@ -14,7 +14,7 @@ from model.direct.solve import solve_starts
 from model.problem.ocp import OCP
 
 SCREEN_MIN = 40  # the coarsest screening grid (intervals)
-SCREEN_OPTIONS = {"tol": 1e-5, "acceptable_tol": 1e-3}
+SCREEN_OPTIONS = {"tol": 1e-5, "acceptable_tol": 1e-3, "max_iter": 300}  # unsettled by then: not a candidate
 # a refinement starts next to its optimum: a small initial barrier parameter saves the iterations
 # that would push it back into the interior (semitrailer road, N = 200: 32 instead of 66)
 REFINE_OPTIONS = {"mu_init": 1e-4}
@@ -40,23 +40,24 @@ def screen_starts(
     ocp: OCP,
     coarse: int,
     passes: list[str],
-    make_starts: Callable[[int, str], list],
+    make_starts: Callable[[int, str], list[tuple[str, object]]],
     options: dict | None = None,
 ) -> tuple[list[Solution], list[dict], list[Solution]]:
     """Solve every start of every pass on the coarse grid; the distinct optima, best first.
 
-    Returns the kept coarse solutions (at most KEEP), one attempt record per start, and every
-    coarse solution (for the timings).
+    ``make_starts(n, passing)`` gives (route label, Start) pairs. Returns the kept coarse
+    solutions (at most KEEP), one attempt record per start, and every coarse solution (for the
+    timings).
     """
     found, attempts, every = [], [], []
     for passing in passes:
-        starts = make_starts(coarse, passing)
+        routes, starts = zip(*make_starts(coarse, passing), strict=True)
         sols = solve_starts(ocp, coarse, passing, starts, options={**SCREEN_OPTIONS, **(options or {})}, analyse=False)
         every.extend(sols)
-        for sol in sols:
-            attempts.append({"pass": passing, "route": f"screening N={coarse}", "status": sol.status,
+        for route, sol in zip(routes, sols, strict=True):
+            attempts.append({"pass": passing, "route": f"screening N={coarse}: {route}", "status": sol.status,
                              "valid": None, "objective": sol.objective})  # fmt: skip
-            if sol.status == "optimal":
+            if sol.status in ("optimal", "acceptable"):  # a guess for the refinement either way
                 found.append(sol)
     return _distinct(sorted(found, key=lambda s: s.objective)), attempts, every
 
