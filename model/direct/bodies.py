@@ -76,6 +76,7 @@ def add_body_constraints(m: pyo.ConcreteModel, ocp: OCP, relax: bool = False, fo
     kind = FORMULATION if formulation is None else formulation
     if kind not in FORMULATIONS:
         raise ValueError(f"body formulation must be one of {FORMULATIONS}, got {kind!r}")
+    m.body_formulation = kind  # a re-solve of the answer (on 2N for accuracy) uses the same
     if kind == "corners":
         _add_corner_bodies(m, ocp, relax)
     elif kind == "discs-tight":

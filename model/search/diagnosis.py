@@ -19,6 +19,7 @@ import numpy as np
 import pyomo.environ as pyo
 
 from model.analysis.bodies import body_corners
+from model.direct import bodies
 from model.direct.solution import Solution
 from model.direct.solve import solve_starts
 from model.problem.ocp import OCP
@@ -63,7 +64,19 @@ def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
 
 
 def failed_road(ocp: OCP, intervals: int, best: Solution, start, options: dict | None = None) -> Solution:
-    """Recover a road problem no start solved: a feasible trajectory if one is found, else a diagnosis."""
+    """Recover a road problem no start solved: a feasible trajectory if one is found, else a diagnosis.
+
+    First the same start with the bodies' corners in the corridor (``bodies.FORMULATION`` "corners":
+    less conservative than the discs, it passes lanes the discs cannot), then the minimal-violation
+    solve.
+    """
+    if bodies.FORMULATION != "corners":
+        with bodies.use_formulation("corners"):
+            again = solve_starts(ocp, intervals, "none", [start], options=options)[0]
+        if again.ok:
+            message = f"solved with the rectangles' corners in the corridor after the {bodies.FORMULATION} failed"
+            again.diagnosis = {"kind": "recovered", "via": "corners formulation", "message": message}
+            return again
     relaxed, violation = relaxed_solve(ocp, intervals, start, options)
     if violation <= ZERO_VIOLATION and relaxed.status == "optimal":
         from model.search.multistart import start_values
@@ -71,8 +84,8 @@ def failed_road(ocp: OCP, intervals: int, best: Solution, start, options: dict |
         again = solve_starts(ocp, intervals, "none", [start_values(ocp, intervals, "none", relaxed.columns)],
                              options=options)[0]  # fmt: skip
         if again.ok:
-            again.diagnosis = {"kind": "recovered", "message": "solved from a zero-violation trajectory of the "
-                               "minimal-violation problem after every cold start failed"}  # fmt: skip
+            message = "solved from a zero-violation trajectory of the minimal-violation problem: every start failed"
+            again.diagnosis = {"kind": "recovered", "via": "minimal violation", "message": message}
             return again
     best.diagnosis = road_diagnosis(ocp, relaxed, violation)
     return best

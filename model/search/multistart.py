@@ -13,6 +13,7 @@ from collections.abc import Callable
 import numpy as np
 
 from model.analysis.columns import Columns, as_arrays
+from model.direct import bodies
 from model.direct.solution import Solution
 from model.direct.solve import Start, paused_gc, solve_starts
 from model.problem.ocp import OCP
@@ -99,7 +100,8 @@ def solve_ocp(
 
         guess_from = best.columns if finite(best.columns) else None
         best = failed_road(ocp, intervals, best, start_values(ocp, intervals, "none", guess_from), options)
-        attempts.append({"pass": "none", "route": "minimal violation", "status": best.status, "valid": best.ok,
+        route = (best.diagnosis or {}).get("via", "minimal violation")
+        attempts.append({"pass": "none", "route": route, "status": best.status, "valid": best.ok,
                          "objective": best.objective})  # fmt: skip
     elif not best.ok:
         best = _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, progress, continuation)
@@ -117,8 +119,9 @@ def _accurate(ocp, best, attempts, verbose, options, progress, accuracy) -> Solu
     """The solution refined on finer grids until its re-integrated goal drift is within tolerance."""
 
     def solve(n, guess):
-        sol = solve_starts(ocp, n, guess.passing, [start_values(ocp, n, guess.passing, guess.columns)], verbose,
-                           options)[0]  # fmt: skip
+        with bodies.use_formulation(getattr(guess.model, "body_formulation", bodies.FORMULATION)):  # same bodies
+            sol = solve_starts(ocp, n, guess.passing, [start_values(ocp, n, guess.passing, guess.columns)], verbose,
+                               options)[0]  # fmt: skip
         _record(attempts, [], progress, sol, guess.passing, 1.0, f"N={n} for accuracy")
         return sol
 
