@@ -208,3 +208,16 @@ def test_slurm_profile_parses_and_dry_runs(tmp_path):
     extra = [] if importlib.util.find_spec("snakemake_executor_plugin_slurm") else ["--executor", "local"]
     run = snakemake(tmp_path, "-n", "--profile", str(profile), *extra)
     assert run.returncode == 0, run.stderr[-2000:]
+
+
+def test_local_optima_counts_distinct_validated_objectives_on_the_search_grid():
+    attempts = [
+        {"route": "arc", "valid": True, "objective": 1.0},
+        {"route": "line", "valid": True, "objective": 1.00001},  # the same optimum
+        {"route": "reeds-shepp", "valid": True, "objective": 1.2},
+        {"route": "arc", "valid": False, "objective": 0.5},  # not validated
+        {"route": "screening N=40: all-reverse", "valid": None, "objective": 0.9},  # coarse
+        {"route": "N=200 for accuracy", "valid": True, "objective": 0.99},  # another grid
+    ]
+    assert tables.local_optima(attempts) == 2
+    assert tables.local_optima([]) == 0

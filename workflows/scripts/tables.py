@@ -34,6 +34,18 @@ def energy_reason(key: str | None, claims: dict[str, dict]) -> str:
     return f"[{claim['id']}: {claim['verdict']}] {claim['evidence']}"
 
 
+def local_optima(attempts: list[dict], same: float = 1e-4) -> int:
+    """Distinct objectives (relative difference > ``same``) among the validated starts on the answer's
+    own search grid (coarse screening answers and 2N re-solves for accuracy left out)."""
+    values = sorted(a["objective"] for a in attempts or []
+                    if a.get("valid") is True and "for accuracy" not in str(a.get("route", "")))  # fmt: skip
+    distinct: list[float] = []
+    for v in values:
+        if not distinct or abs(v - distinct[-1]) > same * max(1.0, abs(distinct[-1])):
+            distinct.append(v)
+    return len(distinct)
+
+
 def row(result: Result, scenario_file: Path, key: str | None, claims: dict[str, dict]) -> dict:
     s, printed = result.summary, PRINTED.get(key or "", {})
     failed = [k for k, c in (s.get("validation") or {}).items() if not c.get("passed")]
@@ -50,6 +62,7 @@ def row(result: Result, scenario_file: Path, key: str | None, claims: dict[str, 
         "printed_final_time": printed.get("final_time"),
         "printed_energy": printed.get("energy"),
         "iterations": s.get("iterations"),
+        "local_optima": local_optima(s.get("attempts")),
         "solve_seconds": s.get("solve_seconds"),
         "min_clearance": s.get("min_clearance") if result.solved else None,
         "validation": "passed" if s.get("valid") else "failed: " + (", ".join(failed) or s.get("status", "error")),
@@ -70,19 +83,21 @@ def seconds(value: float | None) -> str:
 def markdown(table: pd.DataFrame) -> str:
     """The table and, below it, the reason for each difference from the printed values."""
     lines = [
-        "| scenario | objective | status | Tf (s) | printed Tf (s) | E | printed E | iterations | solve time (s) "
-        "| validation |",
-        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
+        "| scenario | objective | status | Tf (s) | printed Tf (s) | E | printed E | iterations | local optima "
+        "| solve time (s) | validation |",
+        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
     ]
     for r in table.to_dict("records"):
         iterations = "–" if r["iterations"] is None else r["iterations"]
         lines.append(
             f"| `{r['scenario']}` | {r['objective'] or '–'} | {r['status']} | {fmt(r['final_time'])} "
             f"| {fmt(r['printed_final_time'])} "
-            f"| {fmt(r['energy'])} | {fmt(r['printed_energy'])} | {iterations} "
+            f"| {fmt(r['energy'])} | {fmt(r['printed_energy'])} | {iterations} | {r['local_optima']} "
             f"| {seconds(r['solve_seconds'])} | {r['validation']} |"
         )
-    lines += ["", "E is the energy ½∫(u1² + u2²) dt of the solution, whatever its objective.", "",
+    lines += ["", "E is the energy ½∫(u1² + u2²) dt of the solution, whatever its objective. Local optima: the",
+              "distinct objectives (relative difference > 1e-4) of the validated starts of the search",
+              "(`summary.json[\"attempts\"]`): more than one means the answer is the best of several.", "",
               "Differences from the printed values:", ""]
     for r in table.to_dict("records"):
         if not isinstance(r["paper_key"], str):
