@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from model.direct.bodies import FORMULATION, FORMULATIONS, use_formulation
+from model.direct.solution import Solution
 from model.problem.scenario import parse_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -105,13 +106,18 @@ def all_cases() -> list[Case]:
     return file_cases() + inline
 
 
-def solve_once(case: Case, formulation: str) -> dict:
-    """One default solve of ``case`` with ``formulation``: the measures of the table."""
+def timed_solve(case: Case, formulation: str) -> tuple[Solution, float]:
+    """The default solve ``ocp.solve(intervals=N)`` of ``case`` with ``formulation`` and its seconds."""
     ocp = parse_scenario(copy.deepcopy(case.doc)).ocp
     t0 = time.perf_counter()
     with use_formulation(formulation):
         sol = ocp.solve(intervals=case.intervals)
-    seconds = time.perf_counter() - t0
+    return sol, time.perf_counter() - t0
+
+
+def solve_once(case: Case, formulation: str) -> dict:
+    """One default solve of ``case`` with ``formulation``: the measures of the table."""
+    sol, seconds = timed_solve(case, formulation)
     measures = sol.validation.get("measures", {})
     return {
         "status": sol.status,
