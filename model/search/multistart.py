@@ -20,6 +20,7 @@ from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
 from model.search.curves import curve_guess, curve_routes
 from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess, reeds_shepp_start_path
+from model.search.road_polish import reverses, second_opinion
 from model.search.screening import REFINE_OPTIONS, screen_starts, screening_intervals
 
 TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf guess, route)
@@ -95,6 +96,12 @@ def solve_ocp(
         best = _cold_starts(ocp, intervals, starts, guess, verbose, options, attempts, solutions, progress, best)
     if curves and search != "quick":
         best = _curve_search(ocp, intervals, best, verbose, options, attempts, solutions, progress)
+    if best.ok and ocp.road is not None and ocp.bodies and reverses(best) and bodies.FORMULATION != "corners":
+        for sol in second_opinion(ocp, intervals, best, lambda cols: start_values(ocp, intervals, "none", cols),
+                                  options):  # fmt: skip
+            _record(attempts, solutions, progress, sol, "none", 1.0, f"second opinion ({sol.model.body_formulation})")
+            if _better(sol, best) and sol.objective < best.objective * (1 - SAME_OPTIMUM):
+                best = sol
     if not best.ok and ocp.road is not None and ocp.bodies:
         from model.search.diagnosis import failed_road, finite
 
