@@ -221,3 +221,12 @@ def test_local_optima_counts_distinct_validated_objectives_on_the_search_grid():
     ]
     assert tables.local_optima(attempts) == 2
     assert tables.local_optima([]) == 0
+
+
+def test_accuracy_note_names_the_grids_and_the_objective_on_n():
+    summary = {"objective": 1.3326, "accuracy": {"intervals_requested": 100, "intervals": 200, "worst_state": "theta"},
+               "attempts": [{"route": "arc", "valid": True, "objective": 1.3329},
+                            {"route": "N=200 for accuracy", "valid": True, "objective": 1.3326}]}  # fmt: skip
+    note = tables.accuracy_note(summary)
+    assert "N = 100 (objective 1.3329 there)" in note and "N = 200: objective 1.3326" in note
+    assert tables.accuracy_note({"accuracy": {"intervals_requested": 100, "intervals": 100}}) is None

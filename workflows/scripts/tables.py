@@ -46,6 +46,20 @@ def local_optima(attempts: list[dict], same: float = 1e-4) -> int:
     return len(distinct)
 
 
+def accuracy_note(summary: dict) -> str | None:
+    """Why the answer is on a finer grid than the scenario's N (the goal-accuracy rule), with the
+    objective of the best validated start on N; None where it is not."""
+    acc = summary.get("accuracy") or {}
+    if not acc or acc.get("intervals") == acc.get("intervals_requested"):
+        return None
+    on_n = [a["objective"] for a in summary.get("attempts") or []
+            if a.get("valid") is True and "for accuracy" not in str(a.get("route", ""))]  # fmt: skip
+    before = f" (objective {min(on_n):.8g} there)" if on_n else ""
+    return (f"solved on N = {acc['intervals_requested']}{before}, its controls re-integrated missed the goal "
+            f"beyond the tolerance ({acc.get('worst_state')}); solved again on N = {acc['intervals']}: "
+            f"objective {summary.get('objective'):.8g}")  # fmt: skip
+
+
 def row(result: Result, scenario_file: Path, key: str | None, claims: dict[str, dict]) -> dict:
     s, printed = result.summary, PRINTED.get(key or "", {})
     failed = [k for k, c in (s.get("validation") or {}).items() if not c.get("passed")]
@@ -63,6 +77,7 @@ def row(result: Result, scenario_file: Path, key: str | None, claims: dict[str, 
         "printed_energy": printed.get("energy"),
         "iterations": s.get("iterations"),
         "local_optima": local_optima(s.get("attempts")),
+        "accuracy_note": accuracy_note(s),
         "solve_seconds": s.get("solve_seconds"),
         "min_clearance": s.get("min_clearance") if result.solved else None,
         "validation": "passed" if s.get("valid") else "failed: " + (", ".join(failed) or s.get("status", "error")),
@@ -95,6 +110,10 @@ def markdown(table: pd.DataFrame) -> str:
             f"| {fmt(r['energy'])} | {fmt(r['printed_energy'])} | {iterations} | {r['local_optima']} "
             f"| {seconds(r['solve_seconds'])} | {r['validation']} |"
         )
+    finer = [f"- `{r['scenario']}`: {r['accuracy_note']}." for r in table.to_dict("records")
+             if isinstance(r.get("accuracy_note"), str)]  # fmt: skip
+    if finer:
+        lines += ["", "Answers on a finer grid than the scenario's N (the goal-accuracy rule):", "", *finer]
     lines += ["", "E is the energy ½∫(u1² + u2²) dt of the solution, whatever its objective. Local optima: the",
               "distinct objectives (relative difference > 1e-4) of the validated starts of the search",
               "(`summary.json[\"attempts\"]`): more than one means the answer is the best of several.", "",
