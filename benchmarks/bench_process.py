@@ -76,8 +76,12 @@ def opti(scenario: Path, n: int, start: dict) -> dict:
 
 
 def kept_start(summary: dict) -> dict:
-    """The attempt whose result roundabout kept: its pass, closest objective."""
-    done = [a for a in summary["attempts"] if a["objective"] is not None]
+    """The attempt whose result roundabout kept: its pass, closest objective, among the starts the Opti
+    script can make (the arc and line guesses; not the Reeds-Shepp, smooth-route or refined ones)."""
+    done = [a for a in summary["attempts"] if a["objective"] is not None and a.get("route") in ("arc", "line")
+            and a.get("tf_guess_scale") is not None]  # fmt: skip
+    if not done:  # every start was screened on a coarse grid: the first default start, cold, at N
+        return {"pass": summary.get("pass") or "none", "route": "arc", "tf_guess_scale": 1.0, "objective": None}
     same = [a for a in done if a["pass"] == summary["pass"]] or done
     return min(same, key=lambda a: abs(a["objective"] - summary["objective"]))
 
