@@ -21,6 +21,7 @@ from model.problem.ocp import OCP
 GOAL_ACCURACY = 1e-3
 MAX_DOUBLINGS = 1
 MAX_INTERVALS = 1600  # never refine beyond this grid
+ROUTE = "for accuracy"  # the end of an attempt's route when it is a re-solve on a finer grid
 SAME_OPTIMUM = 0.02  # a finer grid's objective more than 2 % above the coarse one is another local optimum
 
 
@@ -76,4 +77,10 @@ def refine_for_accuracy(
                           "intervals": sol.intervals}  # fmt: skip
 
 
-__all__ = ["GOAL_ACCURACY", "goal_drift", "goal_tolerances", "refine_for_accuracy"]
+def objectives_on_grid(attempts: list[dict] | None) -> list[float]:
+    """Objectives of the validated attempts on the search's own grid (not re-solves for accuracy)."""
+    return [a["objective"] for a in attempts or []
+            if a.get("valid") is True and not str(a.get("route", "")).endswith(ROUTE)]  # fmt: skip
+
+
+__all__ = ["GOAL_ACCURACY", "ROUTE", "goal_drift", "goal_tolerances", "objectives_on_grid", "refine_for_accuracy"]

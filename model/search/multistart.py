@@ -18,6 +18,7 @@ from model.direct.solution import Solution
 from model.direct.solve import Start, paused_gc, solve_starts
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
+from model.search.accuracy import ROUTE as ACCURACY_ROUTE
 from model.search.curves import curve_guess, curve_routes
 from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess, reeds_shepp_start_path
 from model.search.road_polish import reverses, second_opinion
@@ -137,7 +138,7 @@ def _accurate(ocp, best, attempts, verbose, options, progress, accuracy) -> Solu
         with bodies.use_formulation(getattr(guess.model, "body_formulation", bodies.FORMULATION)):  # same bodies
             sol = solve_starts(ocp, n, guess.passing, [start_values(ocp, n, guess.passing, guess.columns)], verbose,
                                options)[0]  # fmt: skip
-        _record(attempts, [], progress, sol, guess.passing, 1.0, f"N={n} for accuracy")
+        _record(attempts, [], progress, sol, guess.passing, 1.0, f"N={n} {ACCURACY_ROUTE}")
         return sol
 
     sol, record = refine_for_accuracy(best, solve, accuracy, progress)

@@ -11,6 +11,7 @@ import pandas as pd
 
 from derivations.paper.claims_numbers import PRINTED_RESULTS
 from model.plotting.results import Result, comment_block, fmt, load_claims, load_result
+from model.search.accuracy import objectives_on_grid
 
 PRINTED = {key: {"label": label, "final_time": tf, "energy": e} for key, label, tf, e, _ in PRINTED_RESULTS}
 
@@ -37,8 +38,7 @@ def energy_reason(key: str | None, claims: dict[str, dict]) -> str:
 def local_optima(attempts: list[dict], same: float = 1e-4) -> int:
     """Distinct objectives (relative difference > ``same``) among the validated starts on the answer's
     own search grid (coarse screening answers and 2N re-solves for accuracy left out)."""
-    values = sorted(a["objective"] for a in attempts or []
-                    if a.get("valid") is True and "for accuracy" not in str(a.get("route", "")))  # fmt: skip
+    values = sorted(objectives_on_grid(attempts))
     distinct: list[float] = []
     for v in values:
         if not distinct or abs(v - distinct[-1]) > same * max(1.0, abs(distinct[-1])):
@@ -52,8 +52,7 @@ def accuracy_note(summary: dict) -> str | None:
     acc = summary.get("accuracy") or {}
     if not acc or acc.get("intervals") == acc.get("intervals_requested"):
         return None
-    on_n = [a["objective"] for a in summary.get("attempts") or []
-            if a.get("valid") is True and "for accuracy" not in str(a.get("route", ""))]  # fmt: skip
+    on_n = objectives_on_grid(summary.get("attempts"))
     before = f" (objective {min(on_n):.8g} there)" if on_n else ""
     return (f"solved on N = {acc['intervals_requested']}{before}, its controls re-integrated missed the goal "
             f"beyond the tolerance ({acc.get('worst_state')}); solved again on N = {acc['intervals']}: "
