@@ -39,3 +39,29 @@ def test_u_turn_is_driven_forwards():
     assert sol.ok
     assert sol.objective < 17.0  # the discs' cold starts alone: 26.27 s after the 2N re-solve
     assert any(a["route"].startswith("second opinion") for a in sol.attempts)
+
+
+class _Solved:
+    """A stand-in answer: ``ok`` as given, the formulation it was built with."""
+
+    def __init__(self, ok: bool, formulation: str):
+        self.ok, self.formulation, self.diagnosis = ok, formulation, None
+
+
+def test_failed_road_tries_the_corners_before_the_minimal_violation_solve(monkeypatch):
+    """Every discs start failed: the corners formulation is tried on the same start, and its answer is kept."""
+    import model.search.diagnosis as diagnosis
+    from model.direct import bodies
+
+    calls = []
+
+    def fake_solve_starts(ocp, intervals, passing, starts, options=None, relax=False):
+        calls.append((bodies.FORMULATION, relax))
+        return [_Solved(bodies.FORMULATION == "corners" and not relax, bodies.FORMULATION)]
+
+    monkeypatch.setattr(diagnosis, "solve_starts", fake_solve_starts)
+    ocp = parse_scenario(U_TURN).ocp
+    got = diagnosis.failed_road(ocp, 20, _Solved(False, "discs"), start=object())
+    assert got.ok and got.formulation == "corners" and calls == [("corners", False)]
+    assert got.diagnosis["via"] == "corners formulation"
+    assert bodies.FORMULATION == "discs"  # the setting is restored
