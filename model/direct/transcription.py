@@ -19,6 +19,8 @@ from model.direct.expressions import sympy_to_pyomo
 from model.problem.ocp import OCP
 from model.vehicles import sym
 
+RELAXED_TIME_WEIGHT = 1e-4  # m of summed slack per second of a free Tf in the minimal-violation model
+
 
 def build_model(ocp: OCP, intervals: int, passing: str | None = None, relax: bool = False) -> pyo.ConcreteModel:
     """The discretised Pyomo model of ``ocp`` on ``intervals`` uniform trapezoid steps.
@@ -46,7 +48,10 @@ def build_model(ocp: OCP, intervals: int, passing: str | None = None, relax: boo
     _add_objective(m, ocp)
     if relax and getattr(m, "slacks", None):
         m.objective.deactivate()
-        m.violation = pyo.Objective(expr=pyo.quicksum(v[t] for v in m.slacks for t in m.nodes), sense=pyo.minimize)
+        m.slack_total = pyo.Expression(expr=pyo.quicksum(v[t] for v in m.slacks for t in m.nodes))
+        # a free Tf has no price in the violation: without one it drifted to 1e3-1e6 s ("at t = 2951418 s")
+        time = RELAXED_TIME_WEIGHT * m.tf if ocp.cost.free_final_time else 0.0
+        m.violation = pyo.Objective(expr=m.slack_total + time, sense=pyo.minimize)
     return m
 
 

@@ -31,7 +31,7 @@ ZERO_VIOLATION = 1e-6  # m, summed slack below which the relaxed solution is a f
 def relaxed_solve(ocp: OCP, intervals: int, start, options: dict | None = None) -> tuple[Solution, float]:
     """The minimal-violation solve from ``start`` and its summed slack (metres)."""
     sol = solve_starts(ocp, intervals, "none", [start], options=options, relax=True)[0]
-    return sol, float(pyo.value(sol.model.violation))
+    return sol, float(pyo.value(sol.model.slack_total))
 
 
 def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
