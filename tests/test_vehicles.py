@@ -363,3 +363,21 @@ def test_misspelt_preset_suggests_the_closest(typo, suggestion):
 def test_unknown_preset_without_a_close_name_lists_them():
     with pytest.raises(InputError, match="known: P, SU-30"):
         preset("zeppelin")
+
+
+def test_expressions_are_never_parsed_from_strings():
+    """Every sympify on the model's paths is strict: a string (which SymPy would parse and evaluate)
+    is refused, so no text from a scenario file can become code there."""
+    import pytest
+    import sympy as sp
+
+    from model.problem.closed_loop import Disturbance
+    from model.simulation.plant import plant_rhs
+    from model.vehicles import Truck
+
+    truck = Truck(wheelbase=0.5)
+    with pytest.raises(sp.SympifyError):
+        truck.state_function(["__import__('os').getcwd()"])
+    truck.dynamics = lambda: {name: "__import__('os').getcwd()" for name in truck.states}
+    with pytest.raises(sp.SympifyError):
+        plant_rhs(truck, Disturbance())

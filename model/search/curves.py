@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from model.problem.ocp import OCP
-from model.search.paths import trailer_angle
+from model.search.guess import trailer_heading
 
 Pose = tuple[float, float, float]
 Leg = tuple[Pose, Pose, int, float]  # from pose, to pose, gear (+1 / -1), tangent scale
@@ -114,7 +114,7 @@ def curve_guess(ocp: OCP, legs: list[Leg], n: int, tf_scale: float = 1.0) -> tup
     if "phi" in v.states and d is not None:
         values["phi"] = np.arctan(d * np.interp(at, s, kappa))
     if "theta1" in v.states:
-        values["theta1"] = _trailer(ocp, values["theta"], at, direction)
+        values["theta1"] = trailer_heading(ocp, values["theta"], np.full(n + 1, at[1] - at[0]), direction)
     for name in v.states:
         if name not in values:
             a = ocp.initial.get(name, 0.0)
@@ -133,20 +133,6 @@ def _chain(legs: list[Leg]) -> tuple[np.ndarray, np.ndarray]:
         pts.append(p if not pts else p[1:])
         gears.append(np.full(len(pts[-1]), float(gear)))
     return np.vstack(pts), np.concatenate(gears)
-
-
-def _trailer(ocp: OCP, theta: np.ndarray, at: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """theta1 at the nodes, integrated along the path (RK4 on the node grid, midpoints interpolated)."""
-    mid = np.empty(2 * len(theta) - 1)
-    mid[::2], mid[1::2] = theta, (theta[:-1] + theta[1:]) / 2
-    step = float(at[1] - at[0]) if len(at) > 1 else 0.0
-    kappa = np.gradient(mid, step / 2) * np.repeat(direction, 2)[:-1] if step > 0 else 0 * mid
-    gears = np.repeat(direction, 2)[:-1]
-    values = trailer_angle(ocp.vehicle, mid, kappa, gears, step, ocp.initial.get("theta1", theta[0]))
-    if "articulation" in ocp.bounds:  # keep the guess inside the jackknife limit
-        lo, hi = ocp.bounds["articulation"]
-        values = theta - np.clip(theta - values, lo, hi)
-    return values
 
 
 def _clip(values: np.ndarray, bounds: tuple[float, float] | None) -> np.ndarray:

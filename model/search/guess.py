@@ -43,10 +43,7 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
         curvature = np.gradient(heading, s) / np.maximum(np.hypot(dx, dy), 1e-9)
         guess["phi"] = np.arctan(curvature * d)
     if "theta1" in v.states:
-        guess["theta1"] = _trailer_heading(ocp, heading, np.hypot(dx, dy) * np.gradient(s))
-        if "articulation" in ocp.bounds:  # keep the guess inside the jackknife limit
-            lo, hi = ocp.bounds["articulation"]
-            guess["theta1"] = heading - np.clip(heading - guess["theta1"], lo, hi)
+        guess["theta1"] = trailer_heading(ocp, heading, np.hypot(dx, dy) * np.gradient(s))
     for name in v.states:
         if name not in guess:
             a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])
@@ -56,19 +53,28 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
     return guess
 
 
-def _trailer_heading(ocp: OCP, heading: np.ndarray, ds: np.ndarray, substeps: int = 10) -> np.ndarray:
-    """theta1 integrated along the guess path driven forwards (``paths.trailer_angle``, RK4 in arc length).
+def trailer_heading(
+    ocp: OCP, heading: np.ndarray, ds: np.ndarray, direction: np.ndarray | None = None, substeps: int = 10
+) -> np.ndarray:
+    """theta1 at the nodes of a guess path (``paths.trailer_angle``, RK4 in arc length), inside the
+    articulation bounds.
 
-    ``ds`` is the path length per node step; the heading is interpolated linearly between nodes,
-    at ``substeps`` RK4 steps per node step.
+    ``ds`` is the path length per node step; ``direction`` (+1 forwards, -1 reversing) at the nodes,
+    forwards if None; the heading is interpolated linearly between nodes, at ``substeps`` RK4 steps
+    per node step.
     """
     length = np.concatenate([[0.0], np.cumsum((ds[:-1] + ds[1:]) / 2)])
     fine = np.linspace(0.0, length[-1], 2 * substeps * (len(heading) - 1) + 1)
     theta = np.interp(fine, length, heading)
-    kappa = np.gradient(theta, fine) if length[-1] > 0 else np.zeros_like(fine)
+    gear = np.ones_like(fine) if direction is None else np.where(np.interp(fine, length, direction) < 0, -1.0, 1.0)
+    kappa = gear * np.gradient(theta, fine) if length[-1] > 0 else np.zeros_like(fine)
     step = length[-1] / (substeps * (len(heading) - 1))
-    values = trailer_angle(ocp.vehicle, theta, kappa, np.ones_like(fine), step, ocp.initial.get("theta1", heading[0]))
-    return np.interp(length, fine[::2], values)
+    values = trailer_angle(ocp.vehicle, theta, kappa, gear, step, ocp.initial.get("theta1", heading[0]))
+    theta1 = np.interp(length, fine[::2], values)
+    if "articulation" in ocp.bounds:  # keep the guess inside the jackknife limit
+        lo, hi = ocp.bounds["articulation"]
+        theta1 = heading - np.clip(heading - theta1, lo, hi)
+    return theta1
 
 
 def _controls(ocp: OCP, states: dict[str, np.ndarray], speed: np.ndarray, s: np.ndarray, tf: float):

@@ -106,10 +106,9 @@ def solve_ocp(
         best = _cold_starts(ocp, intervals, ROAD_FALLBACK_STARTS, None, verbose, options, attempts, solutions,
                             progress, best)  # fmt: skip
     if best.ok and ocp.road is not None and ocp.bodies and reverses(best) and bodies.FORMULATION != "corners":
-        for sol in second_opinion(ocp, intervals, best, lambda cols: start_values(ocp, intervals, "none", cols),
-                                  options):  # fmt: skip
+        for sol in second_opinion(ocp, intervals, lambda cols: start_values(ocp, intervals, "none", cols), options):
             _record(attempts, solutions, progress, sol, "none", 1.0, f"second opinion ({sol.model.body_formulation})")
-            if _better(sol, best) and sol.objective < best.objective * (1 - SAME_OPTIMUM):
+            if _clearly_better(sol, best):
                 best = sol
     if not best.ok and ocp.road is not None and ocp.bodies:
         from model.search.diagnosis import failed_road, finite
@@ -169,19 +168,16 @@ def _cold_starts(ocp, intervals, starts, guess, verbose, options, attempts, solu
     return best
 
 
-def _screen_and_refine(ocp, intervals, coarse, starts, verbose, options, attempts, solutions, progress):
-    """Screen the starts at ``coarse``, refine the distinct optima at N; the best refined (or None)."""
+def _screen_and_refine(ocp, intervals, coarse, starts, verbose, options, attempts, solutions, progress,
+                       passes=None, within=None):  # fmt: skip
+    """Screen the starts at ``coarse`` (in ``passes``, default ``passes_to_try``), refine the distinct
+    optima at N (those below ``within``, if given; one build per pass); the best refined (or None)."""
 
     def make_starts(n, passing):
         return [(route, start_values(ocp, n, passing, None, scale, route)) for scale, route in starts]
 
-    kept, screened, coarse_sols = screen_starts(ocp, coarse, passes_to_try(ocp), make_starts, options)
-    return _refine_kept(ocp, intervals, coarse, kept, screened, coarse_sols, verbose, options, attempts, solutions,
-                        progress)  # fmt: skip
-
-
-def _refine_kept(ocp, intervals, coarse, kept, screened, coarse_sols, verbose, options, attempts, solutions, progress):
-    """Record a screening; refine its kept coarse optima at N (one build per pass); the best (or None)."""
+    kept, screened, coarse_sols = screen_starts(ocp, coarse, passes or passes_to_try(ocp), make_starts, options)
+    kept = [k for k in kept if within is None or k.objective < within]
     attempts.extend(screened)
     solutions.extend(coarse_sols)
     if progress is not None:
@@ -210,8 +206,7 @@ def _refine(ocp, intervals, passing, values, verbose, options) -> list[Solution]
 def _curve_search(ocp, intervals, best, verbose, options, attempts, solutions, progress) -> Solution | None:
     """The smooth routes of ``model.search.curves`` screened on a coarse grid; the distinct coarse optima
     below (1 + CURVE_MARGIN) x the answer so far (``best``) refined at N. No pass constraint unless the
-    scenario asks for one. The better answer: ``best`` where no route applies or none is better by
-    more than SAME_OPTIMUM."""
+    scenario asks for one. The better answer (``_clearly_better``)."""
     routes = curve_routes(ocp)
     if not routes:
         return best
@@ -219,20 +214,22 @@ def _curve_search(ocp, intervals, best, verbose, options, attempts, solutions, p
     starts = [(k, route) for route in routes for k in scales]
     coarse = screening_intervals(intervals, True) or intervals
     passes = ["none"] if ocp.passing == "auto" or not ocp.obstacles else [ocp.passing]  # a pass asked for holds
+    within = best.objective * (1 + CURVE_MARGIN) if best is not None and best.ok else None
+    found = _screen_and_refine(ocp, intervals, coarse, starts, verbose, options, attempts, solutions, progress,
+                               passes, within)  # fmt: skip
+    return found if _clearly_better(found, best) else best
 
-    def make_starts(n, passing):
-        return [(route, start_values(ocp, n, passing, None, scale, route)) for scale, route in starts]
 
-    kept, screened, coarse_sols = screen_starts(ocp, coarse, passes, make_starts, options)
-    if best is not None and best.ok:  # coarse optima rank roughly as refined ones do
-        kept = [k for k in kept if k.objective < best.objective * (1 + CURVE_MARGIN)]
-    found = _refine_kept(ocp, intervals, coarse, kept, screened, coarse_sols, verbose, options, attempts, solutions,
-                         progress)  # fmt: skip
-    if found is None or (best is not None and not _better(found, best)):
-        return best
-    if best is not None and best.ok and found.objective > best.objective * (1 - SAME_OPTIMUM):
-        return best  # the same optimum (or no better): the default starts' answer stands
-    return found
+def _clearly_better(sol: Solution | None, best: Solution | None) -> bool:
+    """``sol`` replaces ``best``: better (``_better``), and by more than SAME_OPTIMUM where both validate
+    (the same optimum found again leaves the earlier answer standing)."""
+    if sol is None:
+        return False
+    if best is None:
+        return True
+    if not _better(sol, best):
+        return False
+    return not (best.ok and sol.objective > best.objective * (1 - SAME_OPTIMUM))
 
 
 def _continue_or_diagnose(ocp, intervals, best, attempts, verbose, options, progress, continuation) -> Solution:

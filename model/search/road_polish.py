@@ -28,7 +28,7 @@ def reverses(sol: Solution) -> bool:
 
 
 def second_opinion(
-    ocp: OCP, intervals: int, best: Solution, start_of: Callable[[object], Start], options: dict | None = None
+    ocp: OCP, intervals: int, start_of: Callable[[object], Start], options: dict | None = None
 ) -> list[Solution]:
     """The corners answer from the arc start and the discs answer from it (each only if it was reached).
 
