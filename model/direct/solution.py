@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from model.outputs import run_folder, write_files
 from model.problem.ocp import OCP
 
 if TYPE_CHECKING:
@@ -90,13 +89,21 @@ class Solution:
         }
 
     def write(self, out: str | Path) -> None:
-        """Write summary.json and trajectory.csv into ``out``, each file atomically."""
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        _atomic_write(out / "trajectory.csv", csv_text(self.columns))
+        """Write summary.json, trajectory.csv (and, on a road, swept_path.geojson) into ``out``.
+
+        The files appear together when all are written (``model.outputs.run_folder``), with
+        the umask's permissions; an earlier run's files in ``out`` are replaced or removed.
+        """
+        with run_folder(out) as stage:
+            write_files(stage, self.files())
+
+    def files(self) -> dict[str, str]:
+        """The run's files by name: trajectory.csv, swept_path.geojson (roads), summary.json."""
+        files = {"trajectory.csv": csv_text(self.columns)}
         if self.ocp.road is not None and self.ocp.bodies:
-            _atomic_write(out / "swept_path.geojson", json.dumps(self.swept_path()) + "\n")
-        _atomic_write(out / "summary.json", json.dumps(_jsonable(self.summary()), indent=2) + "\n")
+            files["swept_path.geojson"] = json.dumps(self.swept_path()) + "\n"
+        files["summary.json"] = json_text(self.summary())
+        return files
 
     def swept_path(self) -> dict:
         """GeoJSON FeatureCollection: the area each body sweeps, in the scenario's metric coordinates."""
@@ -123,24 +130,17 @@ def trapezoid_energy(t: np.ndarray, u: list[np.ndarray]) -> float:
     return float(np.trapezoid(0.5 * sum(np.asarray(c) ** 2 for c in u), t))
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    """Write to a temporary file beside ``path``, then rename; on any error remove the temporary file."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+def json_text(data: dict) -> str:
+    """``data`` as full-precision JSON text (NaN and infinities as null), indented."""
+    return json.dumps(jsonable(data), indent=2) + "\n"
 
 
-def _jsonable(obj):
+def jsonable(obj):
     """Full-precision JSON: floats as repr (17 digits), NaN/inf as null."""
     if isinstance(obj, dict):
-        return {k: _jsonable(v) for k, v in obj.items()}
+        return {k: jsonable(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, np.generic):
         obj = obj.item()
     if isinstance(obj, float) and not math.isfinite(obj):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -25,6 +26,10 @@ from model.direct.transcription import build_model, grid
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import IpoptResult, run_ipopt
 from model.problem.ocp import OCP
+
+# What a solve is doing, as DEBUG records on "roundabout.solve": the command line's progress
+# names the current one when it has printed nothing for a while.
+LOG = logging.getLogger("roundabout.solve")
 
 
 @dataclass
@@ -65,11 +70,14 @@ def solve_starts(
     t0 = time.perf_counter()
     # Pyomo creates many small objects: with the collector on, its full collections over the
     # model cost 3x the build and seconds in loading the duals of a large road model
+    kind = "minimal-violation model" if relax else "model"
+    LOG.debug("building the N = %d %s (pass %s)", intervals, kind, passing)
     with paused_gc():
         m = build_model(ocp, intervals, passing, relax)
         nlp, sols, timings = None, [], {}
         opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
-        for start in starts:
+        for i, start in enumerate(starts, 1):
+            LOG.debug("solving the N = %d %s (pass %s) from start %d of %d", intervals, kind, passing, i, len(starts))
             load_start(m, start)
             if nlp is None:
                 t1 = time.perf_counter()

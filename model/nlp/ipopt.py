@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import sys
 import time
@@ -35,6 +36,11 @@ STATUS_WORDS = {
 # mumps_pivot_order 6 (QAMD): the fastest MUMPS ordering measured (benchmarks/bench_ipopt.py;
 # N = 1600: 1.82 s against 2.52 s for Ipopt's automatic choice, same iterations).
 DEFAULT_OPTIONS = {"tol": 1e-8, "max_iter": 3000, "sb": "yes", "print_level": 0, "mumps_pivot_order": 6}
+
+# A long Ipopt run logs where it is (INFO on "roundabout.ipopt") at most this often; the
+# command line shows these lines on stderr (library users see them if they configure logging).
+LOG = logging.getLogger("roundabout.ipopt")
+PROGRESS_SECONDS = 5.0
 
 
 class IpoptOptionError(ValueError):
@@ -115,9 +121,17 @@ def run_ipopt(
     if not cyipopt_available:
         raise RuntimeError("cyipopt is not installed: run `python tools/install_solver.py`")
     log: list[tuple[int, float, float, float]] = []
+    said = [time.perf_counter()]
 
     def intermediate(_nlp, _problem, alg_mod, iter_count, obj, inf_pr, inf_du, mu, d_norm, reg, a_du, a_pr, ls):
         log.append((int(iter_count), float(obj), float(inf_pr), float(inf_du)))
+        now = time.perf_counter()
+        if now - said[0] >= PROGRESS_SECONDS:
+            said[0] = now
+            LOG.info(
+                "Ipopt iteration %d: objective %.8g, constraint violation %.2e, dual infeasibility %.2e, %.0f s",
+                iter_count, obj, inf_pr, inf_du, now - start,
+            )  # fmt: skip
         return True
 
     problem = CyIpoptNLP(nlp, intermediate_callback=intermediate)
@@ -127,7 +141,7 @@ def run_ipopt(
     for key, val in opts.items():
         set_option(problem, key, val)
     x0 = nlp.init_primals() if x0 is None else x0
-    start = time.perf_counter()
+    start = said[0] = time.perf_counter()
     if duals is None:
         x, info = problem.solve(x0)
     else:

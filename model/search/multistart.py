@@ -87,6 +87,7 @@ def solve_ocp(
         ``attempts`` lists every start with its status and objective.
     """
     start = time.perf_counter()
+    progress = Reporter(progress)
     curves = starts is None and guess is None  # the smooth routes join a search of the default starts
     if starts is None:
         starts = search_starts(ocp, search) if guess is None else ((1.0, "arc"),)
@@ -99,13 +100,16 @@ def solve_ocp(
     if coarse is not None:
         best = _screen_and_refine(ocp, intervals, coarse, starts, verbose, options, attempts, solutions, progress)
     if best is None or not best.ok:  # no screening, or nothing refined validated: every cold start at N
+        progress(f"cold starts on N = {intervals}: {len(starts)} per pass direction ({', '.join(passes_to_try(ocp))})")
         best = _cold_starts(ocp, intervals, starts, guess, verbose, options, attempts, solutions, progress, best)
     if curves and search != "quick":
         best = _curve_search(ocp, intervals, best, verbose, options, attempts, solutions, progress)
     if not best.ok and ocp.road is not None and curves and ocp.cost.free_final_time:
+        progress("no start validated: the road's fallback starts")
         best = _cold_starts(ocp, intervals, ROAD_FALLBACK_STARTS, None, verbose, options, attempts, solutions,
                             progress, best)  # fmt: skip
     if best.ok and ocp.road is not None and ocp.bodies and reverses(best) and bodies.FORMULATION != "corners":
+        progress("the answer reverses: a second opinion from the arc start with the rectangles' corners")
         for sol in second_opinion(ocp, intervals, lambda cols: start_values(ocp, intervals, "none", cols), options):
             _record(attempts, solutions, progress, sol, "none", 1.0, f"second opinion ({sol.model.body_formulation})")
             if _clearly_better(sol, best):
@@ -114,6 +118,7 @@ def solve_ocp(
         from model.search.diagnosis import failed_road, finite
 
         guess_from = best.columns if finite(best.columns) else None
+        progress("no start validated: the corners formulation, then a minimal-violation diagnosis")
         best = failed_road(ocp, intervals, best, start_values(ocp, intervals, "none", guess_from), options)
         route = (best.diagnosis or {}).get("via", "minimal violation")
         attempts.append({"pass": "none", "route": route, "status": best.status, "valid": best.ok,
@@ -145,15 +150,34 @@ def _accurate(ocp, best, attempts, verbose, options, progress, accuracy) -> Solu
     return sol
 
 
+class Reporter:
+    """The search's progress: phase lines as given, start lines numbered as they are printed."""
+
+    def __init__(self, sink: Callable[[str], None] | None) -> None:
+        self.sink = sink.sink if isinstance(sink, Reporter) else sink
+        self.count = sink.count if isinstance(sink, Reporter) else 0
+
+    def __call__(self, line: str) -> None:
+        if self.sink is not None:
+            self.sink(line)
+
+    def start(self, sol: Solution, passing: str, scale, route: str) -> None:
+        """One line for a solved start: its number, pass, route, and its outcome."""
+        self.count += 1
+        outcome = (f"objective {sol.objective:.8g}" + ("" if sol.ok else " (not validated)")
+                   if sol.status in ("optimal", "acceptable") else "no answer")  # fmt: skip
+        self(f"[{self.count}] pass {passing}, start {route} x{scale:g}: {sol.status}, {outcome}, "
+             f"{sol.iterations} iterations, {sol.timings['ipopt']:.2f} s in Ipopt")  # fmt: skip
+
+
 def _record(attempts, solutions, progress, sol: Solution, passing: str, scale, route: str) -> None:
     attempts.append({"pass": passing, "tf_guess_scale": scale, "route": route, "status": sol.status,
                      "valid": sol.ok, "objective": sol.objective})  # fmt: skip
     solutions.append(sol)
-    if progress is not None:
-        progress(
-            f"[{len(attempts)}] pass {passing}, start {route} x{scale:g}: {sol.status}, "
-            f"objective {sol.objective:.8g}, {sol.iterations} iterations, {sol.timings['ipopt']:.2f} s in Ipopt"
-        )
+    if isinstance(progress, Reporter):
+        progress.start(sol, passing, scale, route)
+    elif progress is not None:
+        Reporter(progress).start(sol, passing, scale, route)
 
 
 def _cold_starts(ocp, intervals, starts, guess, verbose, options, attempts, solutions, progress, best):

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from model.direct.solution import Solution, _atomic_write, _jsonable, csv_text
+from model.direct.solution import Solution, csv_text, json_text
+from model.outputs import run_folder, write_files
 from model.problem.closed_loop import ControlSettings, Disturbance
 from model.problem.scenario import Scenario
 from model.simulation.base import Controller
@@ -50,28 +51,19 @@ class ClosedLoop:
 
     def write(self, out: str | Path) -> None:
         """DIR/closed_loop.csv and DIR/summary.json (and DIR/runs.csv for several runs), each atomically."""
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        _atomic_write(out / "closed_loop.csv", csv_text(self.columns))
+        with run_folder(out) as stage:
+            write_files(stage, self.files())
+
+    def files(self) -> dict[str, str]:
+        """The run's files by name: closed_loop.csv, runs.csv (several runs), summary.json."""
+        files = {"closed_loop.csv": csv_text(self.columns)}
         if self.runs:
-            _atomic_write(out / "runs.csv", runs_csv(self.runs))
-        _atomic_write(out / "summary.json", json_text(self.summary))
+            files["runs.csv"] = runs_csv(self.runs)
+        files["summary.json"] = json_text(self.summary)
+        return files
 
 
 LATEST = 1.5  # a run ends by 1.5 x the optimum's final time whatever the controller plans
-
-
-def json_text(summary: dict) -> str:
-    """The summary as full-precision JSON (NaN and infinities as null)."""
-    import json
-
-    return json.dumps(_jsonable(summary), indent=2) + "\n"
-
-
-def write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically, making its folder first."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    _atomic_write(path, text)
 
 
 def make_controller(

@@ -29,9 +29,10 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from model.outputs import write_atomically as write_text  # noqa: E402
 from model.problem.closed_loop import Disturbance  # noqa: E402
 from model.problem.scenario import Scenario, load_scenario  # noqa: E402
-from model.simulation.loop import ClosedLoop, make_controller, runs_csv, simulate, write_text  # noqa: E402
+from model.simulation.loop import ClosedLoop, make_controller, runs_csv, simulate  # noqa: E402
 
 # The study's numbers of one setting (row.json's "numbers"), in table order.
 ROW_KEYS = (

@@ -19,6 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from model.outputs import write_atomically  # noqa: E402
 from model.problem.scenario import load_scenario  # noqa: E402
 
 
@@ -69,8 +70,7 @@ def table(rows: list[dict], columns: dict[str, str], digits: int = 4) -> str:
 
 
 def write_json(path: Path, data) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=2, default=_default) + "\n")
+    write_atomically(path, json.dumps(data, indent=2, default=_default) + "\n")
 
 
 def _default(obj):
@@ -87,8 +87,7 @@ def save(fig, stem: Path) -> None:
 
 
 def write_text(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text.rstrip() + "\n")
+    write_atomically(path, text.rstrip() + "\n")
 
 
 __all__ = ["plt", "scenario", "solved", "table", "fmt", "write_json", "save", "write_text"]

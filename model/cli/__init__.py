@@ -1,32 +1,39 @@
-"""The ``roundabout`` command: solve a scenario file, simulate it in closed loop, or print its Pontryagin system.
+"""The ``roundabout`` command: solve a scenario file, simulate it in closed loop, print its
+Pontryagin system, check it, or plot a results folder.
 
 Exit codes of ``roundabout solve``: 0 solved and validated; 1 the solver ran and
 failed (DIR/summary.json says how); 2 invalid input (one line on stderr, nothing
-written). ``roundabout simulate`` (docs/closed-loop-format.md): 0 the closed loop reached
-the goal (every run, with --runs); 1 it did not, a step failed or the open-loop solve failed
-(the files are still written); 2 invalid input.
+written); 130 interrupted (Ctrl-C; one line, nothing written). ``roundabout simulate``
+(docs/closed-loop-format.md): 0 the closed loop reached the goal (every run, with --runs);
+1 it did not, a step failed or the open-loop solve failed (the files are still written);
+2 invalid input. A run's files appear in DIR together when it ends, with the umask's
+permissions, replacing an earlier run's (``model.outputs``).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 import time
 from pathlib import Path
 
+from model.cli.progress import Progress
 from model.errors import InputError
+from model.outputs import RUN_FILES, run_folder, write_files
 
 EPILOG = """examples:
   roundabout solve workflows/scenarios/s2-case1.toml --out results/s2-case1
   roundabout solve my.toml --out out/ --intervals 400 --verbose
   roundabout derive workflows/scenarios/s1.toml --latex
   roundabout simulate examples/closed-loop-truck.toml --out out/cl --controller tracking --runs 5
+  roundabout plot out/ --out figure.png
 
 scenario files: see docs/scenario-format.md (TOML, SI units, radians);
                 [disturbance] and [control]: docs/closed-loop-format.md.
 exit codes: 0 solved and validated, 1 solver failed (summary.json says why),
-            2 invalid input (one line on stderr, nothing written)."""
+            2 invalid input (one line on stderr, nothing written), 130 interrupted."""
 
 
 STARTUP: float | None = None  # seconds from process start to the CLI's main(), set by main
@@ -46,6 +53,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
     s.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals")
     s.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log and the time of each phase")
+    s.add_argument("--quiet", action="store_true", help="print no progress on stderr (results and errors only)")
     s.add_argument(
         "--search", choices=("quick", "default", "thorough"), default="default",
         help="starts tried: quick (one per pass direction), default, thorough (more, screened on a coarse grid)",
@@ -67,15 +75,33 @@ def parser() -> argparse.ArgumentParser:
     m.add_argument("--runs", type=int, default=1, metavar="K", help="K runs with seeds seed, seed + 1, ... (runs.csv)")
     m.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals of the open-loop solve")
     m.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log of the open-loop solve")
-    c = sub.add_parser("check", help="validate a scenario file only (exit 0 or 2)")
+    m.add_argument("--quiet", action="store_true", help="print no progress on stderr (results and errors only)")
+    c = sub.add_parser("check", help="validate a scenario file only, as solve would (exit 0 or 2)")
     c.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    g = sub.add_parser("plot", help="draw a results folder of solve or simulate as a PNG (or PDF, SVG)")
+    g.add_argument("folder", type=Path, metavar="DIR", help="a folder written by roundabout solve or simulate")
+    g.add_argument("--out", type=Path, metavar="FILE", help="figure file (default DIR/figure.png)")
+    g.add_argument("--scenario", type=Path, metavar="FILE", help="the scenario file (default DIR/scenario.toml)")
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``argv``; the exit code (130 on Ctrl-C, after one line on stderr)."""
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        print("roundabout: interrupted; nothing was written", file=sys.stderr, flush=True)
+        return 130
+
+
+def _main(argv: list[str] | None) -> int:
     global STARTUP
     STARTUP = process_seconds()
     args = parser().parse_args(argv)
+    if args.command == "plot":
+        from model.cli.plot import plot_folder
+
+        return plot_folder(args.folder, args.out, args.scenario)
     t0 = time.perf_counter()
     from model.problem.scenario import load_scenario
 
@@ -86,7 +112,8 @@ def main(argv: list[str] | None = None) -> int:
             raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
         if args.command in ("solve", "simulate"):
             check_output_folder(args.out)
-            check_size(args.intervals or scenario.intervals, scenario.ocp, "--intervals" if args.intervals else None)
+        check_size(getattr(args, "intervals", None) or scenario.intervals, scenario.ocp,
+                   "--intervals" if getattr(args, "intervals", None) else None)  # fmt: skip
         if args.command == "simulate":
             check_simulate(args, scenario)
         options = ipopt_options(getattr(args, "ipopt", []))
@@ -182,10 +209,11 @@ def check_simulate(args, scenario) -> None:
             raise InputError("--controller", "mpc controller not available yet") from None
 
 
-def open_loop_solve(scenario, args, options: dict):
+def open_loop_solve(scenario, args, options: dict, progress: Progress):
     """The scenario's optimum by the default solve (as ``roundabout solve``), with its phase timings."""
     intervals = args.intervals or scenario.intervals
-    print(f"{scenario.ocp.name}: solving with N = {intervals} ...", file=sys.stderr, flush=True)
+    if not progress.quiet:
+        print(f"{scenario.ocp.name}: solving with N = {intervals} ...", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     from model.problem.methods import DEFAULT_SOLVE, load_method
 
@@ -196,7 +224,7 @@ def open_loop_solve(scenario, args, options: dict):
         method=method,
         verbose=args.verbose,
         options=options,
-        progress=lambda line: print("  " + line, file=sys.stderr, flush=True),
+        progress=progress,
         **({"search": args.search} if getattr(args, "search", "default") != "default" else {}),
     )
     return sol, t1 - t0
@@ -214,17 +242,31 @@ def failure_reason(sol) -> str:
     return sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
 
 
+def run_files(scenario) -> dict[str, bytes]:
+    """The files every run folder holds besides the results: the scenario as given (for ``plot``)."""
+    return {"scenario.toml": Path(scenario.path).read_bytes()} if scenario.path is not None else {}
+
+
+def wrote_line(out: Path) -> str:
+    """The success line's second half: where the files are."""
+    names = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file() and p.name in RUN_FILES)
+    return f"results in {out}/: {', '.join(names)} (draw them: roundabout plot {out})"
+
+
 def _solve(scenario, args, options: dict) -> int:
-    sol, import_seconds = open_loop_solve(scenario, args, options)
-    t2 = time.perf_counter()
-    sol.write(args.out)
+    with Progress(quiet=args.quiet) as progress:
+        sol, import_seconds = open_loop_solve(scenario, args, options, progress)
+        progress.activity = "writing the results"
+        t2 = time.perf_counter()
+        with run_folder(args.out) as stage:
+            write_files(stage, {**sol.files(), **run_files(scenario)})
     if args.verbose:
         phases = {"scenario (sympy, parse)": args.load_seconds, "solver imports": import_seconds,
                   **sol.timings.get("all_starts", {}), "write": time.perf_counter() - t2}  # fmt: skip
         print(phase_report(phases), file=sys.stderr)
     line = solve_line(scenario, sol)
     if sol.ok:
-        print(line)
+        print(f"{line}\n{wrote_line(args.out)}")
         return 0
     print(f"{line}\nroundabout: FAILED ({failure_reason(sol)}); see {args.out / 'summary.json'}", file=sys.stderr)
     return 1
@@ -232,24 +274,30 @@ def _solve(scenario, args, options: dict) -> int:
 
 def _simulate(scenario, args) -> int:
     """Solve the open-loop optimum, then run the controller (K times with --runs); write the results."""
-    sol, _ = open_loop_solve(scenario, args, {})
-    sol.write(args.out / "optimum")
-    if not sol.ok:
-        from model.simulation.loop import json_text, write_text
+    with Progress(quiet=args.quiet) as progress:
+        sol, _ = open_loop_solve(scenario, args, {}, progress)
+        if not sol.ok:
+            from model.direct.solution import json_text
 
-        reason = failure_reason(sol)
-        summary = {"controller": args.controller, "status": f"the open-loop solve failed ({reason})",
-                   "reached_goal": False, "optimum": "optimum/summary.json"}  # fmt: skip
-        write_text(args.out / "summary.json", json_text(summary))
-        print(f"{solve_line(scenario, sol)}\nroundabout: FAILED ({reason}); see {args.out / 'summary.json'}",
-              file=sys.stderr)  # fmt: skip
-        return 1
-    print(solve_line(scenario, sol), file=sys.stderr)
-    from model.simulation.loop import make_controller, simulate_runs
+            reason = failure_reason(sol)
+            summary = {"controller": args.controller, "status": f"the open-loop solve failed ({reason})",
+                       "reached_goal": False, "optimum": "optimum/summary.json"}  # fmt: skip
+            with run_folder(args.out) as stage:
+                write_files(stage / "optimum", sol.files())
+                write_files(stage, {"summary.json": json_text(summary), **run_files(scenario)})
+            print(f"{solve_line(scenario, sol)}\nroundabout: FAILED ({reason}); see {args.out / 'summary.json'}",
+                  file=sys.stderr)  # fmt: skip
+            return 1
+        if not args.quiet:
+            print(solve_line(scenario, sol), file=sys.stderr)
+        from model.simulation.loop import make_controller, simulate_runs
 
-    factory = make_controller(args.controller, sol, scenario.control, scenario.disturbance)
-    result = simulate_runs(scenario, sol, factory, scenario.disturbance, scenario.control, runs=args.runs)
-    result.write(args.out)
+        progress.activity = f"simulating the closed loop ({args.controller})"
+        factory = make_controller(args.controller, sol, scenario.control, scenario.disturbance)
+        result = simulate_runs(scenario, sol, factory, scenario.disturbance, scenario.control, runs=args.runs)
+        with run_folder(args.out) as stage:
+            write_files(stage / "optimum", sol.files())
+            write_files(stage, {**result.files(), **run_files(scenario)})
     s = result.summary
     line = (
         f"{scenario.ocp.name}: {s['controller']}, {s['steps']} steps, final position error "
@@ -258,7 +306,7 @@ def _simulate(scenario, args) -> int:
         + (f", {args.runs} runs, goal reached in {s['reached_goal_rate']:.0%}" if args.runs > 1 else "")
     )
     if s["reached_goal"]:
-        print(line)
+        print(f"{line}\n{wrote_line(args.out)}")
         return 0
     print(f"{line}\nroundabout: goal not reached within the tolerance; see {args.out / 'summary.json'}",
           file=sys.stderr)  # fmt: skip
@@ -302,13 +350,11 @@ def run() -> None:
     """The console script: ``main``, then leave without tearing the interpreter down.
 
     Everything is written and flushed by then; freeing Pyomo's and CasADi's objects and
-    modules one by one at exit would only add about 0.2 s to every solve process.
+    modules one by one at exit would only add about 0.2 s to every solve process. SIGINT
+    interrupts even where the parent shell ignores it (a background job sent ``kill -INT``).
     """
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     code = main()
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)
-
-
-if __name__ == "__main__":
-    run()

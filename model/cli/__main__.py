@@ -1,0 +1,5 @@
+"""``python -m model.cli``: the ``roundabout`` command."""
+
+from model.cli import run
+
+run()

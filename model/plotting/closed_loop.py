@@ -1,0 +1,83 @@
+"""The figure of one closed-loop run: the driven path against the optimum, and the controls sent."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from model.plotting.figures import LABELS, PALETTE, UNITS, apply_style, draw_obstacles
+from model.plotting.roads import draw_roundabout, draw_scale_bar
+from model.problem.ocp import OCP
+
+
+def closed_loop_figure(
+    ocp: OCP, optimum: Mapping[str, np.ndarray], driven: Mapping[str, np.ndarray], summary: Mapping
+) -> plt.Figure:
+    """The plant's path (closed_loop.csv) beside the open-loop optimum (optimum/trajectory.csv).
+
+    Parameters
+    ----------
+    ocp : OCP
+        The scenario's problem (its obstacles or road are drawn).
+    optimum : mapping
+        Node values of the optimum: t, x, y and the controls.
+    driven : mapping
+        The closed loop's rows: t, the plant's states and ``sent_<control>``.
+    summary : mapping
+        The run's summary.json (controller, errors, whether the goal was reached).
+
+    Returns
+    -------
+    Figure
+        The plan (left) and one panel per control over time (right).
+    """
+    apply_style()
+    optimum = {k: np.asarray(optimum[k], float) for k in optimum}
+    driven = {k: np.asarray(driven[k], float) for k in driven}
+    px, py = ocp.vehicle.position
+    controls = [c for c in ocp.vehicle.controls if f"sent_{c}" in driven]
+    fig = plt.figure(figsize=(9.5, 4.6), layout="constrained")
+    grid = fig.add_gridspec(max(1, len(controls)), 2, width_ratios=(1.25, 1))
+    ax = fig.add_subplot(grid[:, 0])
+    if ocp.road is not None:
+        draw_roundabout(ax, ocp, label=False)
+        draw_scale_bar(ax)
+    else:
+        draw_obstacles(ax, ocp.obstacles)
+    ax.plot(optimum[px], optimum[py], color="0.35", ls="--", lw=1.2, label="open-loop optimum")
+    ax.plot(driven[px], driven[py], color=PALETTE[0], label=f"closed loop: {summary.get('controller', '')}")
+    ax.plot(driven[px][-1], driven[py][-1], "o", color=PALETTE[3], ms=4, label="final position")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set(xlabel=f"{px} (m)", ylabel=f"{py} (m)")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=7, frameon=False)
+    for row, name in enumerate(controls):
+        panel = fig.add_subplot(grid[row, 1])
+        panel.plot(optimum["t"], optimum[name], color="0.35", ls="--", lw=1.0, label="optimum")
+        panel.step(driven["t"], driven[f"sent_{name}"], where="post", color=PALETTE[row], lw=1.0, label="sent")
+        unit = UNITS.get(name, "")
+        panel.set(ylabel=f"{LABELS.get(name, name)}" + (f" ({unit})" if unit else ""))
+        if row == len(controls) - 1:
+            panel.set(xlabel="t (s)")
+        panel.legend(loc="best", fontsize=7)
+    fig.suptitle(_title(ocp, summary), fontsize=9)
+    return fig
+
+
+def _title(ocp: OCP, summary: Mapping) -> str:
+    reached = "goal reached" if summary.get("reached_goal") else "goal NOT reached within the tolerance"
+    err = summary.get("final_position_error")
+    head = summary.get("final_heading_error")
+    numbers = ", ".join(
+        part
+        for part in (
+            f"final position error {err:.3g} m" if err is not None else "",
+            f"heading error {head:.3g} rad" if head is not None else "",
+        )
+        if part
+    )
+    return f"{ocp.title or ocp.name}\n{reached}" + (f" ({numbers})" if numbers else "")
+
+
+__all__ = ["closed_loop_figure"]
