@@ -13,7 +13,6 @@ main thread a second later, so one SIGINT always ends the command.
 
 from __future__ import annotations
 
-import _thread
 import logging
 import signal
 import sys
@@ -96,7 +95,7 @@ class Progress(logging.Handler):
             now = time.monotonic()
             if self.interrupted is not None and now - self.interrupted >= 1.0:  # the first one was swallowed
                 self.interrupted = now
-                _thread.interrupt_main()
+                signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
             elif now - self.last >= self.quiet_seconds and not self.quiet:
                 self.say(f"... {self.activity} ({now - self.started:.0f} s since the start)")
 
