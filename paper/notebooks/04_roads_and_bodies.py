@@ -27,7 +27,7 @@
 #    diagnosis the solver gives instead of an answer: which body crosses which edge, by how much.
 #
 # Runs as a notebook (jupytext) or as `python 04_roads_and_bodies.py`; figures are written to the
-# current folder. It takes about half a minute.
+# current folder. It runs in well under a minute and prints its own run time at the end.
 
 # %%
 import copy
@@ -174,7 +174,8 @@ print(f"apron outer edge Ri = {rb.inner_radius:g} m, island radius = {rb.island_
 # the road, and then solves a *minimal-violation* problem: the body constraints get slack
 # variables and their sum is minimised. The deepest exact encroachment of that trajectory is the
 # diagnosis: which body, which edge, how many metres, when and where. It comes from a local solve,
-# so it is an upper bound on what must give way, not a proof that less is impossible.
+# so it is an upper bound on what must give way, not a proof that less is impossible. In the
+# solution's `attempts` the last record, "minimal violation", stands for both of these tries.
 
 # %%
 truck_doc = tomllib.loads((ROOT / "examples" / "roundabout-truck.toml").read_text())
@@ -192,7 +193,7 @@ t0 = time.perf_counter()
 refused = tight_ocp.solve(intervals=30, search="quick", accuracy=None)
 refused_seconds = time.perf_counter() - t0
 diagnosis = refused.diagnosis
-print(f"ok = {refused.ok}, status = {refused.status} ({refused_seconds:.1f} s); routes tried: "
+print(f"ok = {refused.ok}, status = {refused.status} ({refused_seconds:.1f} s); attempts recorded: "
       + ", ".join(f"{a['route']} ({a['status']})" for a in refused.attempts))
 print("diagnosis:", diagnosis["message"])
 print(f"  body {diagnosis['body']!r}, edge {diagnosis['edge']!r}, {diagnosis['encroachment_m']:.2f} m at "
