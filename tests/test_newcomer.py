@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import json
 import os
 import signal
@@ -93,18 +92,35 @@ def test_start_lines_are_numbered_as_printed(tmp_path):
     assert numbers and numbers == list(range(1, len(numbers) + 1)), res.stderr
 
 
-def test_the_heartbeat_speaks_when_nothing_else_does():
-    stream = io.StringIO()
-    with Progress(stream=stream, quiet_seconds=0.3) as progress:
+def test_the_heartbeat_speaks_when_nothing_else_does(tmp_path):
+    """The watcher is a process of its own: it speaks while this one holds the GIL (a C loop here)."""
+    log = tmp_path / "progress.txt"
+    with log.open("w") as stream, Progress(stream=stream, quiet_seconds=0.3) as progress:
         progress.activity = "building the model"
-        time.sleep(1.0)
-    lines = stream.getvalue().splitlines()
-    assert len(lines) >= 2 and all("building the model" in line for line in lines)
-    silent = io.StringIO()
-    with Progress(stream=silent, quiet=True, quiet_seconds=0.1) as progress:
+        deadline = time.monotonic() + 1.2
+        while time.monotonic() < deadline:
+            sum(range(10**6))  # a busy main thread
+    lines = log.read_text().splitlines()
+    assert len(lines) >= 2 and all("building the model" in line for line in lines), lines
+    silent = tmp_path / "silent.txt"
+    with silent.open("w") as stream, Progress(stream=stream, quiet=True, quiet_seconds=0.1) as progress:
         progress("a phase")
-        time.sleep(0.3)
-    assert silent.getvalue() == ""
+        time.sleep(0.5)
+    assert silent.read_text() == ""
+
+
+def test_the_heartbeat_speaks_while_the_gil_is_held(tmp_path):
+    """A C call that never releases the interpreter lock (re.match on a pathological pattern)."""
+    import re
+
+    log = tmp_path / "progress.txt"
+    with log.open("w") as stream, Progress(stream=stream, quiet_seconds=0.3) as progress:
+        progress.activity = "inside C"
+        t0 = time.monotonic()
+        re.match(r"(a+)+$", "a" * 24 + "b")  # catastrophic backtracking, GIL held throughout
+        held = time.monotonic() - t0
+    if held > 1.0:
+        assert len(log.read_text().splitlines()) >= 2, (held, log.read_text())
 
 
 def test_check_refuses_what_solve_refuses(tmp_path):
@@ -154,7 +170,7 @@ def test_plot_refuses_what_it_cannot_draw(tmp_path):
 def test_a_swallowed_interrupt_is_raised_again():
     """An interrupt that a C callback dropped (here: simply recorded) is raised again within about a second."""
     t0 = time.monotonic()
-    with pytest.raises(KeyboardInterrupt), Progress(stream=io.StringIO(), quiet=True) as progress:
+    with pytest.raises(KeyboardInterrupt), Progress(quiet=True) as progress:
         progress.interrupted = time.monotonic()
         time.sleep(10)
     assert time.monotonic() - t0 < 5

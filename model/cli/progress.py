@@ -2,25 +2,31 @@
 
 The search reports each phase and each start through a callable (``Progress`` is one);
 Ipopt's long runs log their iterations (INFO on ``roundabout.ipopt``) and the solve layer
-names what it is doing (DEBUG on ``roundabout.solve``). A heartbeat thread prints what is
-being done whenever nothing has been printed for ``quiet_seconds``, so no phase of a
-long run is silent for more than 10 s. ``quiet=True`` prints nothing.
+names what it is doing (DEBUG on ``roundabout.solve``). A watcher prints what is being done
+whenever nothing has been printed for ``quiet_seconds``. It is a small forked process, not a
+thread: Ipopt's linear solves hold the interpreter lock for tens of seconds on large grids,
+where no thread of this process could print. ``quiet=True`` prints nothing.
 
 Ctrl-C raises KeyboardInterrupt as usual; where a C extension swallows it (a callback of
-cyipopt's that cannot raise drops the exception), the same thread raises it again in the
-main thread a second later, so one SIGINT always ends the command.
+cyipopt's that cannot raise drops the exception), the watcher sends SIGINT again a second
+later, so one SIGINT always ends the command.
 """
 
 from __future__ import annotations
 
 import logging
+import mmap
+import os
 import signal
+import struct
 import sys
 import threading
 import time
 from typing import TextIO
 
 LOGGER = "roundabout"
+_STATE = struct.Struct("ddB")  # last line printed, SIGINT received (monotonic s; 0: none), stop
+_TEXT = 256  # bytes of the activity kept after the state
 
 
 class Progress(logging.Handler):
@@ -29,11 +35,11 @@ class Progress(logging.Handler):
     Parameters
     ----------
     stream : text stream
-        Where the lines go (stderr).
+        Where the lines go (stderr); it must have a file descriptor.
     quiet : bool
         Print nothing at all.
     quiet_seconds : float
-        The heartbeat prints a line after this long without one (below 10 s).
+        The watcher prints a line after this long without one (below 10 s).
     """
 
     def __init__(self, stream: TextIO | None = None, quiet: bool = False, quiet_seconds: float = 6.0) -> None:
@@ -41,27 +47,47 @@ class Progress(logging.Handler):
         self.stream = stream or sys.stderr
         self.quiet = quiet
         self.quiet_seconds = quiet_seconds
-        self.activity = "starting"
-        self.started = self.last = time.monotonic()
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self.started = time.monotonic()
+        self._shared = mmap.mmap(-1, _STATE.size + _TEXT)
+        self._watcher: int | None = None
+        self._sigint = None
         self._logger = logging.getLogger(LOGGER)
         self._level = self._logger.level
-        self._sigint = None
-        self.interrupted: float | None = None
+        self._lock = threading.Lock()
+        self.activity = "starting"
+        self._set_state(last=self.started)
+
+    @property
+    def activity(self) -> str:
+        """What is being done now (the watcher's lines name it)."""
+        raw = self._shared[_STATE.size :]
+        return raw[1 : 1 + raw[0]].decode(errors="replace")
+
+    @activity.setter
+    def activity(self, text: str) -> None:
+        data = text.encode()[: _TEXT - 1]
+        self._shared[_STATE.size : _STATE.size + 1 + len(data)] = bytes([len(data)]) + data
+
+    @property
+    def interrupted(self) -> float | None:
+        """When SIGINT arrived (monotonic seconds), or None."""
+        return _STATE.unpack_from(self._shared)[1] or None
+
+    @interrupted.setter
+    def interrupted(self, when: float | None) -> None:
+        self._set_state(interrupted=when or 0.0)
 
     def say(self, line: str) -> None:
         """Print one line (indented under the command's first line) and restart the silence clock."""
         with self._lock:
-            self.last = time.monotonic()
+            self._set_state(last=time.monotonic())
             if not self.quiet:
                 print("  " + line, file=self.stream, flush=True)
 
     __call__ = say  # the search's progress callable
 
     def emit(self, record: logging.LogRecord) -> None:
-        """INFO and above are printed; DEBUG only names the current activity for the heartbeat."""
+        """INFO and above are printed; DEBUG only names the current activity for the watcher."""
         message = record.getMessage()
         if record.levelno >= logging.INFO:
             self.say(message)
@@ -73,14 +99,18 @@ class Progress(logging.Handler):
         self._logger.setLevel(logging.DEBUG)
         if threading.current_thread() is threading.main_thread():
             self._sigint = signal.signal(signal.SIGINT, self._on_sigint)
-        self._thread = threading.Thread(target=self._beat, name="progress", daemon=True)
-        self._thread.start()
+        self.stream.flush()
+        parent = os.getpid()
+        self._watcher = os.fork()
+        if self._watcher == 0:
+            self._watch(parent)  # never returns
         return self
 
     def __exit__(self, *exc) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=1.0)
+        self._set_state(stop=1)
+        if self._watcher:
+            os.waitpid(self._watcher, 0)
+            self._watcher = None
         if self._sigint is not None:
             signal.signal(signal.SIGINT, self._sigint)
         self._logger.removeHandler(self)
@@ -90,14 +120,32 @@ class Progress(logging.Handler):
         self.interrupted = time.monotonic()
         raise KeyboardInterrupt
 
-    def _beat(self) -> None:
-        while not self._stop.wait(min(0.5, self.quiet_seconds / 3)):
-            now = time.monotonic()
-            if self.interrupted is not None and now - self.interrupted >= 1.0:  # the first one was swallowed
-                self.interrupted = now
-                signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
-            elif now - self.last >= self.quiet_seconds and not self.quiet:
-                self.say(f"... {self.activity} ({now - self.started:.0f} s since the start)")
+    def _set_state(self, **values) -> None:
+        last, interrupted, stop = _STATE.unpack_from(self._shared)
+        state = {"last": last, "interrupted": interrupted, "stop": stop, **values}
+        _STATE.pack_into(self._shared, 0, state["last"], state["interrupted"], state["stop"])
+
+    def _watch(self, parent: int) -> None:
+        """The watcher process: heartbeat lines and a repeated SIGINT; ends with the command."""
+        try:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            fd = self.stream.fileno()
+            while True:
+                time.sleep(min(0.5, self.quiet_seconds / 3))
+                last, interrupted, stop = _STATE.unpack_from(self._shared)
+                if stop or os.getppid() != parent:
+                    break
+                now = time.monotonic()
+                if interrupted and now - interrupted >= 1.0:  # the first one was swallowed
+                    self._set_state(interrupted=now)
+                    os.kill(parent, signal.SIGINT)
+                elif now - last >= self.quiet_seconds:
+                    self._set_state(last=now)
+                    if not self.quiet:
+                        line = f"  ... {self.activity} ({now - self.started:.0f} s since the start)\n"
+                        os.write(fd, line.encode())
+        finally:
+            os._exit(0)
 
 
 __all__ = ["LOGGER", "Progress"]
