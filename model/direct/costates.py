@@ -78,7 +78,7 @@ def path_multipliers(
     families = [(name, comp) for name, comp in families if comp is not None]
     if not families:
         return {}, []
-    J = nlp.jacobian_at(x).tocsr()
+    J, body = nlp.jacobian_at(x).tocsr(), nlp.constraint_values_at(x)
     column = {id(v): i for i, v in enumerate(nlp.variables)}
     row = {id(c): i for i, c in enumerate(nlp.constraints)}
     nodes, states = m.nodes, ocp.vehicle.states
@@ -104,7 +104,7 @@ def path_multipliers(
         r = np.array([q[0] for q in rows])
         k = np.array([q[1] for q in rows])
         nu = np.array([float(m.dual[q[2]]) for q in rows])
-        c, side, active = _slack([q[2] for q in rows], nu)
+        c, side, active = _slack([q[2] for q in rows], body[r], nu)
         mu = np.bincount(k, weights=nu, minlength=n + 1) / weights
         weighted = np.asarray((G[r].multiply(nu[:, None])).sum(axis=0)).ravel().reshape(len(states), n + 1)
         value = np.bincount(k, weights=nu * active, minlength=n + 1) / weights
@@ -119,15 +119,12 @@ def path_multipliers(
     return columns, adjoined
 
 
-def _slack(datas: list, nu: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per row: the distance to its nearer bound, which bound that is (+1 lower, -1 upper), and
-    c = body - b for the bound b its dual ``nu`` pushes from (the lower one if nu >= 0)."""
-    c, side, active = [], [], []
-    for d, z in zip(datas, nu, strict=True):
-        body, lo, hi = float(pyo.value(d.body)), d.lower, d.upper
-        below = np.inf if lo is None else body - float(pyo.value(lo))
-        above = np.inf if hi is None else float(pyo.value(hi)) - body
-        c.append(min(below, above))
-        side.append(1.0 if below <= above else -1.0)
-        active.append(below if lo is not None and (z >= 0 or hi is None) else -above)
-    return np.array(c), np.array(side), np.array(active)
+def _slack(datas: list, body: np.ndarray, nu: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per row (its ``body`` value): the distance to its nearer bound, which bound that is (+1 lower,
+    -1 upper), and c = body - b for the bound b its dual ``nu`` pushes from (the lower one if nu >= 0)."""
+    lo = np.array([np.nan if d.lower is None else float(pyo.value(d.lower)) for d in datas])
+    hi = np.array([np.nan if d.upper is None else float(pyo.value(d.upper)) for d in datas])
+    below = np.where(np.isnan(lo), np.inf, body - lo)
+    above = np.where(np.isnan(hi), np.inf, hi - body)
+    use_lower = ~np.isnan(lo) & ((nu >= 0) | np.isnan(hi))
+    return np.minimum(below, above), np.where(below <= above, 1.0, -1.0), np.where(use_lower, below, -above)

@@ -421,6 +421,17 @@ class CasadiNLP(NLP):
         before presolve) at the reduced primal point ``x`` (an Ipopt answer), in CSC form."""
         return self._full_derivatives(self.full_primals(x))[1]
 
+    def constraint_values_at(self, x: np.ndarray) -> np.ndarray:
+        """The body of every row of ``constraints`` (the model before presolve; lo <= body <= hi)
+        at the reduced primal point ``x``, evaluated by the rows' CasADi templates."""
+        if not hasattr(self, "_row_fns"):
+            self._row_fns = [(b, b.mapped(b.row)) for b in self._blocks]
+        pool = self._pool(self.full_primals(x))
+        out = np.empty(len(self.constraints))
+        for b, fn in self._row_fns:
+            out[b.rows()] = b.values(fn, pool).T.ravel()
+        return out
+
     def _full_derivatives(self, x_full: np.ndarray):
         """Objective gradient and constraint Jacobian (CSC) of the model before presolve."""
         if not hasattr(self, "_kkt"):
