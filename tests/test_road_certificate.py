@@ -7,6 +7,8 @@ trajectory without the gradients, must not pass silently.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -27,6 +29,14 @@ def truck():
 @pytest.fixture(scope="module")
 def semitrailer():
     return load_scenario(SEMI).ocp.solve(intervals=40, search="quick", accuracy=None)
+
+
+@pytest.fixture(scope="module")
+def jackknife_limited():
+    """The semitrailer with the articulation held to 0.4 rad: the bound is active on both sides."""
+    ocp = load_scenario(SEMI).ocp
+    ocp = dataclasses.replace(ocp, bounds={**ocp.bounds, "articulation": (-0.4, 0.4)})
+    return ocp.solve(intervals=40, search="quick", accuracy=None)
 
 
 @pytest.mark.parametrize("which", ["truck", "semitrailer"])
@@ -68,6 +78,23 @@ def test_perturbed_road_multiplier_fails_adjoint(truck):
     cert = certify_trajectory(truck.ocp, traj, adjoined=truck.adjoined)
     assert cert["passed"] is False
     assert cert["items"]["adjoint"]["passed"] is False
+
+
+def test_active_articulation_bound_is_adjoined(jackknife_limited):
+    sol = jackknife_limited
+    assert sol.ok
+    cert = sol.certificate
+    assert cert["passed"] is True, cert
+    assert cert["items"]["adjoint"]["value"] < 1e-6
+    mu = sol.columns["mu_articulation"]
+    angle = sol.columns["theta"] - sol.columns["theta1"]
+    upper, lower = angle > 0.4 - 1e-6, angle < -0.4 + 1e-6
+    assert upper.any() and lower.any()
+    assert mu[upper].min() < -1e-2 and mu[lower].max() > 1e-2  # signed: <= 0 at the upper bound, >= 0 at the lower
+    assert (np.abs(mu[~(upper | lower)]) < 1e-3).all()
+    traj = sol.trajectory.copy()
+    traj["mu_articulation"] = 0.0
+    assert certify_trajectory(sol.ocp, traj, adjoined=sol.adjoined)["items"]["adjoint"]["passed"] is False
 
 
 def test_dropped_road_multipliers_fail_adjoint(truck):
