@@ -114,6 +114,7 @@ def test_road_trajectory_alone_is_not_applicable_with_a_reason(truck):
         assert "corridor" in item["reason"]
     assert set(cert["not_applicable"]) == {"adjoint", "hamiltonian", "transversality"}
     assert cert["items"]["maximum"]["passed"] is True
+    assert cert["passed"] is None  # not established: neither a silent false nor a true without the adjoint
 
 
 def test_derive_prints_the_adjoined_road_terms():

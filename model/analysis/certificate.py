@@ -29,8 +29,8 @@ one per family, from ``model.direct.costates.path_multipliers``). The adjoint, H
 transversality items then use p' = -dH/dx - sum_j mu_j dc_j/dx, and ``complementarity`` /
 ``multiplier_sign`` cover the families' rows too (``families``: each one's value). A trajectory
 alone (no ``adjoined``) of a problem with such constraints cannot be judged on those items: they
-say ``"status": "not applicable"`` with a ``"reason"``, are left out of ``passed`` and listed in
-``not_applicable``.
+say ``"status": "not applicable"`` with a ``"reason"`` and are listed in ``not_applicable``;
+``passed`` is then False if a judged item fails, else None (not established), never a silent True.
 """
 
 from __future__ import annotations
@@ -119,12 +119,13 @@ def certify_trajectory(
     if ocp.obstacles or (families and adjoined is not None):
         items["complementarity"] = _complementarity(ocp, cols, h, adjoined or ())
         items["multiplier_sign"] = _sign(cols["mu"], raw_duals, ocp, adjoined or ())
-    judged = [i["passed"] for i in items.values() if i.get("status") != "not applicable"]
-    out = {"passed": all(judged), "items": items, "flagged_nodes": {k: int(np.sum(f)) for k, f in flags.items()}}
+    skipped = {k: i["reason"] for k, i in items.items() if i.get("status") == "not applicable"}
+    judged = all(i["passed"] for k, i in items.items() if k not in skipped)
+    passed = judged and (None if skipped else True)  # a failure is False; passing with items not judged, None
+    out = {"passed": passed, "items": items, "flagged_nodes": {k: int(np.sum(f)) for k, f in flags.items()}}
     if adjoined:
         out["adjoined"] = {a.name: {"rows": a.rows, "max_mu": float(np.max(np.abs(cols.get(f"mu_{a.name}", 0.0))))}
                            for a in adjoined}  # fmt: skip
-    skipped = {k: i["reason"] for k, i in items.items() if i.get("status") == "not applicable"}
     if skipped:
         out["not_applicable"] = skipped
     return out

@@ -143,6 +143,9 @@ def _after(cols: dict, name: str, extra: dict) -> dict:
 
 def _certificate(sol: Solution) -> dict:
     """The PMP certificate (a diagnostic): an error in it never fails a solve."""
+    if getattr(sol.model, "slack_total", None) is not None:
+        reason = "the minimal-violation problem (the sum of the bodies' slacks) is not the scenario's control problem"
+        return {"passed": None, "status": "not applicable", "reason": reason}
     try:
         return certify(sol)
     except Exception as exc:  # noqa: BLE001
