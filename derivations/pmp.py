@@ -3,6 +3,14 @@
 Convention (project-wide): maximisation, H = p0 L + p . f + sum_j mu_j c_j with p0 = -1
 (normal) or 0 (abnormal), each obstacle constraint c_j = dist_j - R_j >= 0 adjoined
 directly with a multiplier density mu_j >= 0 and mu_j c_j = 0; p' = -dH/dx.
+
+Path constraints other than the obstacles are adjoined the same way (``PathFamily``): on a road
+each body's points (its cover-disc centres, or its corners) stay outside the island and inside the
+route's corridor, c(X_i, Y_i) >= 0 with (X_i, Y_i) a point of the body's pose; a bounded output
+(the articulation angle) lo <= g(x) <= hi. Their terms are kept apart from ``hamiltonian`` and
+``adjoint`` (``path_terms``, ``path_adjoint``): the corridor functions are the transcription's
+smooth geometry, not SymPy, so their gradients c_X, c_Y at the points are symbols here and the
+certificate takes their values from the NLP (``model.direct.costates``).
 """
 
 from __future__ import annotations
@@ -20,9 +28,26 @@ from derivations.symbolic import (
     multiplier,
     obstacle_symbols,
 )
+from model.vehicles import sym
 
 if TYPE_CHECKING:
     from model.problem.ocp import OCP
+
+
+ROAD_KINDS = {
+    "island": "the point stays outside the central island (the apron's inner edge where the body may use the apron)",
+    "corridor": "the point stays inside the route's corridor: the ring roadway inside the outer curb, the "
+    "entry and exit lanes and their fillet corners",
+    "keep_out": "the rectangle misses the island, the route's fillet discs and its lane lines outside the "
+    "outer curb (corners formulation only; a function of the four corners together)",
+}
+
+
+def road_family(body: str, kind: str) -> str:
+    """The name of a road row family, ``<body>_<kind>`` (its trajectory column is ``mu_<name>``)."""
+    if kind not in ROAD_KINDS:
+        raise ValueError(f"road row kind must be one of {tuple(ROAD_KINDS)}, got {kind!r}")
+    return f"{body}_{kind}"
 
 
 @dataclass
@@ -83,6 +108,26 @@ class SingularArc:
 
 
 @dataclass
+class PathFamily:
+    """One family of adjoined path constraints: its multiplier, constraint, H term and adjoint term.
+
+    ``name`` is the family (``vehicle_corridor``, ``trailer_island``, ``articulation``); the solve's
+    trajectory column of its multiplier density is ``mu_<name>``. ``term`` is its part of H and
+    ``adjoint`` its part of p' = -dH/dx, one entry per state. For a body's family the multiplier,
+    the constraint value and its gradients ``c_<name>_X``, ``c_<name>_Y`` at the body's point i are
+    indexed symbols summed over the points i = 1..n_<body>.
+    """
+
+    name: str
+    multiplier: sp.Expr
+    constraint: sp.Expr
+    description: str
+    term: sp.Expr
+    adjoint: list[sp.Expr]
+    point: tuple[sp.Expr, sp.Expr] | None = None
+
+
+@dataclass
 class PMPSystem:
     """Hamiltonian, adjoint equations, maximum condition and boundary conditions of one OCP."""
 
@@ -104,6 +149,17 @@ class PMPSystem:
     free_final_states: list[sp.Symbol]
     free_final_time: bool
     notes: list[str] = field(default_factory=list)
+    path: list[PathFamily] = field(default_factory=list)
+
+    @property
+    def path_terms(self) -> sp.Expr:
+        """sum_j mu_j c_j of the path families (0 without any): H with them is hamiltonian + this."""
+        return sum((f.term for f in self.path), sp.Integer(0))
+
+    @property
+    def path_adjoint(self) -> list[sp.Expr]:
+        """-d(path_terms)/dx per state: p' = adjoint + path_adjoint."""
+        return [sum((f.adjoint[i] for f in self.path), sp.Integer(0)) for i in range(len(self.states))]
 
     # -- look-ups -------------------------------------------------------------
     def law(self, control: str | sp.Symbol) -> ControlLaw:
@@ -242,8 +298,49 @@ def derive(ocp: OCP, abnormal: bool = False, symbolic_obstacles: bool = True) ->
         dynamics=dynamics, lagrangian=lagrangian, constraints=constraints, multipliers=multipliers,
         hamiltonian=ham, adjoint=adjoint, laws=laws, hessian=hessian, parameters=parameters,
         free_final_states=free, free_final_time=bool(ocp.cost.free_final_time),
-        notes=_notes(ocp),
+        notes=_notes(ocp), path=[*_output_families(ocp, states), *_road_families(ocp, states)],
     )
+
+
+def _output_families(ocp: OCP, states: list[sp.Symbol]) -> list[PathFamily]:
+    """Each bounded output lo <= g(x) <= hi, adjoined with one signed multiplier density."""
+    out = []
+    for name, g in ocp.vehicle.outputs().items():
+        if name not in ocp.bounds:
+            continue
+        lo, hi = ocp.bounds[name]
+        mu, bound = sym(f"mu_{name}"), sym(f"b_{name}")
+        text = (f"{lo:g} <= {name} = {sp.sstr(g)} <= {hi:g}; b_{name} is the active bound, mu_{name} >= 0 at "
+                f"the lower bound and <= 0 at the upper (mu_{name} (g - b_{name}) = 0)")  # fmt: skip
+        adjoint = [sp.simplify(-mu * sp.diff(g, s)) for s in states]
+        out.append(PathFamily(name, mu, g - bound, text, mu * (g - bound), adjoint))
+    return out
+
+
+def _road_families(ocp: OCP, states: list[sp.Symbol]) -> list[PathFamily]:
+    """Each body's island and corridor rows at its points (X_i, Y_i) = pose + (a_i, b_i) in the body frame."""
+    if ocp.road is None or not ocp.bodies:
+        return []
+    poses = ocp.vehicle.body_poses()
+    i = sp.Idx("i")
+    out = []
+    for body in ocp.bodies:
+        x, y, heading = poses[body]
+        a, b = sp.IndexedBase(f"a_{body}")[i], sp.IndexedBase(f"b_{body}")[i]
+        point = (x + a * sp.cos(heading) - b * sp.sin(heading), y + a * sp.sin(heading) + b * sp.cos(heading))
+        count = sp.Symbol(f"n_{body}", integer=True, positive=True)
+        for kind in ("island", "corridor"):
+            name = road_family(body, kind)
+            mu, c = sp.IndexedBase(f"mu_{name}")[i], sp.IndexedBase(f"c_{name}")[i]
+            grad = (sp.IndexedBase(f"c_{name}_X")[i], sp.IndexedBase(f"c_{name}_Y")[i])
+            adjoint = []
+            for s in states:
+                chain = sum((g * sp.diff(q, s) for g, q in zip(grad, point, strict=True)), sp.Integer(0))
+                chain = sp.simplify(chain)
+                adjoint.append(sp.Integer(0) if chain == 0 else -sp.Sum(mu * chain, (i, 1, count)))
+            text = f"c_{name}(X_i, Y_i) >= 0, {ROAD_KINDS[kind]}"
+            out.append(PathFamily(name, mu, c, text, sp.Sum(mu * c, (i, 1, count)), adjoint, point))
+    return out
 
 
 def _obstacle_terms(ocp: OCP, symbolic: bool) -> tuple[list[sp.Expr], list[sp.Symbol], dict]:
@@ -284,8 +381,7 @@ def _control_law(ham: sp.Expr, u: sp.Symbol, bounds: tuple[float, float], hessia
 def _notes(ocp: OCP) -> list[str]:
     """Caveats of the derivation that a reader must know."""
     notes = []
-    controls = set(ocp.vehicle.controls)
-    state_bounds = [k for k in ocp.bounds if k not in controls]
+    state_bounds = [k for k in ocp.bounds if k in ocp.vehicle.states]
     if state_bounds:
         notes.append(
             f"state bounds on {', '.join(sorted(state_bounds))} are not adjoined: the system "
@@ -293,6 +389,17 @@ def _notes(ocp: OCP) -> list[str]:
         )
     if ocp.obstacles:
         notes.append("mu >= 0 and mu*c = 0 (complementarity); p may jump at junctions with c = 0")
+    if ocp.road is not None and ocp.bodies:
+        bodies = ", ".join(ocp.bodies)
+        notes.append(
+            f"on the road the bodies ({bodies}) are kept in the route's corridor by constraints that are "
+            "adjoined to H: sum_j mu_j c_j over the families <body>_island and <body>_corridor at each "
+            "body's points i (its cover-disc centres on its axis, b_i = 0; the corners formulation uses "
+            "its four corners and adds a <body>_keep_out family), so p' = -dH/dx gains "
+            "-sum_j mu_j dc_j/dx; c_j is the transcription's smooth corridor geometry "
+            "(model/direct/bodies.py), whose gradient (c_X, c_Y) at a point the certificate evaluates "
+            "on the NLP"
+        )
     return notes
 
 

@@ -39,16 +39,19 @@ def _law_text(law: ControlLaw) -> list[str]:
 def pmp_text(system: PMPSystem) -> str:
     """Plain-text rendering: H, adjoints, maximum condition, constancy, transversality."""
     lines = [f"PMP system of {system.name!r}, {_kind(system)}, maximisation convention", ""]
-    lines.append(f"H = {sp.sstr(system.hamiltonian)}")
+    path = f" + {sp.sstr(system.path_terms)}" if system.path else ""
+    lines.append(f"H = {sp.sstr(system.hamiltonian)}{path}")
     lines.append("")
     lines.append("State equations:")
     lines += [f"  {s}' = {sp.sstr(f)}" for s, f in zip(system.states, system.dynamics, strict=True)]
-    lines.append("Adjoint equations (p' = -dH/dx):")
-    lines += [f"  {p}' = {sp.sstr(a)}" for p, a in zip(system.costates, system.adjoint, strict=True)]
+    lines.append("Adjoint equations (p' = -dH/dx" + (", path constraints adjoined" if system.path else "") + "):")
+    adjoint = [a + r for a, r in zip(system.adjoint, system.path_adjoint, strict=True)]
+    lines += [f"  {p}' = {sp.sstr(a)}" for p, a in zip(system.costates, adjoint, strict=True)]
     if system.constraints:
         lines.append("State constraints (c >= 0, multiplier >= 0, multiplier*c = 0):")
         lines += [f"  {m}: {sp.sstr(c)} >= 0"
                   for m, c in zip(system.multipliers, system.constraints, strict=True)]
+    lines += _path_text(system)
     lines.append("Maximum condition:")
     for law in system.laws:
         lines += _law_text(law)
@@ -59,6 +62,27 @@ def pmp_text(system: PMPSystem) -> str:
     lines.append("Parameters: " + ", ".join(f"{k} = {v:g}" for k, v in system.parameters.items()))
     lines += [f"Note: {n}" for n in system.notes]
     return "\n".join(lines)
+
+
+def _path_text(system: PMPSystem) -> list[str]:
+    """The adjoined path constraints: each family's multiplier and constraint, the bodies' points."""
+    if not system.path:
+        return []
+    lines = ["Path constraints adjoined to H (multiplier densities, trajectory.csv columns mu_<family>):"]
+    shown = set()
+    for f in system.path:
+        if f.point is not None and f.name.rsplit("_", 1)[0] not in shown:
+            body = f.name.rsplit("_", 1)[0]
+            shown.add(body)
+            x, y = (sp.sstr(q) for q in f.point)
+            lines.append(f"  points i = 1..n_{body} of the {body}: (X_i, Y_i) = ({x}, {y})")
+        lines.append(f"  {f.name}: {sp.sstr(f.multiplier)}, {f.description}")
+    if any(f.point is not None for f in system.path):
+        lines.append(
+            "  c_<family>_X, c_<family>_Y: the gradient of the family's constraint at the point; "
+            "the terms -sum_j mu_j dc_j/dx above are these gradients times d(X_i, Y_i)/dx"
+        )
+    return lines
 
 
 def _first_derivatives_text(system: PMPSystem) -> list[str]:
@@ -98,9 +122,10 @@ def _law_latex(system: PMPSystem, law: ControlLaw) -> list[str]:
 def pmp_latex(system: PMPSystem) -> str:
     """LaTeX rendering (Markdown with $$ blocks)."""
     out = [f"**PMP system of `{system.name}`**, {_kind(system)}, maximisation convention."]
-    out.append(rf"$$H = {tex(system, system.hamiltonian)}$$")
-    eqs = [rf"\dot{{{sp.latex(p)}}} &= {tex(system, a)}"
-           for p, a in zip(system.costates, system.adjoint, strict=True)]
+    path = f" + {tex(system, system.path_terms)}" if system.path else ""
+    out.append(rf"$$H = {tex(system, system.hamiltonian)}{path}$$")
+    adjoint = [a + r for a, r in zip(system.adjoint, system.path_adjoint, strict=True)]
+    eqs = [rf"\dot{{{sp.latex(p)}}} &= {tex(system, a)}" for p, a in zip(system.costates, adjoint, strict=True)]
     out.append(r"$$\begin{aligned}" + r" \\ ".join(eqs) + r"\end{aligned}$$")
     for law in system.laws:
         out += [f"$${line}$$" for line in _law_latex(system, law)]
@@ -109,5 +134,8 @@ def pmp_latex(system: PMPSystem) -> str:
     out.append("Transversality: " + (", ".join(f"${t}$" for t in trans) if trans else "none."))
     params = ", ".join(f"${sp.latex(k)} = {v:g}$" for k, v in system.parameters.items())
     out.append(f"Parameters: {params}.")
+    out += [
+        f"Path constraint `{f.name}` (multiplier ${tex(system, f.multiplier)}$): {f.description}." for f in system.path
+    ]
     out += [f"Note: {n}." for n in system.notes]
     return "\n\n".join(out)

@@ -20,9 +20,23 @@ density. Each item is {"value", "tolerance", "passed"} plus what it measured:
   (bang-bang: the sign of each switching function; energy: u = clip(psi)).
 - ``transversality``: p_i(Tf) = 0 for free final states (an O(h) end-node estimate).
 - ``complementarity``: max |mu c| and ``multiplier_sign``: mu >= 0 (raw duals if present).
+
+Path constraints other than the obstacles (on a road the bodies' island, corridor and keep-out
+rows, one family per body and kind; a bounded output such as the articulation) are adjoined:
+H = -L + p.f + mu c + sum_j mu_j c_j. Their multiplier densities are the trajectory columns
+``mu_<family>``; the gradients dc_j/dx are the NLP's, so they come with the solve (``Adjoined``,
+one per family, from ``model.direct.costates.path_multipliers``). The adjoint, Hamiltonian and
+transversality items then use p' = -dH/dx - sum_j mu_j dc_j/dx, and ``complementarity`` /
+``multiplier_sign`` cover the families' rows too (``families``: each one's value). A trajectory
+alone (no ``adjoined``) of a problem with such constraints cannot be judged on those items: they
+say ``"status": "not applicable"`` with a ``"reason"`` and are listed in ``not_applicable``;
+``passed`` is then False if a judged item fails, else None (not established), never a silent True.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -33,8 +47,32 @@ from model.problem.ocp import OCP
 TOL = {"recovery": 1e-7, "adjoint": 1e-5, "maximum": 1e-5, "complementarity": 1e-6, "sign": 1e-6}
 
 
+@dataclass(frozen=True)
+class Adjoined:
+    """One family of adjoined path constraints at the nodes, as the solve measured it.
+
+    ``name``: the family (its multiplier density is the trajectory column ``mu_<name>``);
+    ``gradient``: per state, dc/dx per unit of that density (the family's rows at a node weighted
+    by their multipliers), so that the family's part of dH/dx is ``mu_<name> * gradient``;
+    ``value``: likewise c, for the term mu c of H; ``complementarity``: max over its rows of
+    |nu c| (nu the row's multiplier mass, c its distance to its nearer bound); ``sign``: the most
+    negative multiplier mass on the side of its nearer bound (0 if none); ``rows``: how many.
+    """
+
+    name: str
+    gradient: Mapping[str, np.ndarray]
+    value: np.ndarray
+    complementarity: float
+    sign: float
+    rows: int
+
+
 def _item(value: float, tol: float, **extra) -> dict:
     return {"value": float(value), "tolerance": float(tol), "passed": bool(value <= tol), **extra}
+
+
+def _not_applicable(reason: str) -> dict:
+    return {"status": "not applicable", "reason": reason, "passed": None}
 
 
 def certify(solution) -> dict:
@@ -43,14 +81,18 @@ def certify(solution) -> dict:
     if not all(np.all(np.isfinite(col)) for col in traj.values()):
         return {"passed": False, "items": {}, "note": "non-finite trajectory"}
     raw = _raw_obstacle_duals(solution)
-    return certify_trajectory(ocp, traj, raw_duals=raw)
+    return certify_trajectory(ocp, traj, raw_duals=raw, adjoined=getattr(solution, "adjoined", None))
 
 
-def certify_trajectory(ocp: OCP, traj: Columns, raw_duals: np.ndarray | None = None) -> dict:
-    """The certificate from the node trajectory alone (e.g. a trajectory.csv).
+def certify_trajectory(
+    ocp: OCP, traj: Columns, raw_duals: np.ndarray | None = None, adjoined: Sequence[Adjoined] | None = None
+) -> dict:
+    """The certificate from the node trajectory (e.g. a trajectory.csv).
 
-    Only t, the states, controls, p_<state> and mu are read; H and the switching
-    functions are recomputed from the derivation engine's expressions.
+    Only t, the states, controls, p_<state>, mu and mu_<family> are read; H and the switching
+    functions are recomputed from the derivation engine's expressions. ``adjoined``: the path
+    constraint families of the solve (their gradients); without it a problem that has such
+    constraints gets "not applicable" adjoint, Hamiltonian and transversality items.
     """
     fns = pmp_functions(ocp)
     v = ocp.vehicle
@@ -58,30 +100,61 @@ def certify_trajectory(ocp: OCP, traj: Columns, raw_duals: np.ndarray | None = N
     if "mu" not in cols or not ocp.obstacles:
         cols["mu"] = np.zeros(len(cols["t"]))
     derived = fns.evaluate(cols)
-    cols["H"] = derived["H"]
-    cols.update({f"psi_{c}": derived[f"psi_{c}"] for c, _ in fns.laws})
     t = cols["t"]
     h = (t[-1] - t[0]) / (len(t) - 1)
+    families = _families(ocp)
+    path = _path_terms(adjoined, cols, v.states) if families else ({s: 0.0 for s in v.states}, 0.0)
+    cols["H"] = derived["H"] + (path[1] if path is not None else 0.0)
+    cols.update({f"psi_{c}": derived[f"psi_{c}"] for c, _ in fns.laws})
     mids = {s: _midpoints(cols[f"p_{s}"]) for s in v.states}
     flags = _flags(ocp, cols)
-    rhs = {s: derived[f"adjoint_{s}"] for s in v.states}
-    items = {
-        "costate_recovery": _recovery(mids, cols, v.states),
-        "adjoint": _adjoint(rhs, mids, h, flags, v.states),
-        "hamiltonian": _hamiltonian(ocp, cols, h, flags),
-        "maximum": _maximum(fns.laws, ocp, cols),
-    }
-    trans = _transversality(ocp, cols, rhs, h)
-    if trans is not None:
-        items["transversality"] = trans
-    if ocp.obstacles:
-        items["complementarity"] = _complementarity(ocp, cols, h)
-        items["multiplier_sign"] = _sign(cols["mu"], raw_duals)
-    return {
-        "passed": all(i["passed"] for i in items.values()),
-        "items": items,
-        "flagged_nodes": {k: int(np.sum(f)) for k, f in flags.items()},
-    }
+    rhs = {s: derived[f"adjoint_{s}"] - path[0][s] for s in v.states} if path is not None else None
+    reason = _reason(families, adjoined) if path is None else ""
+    items = {"costate_recovery": _recovery(mids, cols, v.states)}
+    items["adjoint"] = _adjoint(rhs, mids, h, flags, v.states) if rhs else _not_applicable(reason)
+    items["hamiltonian"] = _hamiltonian(ocp, cols, h, flags) if rhs else _not_applicable(reason)
+    items["maximum"] = _maximum(fns.laws, ocp, cols)
+    if any(s not in ocp.final for s in v.states):
+        items["transversality"] = _transversality(ocp, cols, rhs, h) if rhs else _not_applicable(reason)
+    if ocp.obstacles or (families and adjoined is not None):
+        items["complementarity"] = _complementarity(ocp, cols, h, adjoined or ())
+        items["multiplier_sign"] = _sign(cols["mu"], raw_duals, ocp, adjoined or ())
+    skipped = {k: i["reason"] for k, i in items.items() if i.get("status") == "not applicable"}
+    judged = all(i["passed"] for k, i in items.items() if k not in skipped)
+    passed = judged and (None if skipped else True)  # a failure is False; passing with items not judged, None
+    out = {"passed": passed, "items": items, "flagged_nodes": {k: int(np.sum(f)) for k, f in flags.items()}}
+    if adjoined:
+        out["adjoined"] = {a.name: {"rows": a.rows, "max_mu": float(np.max(np.abs(cols.get(f"mu_{a.name}", 0.0))))}
+                           for a in adjoined}  # fmt: skip
+    if skipped:
+        out["not_applicable"] = skipped
+    return out
+
+
+def _families(ocp: OCP) -> list[str]:
+    """What the problem adjoins besides the obstacles: bounded outputs, the bodies on a road."""
+    out = [name for name in ocp.vehicle.outputs() if name in ocp.bounds]
+    if ocp.road is not None and ocp.bodies:
+        out += [f"{body} corridor" for body in ocp.bodies]
+    return out
+
+
+def _reason(families: list[str], adjoined) -> str:
+    what = ", ".join(families)
+    if adjoined is None:
+        return (f"the path constraints ({what}) are adjoined with gradients dc/dx the solve takes from its NLP "
+                "(model.direct.costates.path_multipliers); a trajectory alone does not carry them")  # fmt: skip
+    return f"the trajectory lacks the multiplier columns mu_<family> of the path constraints ({what})"
+
+
+def _path_terms(adjoined, cols: dict, states) -> tuple[dict, np.ndarray] | None:
+    """sum_j mu_j dc_j/dx per state and sum_j mu_j c_j, or None if the families are unknown."""
+    if adjoined is None or any(f"mu_{a.name}" not in cols for a in adjoined):
+        return None
+    grad = {s: sum((cols[f"mu_{a.name}"] * a.gradient[s] for a in adjoined), np.zeros(len(cols["t"])))
+            for s in states}  # fmt: skip
+    value = sum((cols[f"mu_{a.name}"] * a.value for a in adjoined), np.zeros(len(cols["t"])))
+    return grad, value
 
 
 def _midpoints(p: np.ndarray) -> np.ndarray:
@@ -183,16 +256,30 @@ def _transversality(ocp: OCP, cols: dict, rhs: dict, h: float) -> dict | None:
     return _item(value, TOL["adjoint"], states=free)
 
 
-def _complementarity(ocp: OCP, cols: dict, h: float) -> dict:
-    """max |mu c| h: the node's multiplier mass (mu is a density) times its clearance."""
-    px, py = ocp.vehicle.position
-    c = np.min([ob.clearance(cols[px], cols[py]) for ob in ocp.obstacles], axis=0)
-    return _item(float(np.max(np.abs(cols["mu"] * c))) * h, TOL["complementarity"])
+def _complementarity(ocp: OCP, cols: dict, h: float, adjoined: Sequence[Adjoined]) -> dict:
+    """max |mu c| h: the node's multiplier mass (mu is a density) times its clearance; and the
+    path families' max |nu c| over their rows (``families``)."""
+    value, extra = 0.0, {}
+    if ocp.obstacles:
+        px, py = ocp.vehicle.position
+        c = np.min([ob.clearance(cols[px], cols[py]) for ob in ocp.obstacles], axis=0)
+        value = float(np.max(np.abs(cols["mu"] * c))) * h
+    if adjoined:
+        extra["families"] = {a.name: a.complementarity for a in adjoined}
+        value = max(value, *extra["families"].values())
+    return _item(value, TOL["complementarity"], **extra)
 
 
-def _sign(mu: np.ndarray, raw: np.ndarray | None) -> dict:
-    worst = float(np.min(raw)) if raw is not None and raw.size else float(np.min(mu))
-    return _item(max(0.0, -worst), TOL["sign"], source="raw duals" if raw is not None else "mu")
+def _sign(mu: np.ndarray, raw: np.ndarray | None, ocp: OCP, adjoined: Sequence[Adjoined]) -> dict:
+    extra, value = {}, 0.0
+    if ocp.obstacles:
+        worst = float(np.min(raw)) if raw is not None and raw.size else float(np.min(mu))
+        value = max(0.0, -worst)
+        extra["source"] = "raw duals" if raw is not None else "mu"
+    if adjoined:
+        extra["families"] = {a.name: max(0.0, -a.sign) for a in adjoined}
+        value = max(value, *extra["families"].values())
+    return _item(value, TOL["sign"], **extra)
 
 
 def _raw_obstacle_duals(solution) -> np.ndarray | None:
@@ -203,4 +290,4 @@ def _raw_obstacle_duals(solution) -> np.ndarray | None:
     return np.array([m.dual[m.obstacle[i, t]] for i in range(len(solution.ocp.obstacles)) for t in m.nodes])
 
 
-__all__ = ["certify", "certify_trajectory"]
+__all__ = ["Adjoined", "certify", "certify_trajectory"]

@@ -40,6 +40,7 @@ from collections.abc import Iterator
 import numpy as np
 import pyomo.environ as pyo
 
+from derivations.pmp import road_family
 from model.direct.expressions import sympy_to_pyomo
 from model.problem.ocp import OCP
 from model.scene.roundabout import apron_allowed, fillet_geometry, lane_side, leg_point
@@ -111,6 +112,7 @@ def _add_disc_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool, slack: float, 
         for j, offset in enumerate(offsets):
             centre = _pose_point(m, ocp, poses[name], float(offset), 0.0)
             _add_disc(m, ocp, f"body_{name}_{j}", centre, float(radius), apron, relax, k)
+            _register_disc(m, name, f"body_{name}_{j}")
 
 
 @contextlib.contextmanager
@@ -175,11 +177,36 @@ def _add_corner_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool) -> None:
             point = _pose_point(m, ocp, poses[name], float(ox), float(oy))
             tag = f"body_{name}_c{j}"  # a disc of radius CORNER_BUFFER: the corner with its buffer
             corners.append(_add_disc(m, ocp, tag, point, CORNER_BUFFER, apron, relax, CORNER_SHARPNESS))
+            _register_disc(m, name, tag)
         for tag, centre, radius in _keep_out_discs(ocp, apron):
             for box in (0, 1):
                 _add_keep_out(m, f"body_{name}_{tag}_{box}", corners, body, centre, radius, box, relax)
+                _register(m, name, "keep_out", m.component(f"body_{name}_{tag}_{box}_keep_out"))
         for tag, ends, normal in _keep_out_lines(ocp):
             _add_line_keep_out(m, f"body_{name}_{tag}", corners, body, ends, normal, relax)
+            _register(m, name, "keep_out", m.component(f"body_{name}_{tag}_keep_out"))
+
+
+def _register_disc(m: pyo.ConcreteModel, body: str, tag: str) -> None:
+    for kind in ("island", "corridor"):
+        _register(m, body, kind, m.component(f"{tag}_{kind}"))
+
+
+def _register(m: pyo.ConcreteModel, body: str, kind: str, component: pyo.Constraint) -> None:
+    """Record a row family member: ``body_rows(m)`` lists it for the costates and the certificate."""
+    m.body_row_list = [*getattr(m, "body_row_list", []), (road_family(body, kind), component)]
+
+
+def body_rows(m: pyo.ConcreteModel) -> list[tuple[str, pyo.Constraint]]:
+    """(family, constraint) of every body row of the model, the family ``<body>_<kind>``
+    (``derivations.pmp.ROAD_KINDS``: island, corridor, keep_out); empty off the road."""
+    return list(getattr(m, "body_row_list", []))
+
+
+def point_definitions(m: pyo.ConcreteModel) -> list[tuple[pyo.Var, pyo.Constraint]]:
+    """(variable, defining row) of every auxiliary point coordinate (a disc centre's or a corner's
+    x or y, ``var[t] == position(x[t])``): the body rows depend on the state through them."""
+    return list(getattr(m, "point_definition_list", []))
 
 
 def _keep_out_discs(ocp: OCP, apron: bool) -> list[tuple[str, tuple[float, float], float]]:
@@ -311,6 +338,7 @@ def _centre_variables(m: pyo.ConcreteModel, tag: str, position, rb):
         m.add_component(f"{tag}_{name}", var)
         rule = lambda _m, t, k=k, var=var: var[t] == position(t)[k]  # noqa: E731
         m.add_component(f"{tag}_{name}_def", pyo.Constraint(m.tau, rule=rule))
+        m.point_definition_list = [*getattr(m, "point_definition_list", []), (var, m.component(f"{tag}_{name}_def"))]
         derived = getattr(m, "derived_values", [])
         derived.append((var, lambda t, k=k: position(t)[k]))
         m.derived_values = derived

@@ -11,6 +11,13 @@ is the value for which the discrete maximum condition holds exactly at those nod
 The obstacle constraint is written dist^2 >= R^2; its dual z_k >= 0 is a point mass
 at node k, with quadrature weight w_k (h inside, h/2 at the ends). The density of
 the multiplier of c = dist - R >= 0 is then mu_k = 2 dist_k z_k / w_k >= 0.
+
+The other path constraints (``path_multipliers``: the bodies' rows on a road, one family per
+body and kind, ``model.direct.bodies.body_rows``, and the bounded outputs such as the
+articulation) are adjoined the same way, each row r at node k as it is written (c_r = its body
+minus its active bound): its density is nu_r / w_k (nu the Pyomo dual) and its share of p' is
+-nu_r dc_r/dx / w_k, the gradient taken from the NLP's own Jacobian (``CasadiNLP.jacobian_at``)
+through the rows that define the auxiliary points (disc centres, corners) from the state.
 """
 
 from __future__ import annotations
@@ -18,6 +25,9 @@ from __future__ import annotations
 import numpy as np
 import pyomo.environ as pyo
 
+from model.analysis.certificate import Adjoined
+from model.direct.bodies import body_rows, point_definitions
+from model.nlp.casadi_nlp import CasadiNLP
 from model.problem.ocp import OCP
 
 
@@ -49,3 +59,72 @@ def obstacle_multiplier(m: pyo.ConcreteModel, ocp: OCP, xy: tuple[np.ndarray, np
         dist = np.hypot(xy[0] - ob.center[0], xy[1] - ob.center[1])
         mu += 2 * dist * np.maximum(z, 0.0) / weights
     return mu
+
+
+def path_multipliers(
+    m: pyo.ConcreteModel, nlp: CasadiNLP, ocp: OCP, x: np.ndarray
+) -> tuple[dict[str, np.ndarray], list[Adjoined]]:
+    """The path constraints' multiplier columns ``mu_<family>`` and their parts of the adjoint.
+
+    Families: each bounded output (``mu_articulation``, signed: >= 0 at the lower bound, <= 0 at
+    the upper) and, on a road, ``<body>_<kind>`` (``mu_vehicle_corridor`` ...; >= 0), each the sum
+    over the family's rows at a node (the body's cover discs or corners) of nu_r / w_k. With them,
+    one ``Adjoined`` per family: its gradient per unit multiplier (sum_r nu_r dc_r/dx / sum_r nu_r
+    at each node), likewise its constraint value, and its complementarity and sign. ``x`` is the
+    reduced primal answer whose duals ``m.dual`` holds.
+    """
+    families = [(name, m.component(f"bound_{name}")) for name in ocp.vehicle.outputs() if name in ocp.bounds]
+    families += body_rows(m)
+    families = [(name, comp) for name, comp in families if comp is not None]
+    if not families:
+        return {}, []
+    J, body = nlp.jacobian_at(x).tocsr(), nlp.constraint_values_at(x)
+    column = {id(v): i for i, v in enumerate(nlp.variables)}
+    row = {id(c): i for i, c in enumerate(nlp.constraints)}
+    nodes, states = m.nodes, ocp.vehicle.states
+    n = len(nodes) - 1
+    h = float(pyo.value(m.tf)) / n
+    weights = np.full(n + 1, h)
+    weights[[0, -1]] = h / 2
+    cols = np.array([column[id(m.component(s)[t])] for s in states for t in nodes])
+    G = J[:, cols]  # rows x (state, node): the direct dependence on the state ...
+    defs = point_definitions(m)
+    if defs:  # ... plus that through the auxiliary points, a = position(x): da/dx = -J[def, x] / J[def, a]
+        aux = np.array([column[id(var[t])] for var, _ in defs for t in nodes])
+        drows = np.array([row[id(con[t])] for _, con in defs for t in nodes])
+        own = np.asarray(J[drows, aux]).ravel()
+        G = G - J[:, aux] @ (J[drows][:, cols].multiply(1.0 / own[:, None])).tocsr()
+    G = G.tocsr()
+    position = {t: k for k, t in enumerate(nodes)}
+    grouped: dict[str, list] = {}
+    for name, comp in families:
+        grouped.setdefault(name, []).extend((row[id(comp[t])], position[t], comp[t]) for t in comp)
+    columns, adjoined = {}, []
+    for name, rows in grouped.items():
+        r = np.array([q[0] for q in rows])
+        k = np.array([q[1] for q in rows])
+        nu = np.array([float(m.dual[q[2]]) for q in rows])
+        c, side, active = _slack([q[2] for q in rows], body[r], nu)
+        mu = np.bincount(k, weights=nu, minlength=n + 1) / weights
+        weighted = np.asarray((G[r].multiply(nu[:, None])).sum(axis=0)).ravel().reshape(len(states), n + 1)
+        value = np.bincount(k, weights=nu * active, minlength=n + 1) / weights
+        safe = np.where(mu != 0, mu, 1.0)
+        per_unit = {s: np.where(mu != 0, weighted[i] / weights / safe, 0.0) for i, s in enumerate(states)}
+        columns[f"mu_{name}"] = mu
+        adjoined.append(Adjoined(
+            name=name, gradient=per_unit, value=np.where(mu != 0, value / safe, 0.0),
+            complementarity=float(np.max(np.abs(nu * c), initial=0.0)),
+            sign=float(np.min(nu * side, initial=0.0)), rows=len(rows),
+        ))  # fmt: skip
+    return columns, adjoined
+
+
+def _slack(datas: list, body: np.ndarray, nu: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per row (its ``body`` value): the distance to its nearer bound, which bound that is (+1 lower,
+    -1 upper), and c = body - b for the bound b its dual ``nu`` pushes from (the lower one if nu >= 0)."""
+    lo = np.array([np.nan if d.lower is None else float(pyo.value(d.lower)) for d in datas])
+    hi = np.array([np.nan if d.upper is None else float(pyo.value(d.upper)) for d in datas])
+    below = np.where(np.isnan(lo), np.inf, body - lo)
+    above = np.where(np.isnan(hi), np.inf, hi - body)
+    use_lower = ~np.isnan(lo) & ((nu >= 0) | np.isnan(hi))
+    return np.minimum(below, above), np.where(below <= above, 1.0, -1.0), np.where(use_lower, below, -above)

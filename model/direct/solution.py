@@ -21,9 +21,11 @@ if TYPE_CHECKING:
 class Solution:
     """The result of ``OCP.solve``; ``ok`` is True only if Ipopt converged and validation passed.
 
-    ``columns`` holds the node values (t, states, controls, p_<state>, mu, H, psi_<control>)
-    as arrays; ``trajectory`` is the same as a pandas DataFrame, made on first use so that a
-    solve that only writes its files never imports pandas.
+    ``columns`` holds the node values (t, states, controls, p_<state>, mu, the path constraints'
+    mu_<family> on a road or with a bounded output, H, psi_<control>) as arrays; ``trajectory`` is
+    the same as a pandas DataFrame, made on first use so that a solve that only writes its files
+    never imports pandas. A solve also attaches ``adjoined`` (the families' gradients for the
+    certificate, ``model.direct.costates.path_multipliers``), ``model``, ``nlp`` and ``ipopt``.
     """
 
     ocp: OCP

@@ -20,7 +20,7 @@ import pyomo.environ as pyo
 from derivations.functions import pmp_functions
 from model.analysis.certificate import certify
 from model.analysis.validation import validate
-from model.direct.costates import costates, obstacle_multiplier
+from model.direct.costates import costates, obstacle_multiplier, path_multipliers
 from model.direct.solution import Solution, trapezoid_energy
 from model.direct.transcription import build_model, grid
 from model.nlp.casadi_nlp import CasadiNLP
@@ -111,6 +111,10 @@ def finish(
     if analyse:  # a screening answer is only a guess: its duals are never read
         nlp.load_duals(res.mult_g, res.x)
     cols = node_columns(m, ocp) if analyse else primal_columns(m, ocp)
+    adjoined = None
+    if analyse:  # the path constraints' multipliers (roads, bounded outputs) and their gradients
+        path, adjoined = path_multipliers(m, nlp, ocp, res.x)
+        cols = _after(cols, "mu", path)
     tf = float(pyo.value(m.tf))
     sol = Solution(
         ocp=ocp,
@@ -129,14 +133,27 @@ def finish(
     )
     if analyse and sol.status == "optimal" and not sol.validation["passed"]:
         sol.status = "validation_failed"
-    sol.model, sol.nlp, sol.ipopt = m, nlp, res
+    sol.model, sol.nlp, sol.ipopt, sol.adjoined = m, nlp, res, adjoined
     sol.certificate = _certificate(sol) if analyse else {"passed": None, "skipped": "screening"}
     sol.timings["analysis"] = time.perf_counter() - t0
     return sol
 
 
+def _after(cols: dict, name: str, extra: dict) -> dict:
+    """``cols`` with the columns ``extra`` inserted after the column ``name``."""
+    out = {}
+    for key, val in cols.items():
+        out[key] = val
+        if key == name:
+            out.update(extra)
+    return out
+
+
 def _certificate(sol: Solution) -> dict:
     """The PMP certificate (a diagnostic): an error in it never fails a solve."""
+    if getattr(sol.model, "slack_total", None) is not None:
+        reason = "the minimal-violation problem (the sum of the bodies' slacks) is not the scenario's control problem"
+        return {"passed": None, "status": "not applicable", "reason": reason}
     try:
         return certify(sol)
     except Exception as exc:  # noqa: BLE001

@@ -27,7 +27,7 @@ import numpy as np
 import pyomo.environ as pyo
 from pyomo.contrib.pynumero.interfaces.nlp import NLP
 from pyomo.core.expr.numvalue import native_numeric_types
-from scipy.sparse import coo_matrix, csr_matrix
+from scipy.sparse import coo_matrix, csc_matrix, csr_matrix
 
 from model.nlp.blocks import (
     Assembly,
@@ -415,6 +415,22 @@ class CasadiNLP(NLP):
             others = column.indices != r
             lam[r] = -(grad[c] + column.data[others] @ lam[column.indices[others]]) / J[r, c]
         return lam
+
+    def jacobian_at(self, x: np.ndarray) -> csc_matrix:
+        """The Jacobian of every row of ``constraints`` in every column of ``variables`` (the model
+        before presolve) at the reduced primal point ``x`` (an Ipopt answer), in CSC form."""
+        return self._full_derivatives(self.full_primals(x))[1]
+
+    def constraint_values_at(self, x: np.ndarray) -> np.ndarray:
+        """The body of every row of ``constraints`` (the model before presolve; lo <= body <= hi)
+        at the reduced primal point ``x``, evaluated by the rows' CasADi templates."""
+        if not hasattr(self, "_row_fns"):
+            self._row_fns = [(b, b.mapped(b.row)) for b in self._blocks]
+        pool = self._pool(self.full_primals(x))
+        out = np.empty(len(self.constraints))
+        for b, fn in self._row_fns:
+            out[b.rows()] = b.values(fn, pool).T.ravel()
+        return out
 
     def _full_derivatives(self, x_full: np.ndarray):
         """Objective gradient and constraint Jacobian (CSC) of the model before presolve."""
