@@ -55,6 +55,9 @@ def certify_trajectory(ocp: OCP, traj: Columns, raw_duals: np.ndarray | None = N
     fns = pmp_functions(ocp)
     v = ocp.vehicle
     cols = as_arrays(traj)
+    reason = _unadjoined_path_bound(ocp, cols)
+    if reason:
+        return {"passed": None, "items": {}, "not_applicable": reason}
     if "mu" not in cols or not ocp.obstacles:
         cols["mu"] = np.zeros(len(cols["t"]))
     derived = fns.evaluate(cols)
@@ -82,6 +85,21 @@ def certify_trajectory(ocp: OCP, traj: Columns, raw_duals: np.ndarray | None = N
         "items": items,
         "flagged_nodes": {k: int(np.sum(f)) for k, f in flags.items()},
     }
+
+
+def _unadjoined_path_bound(ocp: OCP, cols: dict) -> str:
+    """Why no certificate applies: a bound on a function of state and control (lateral acceleration)
+    active at some node; the engine does not adjoin it, so there H, p' and the maximum condition differ."""
+    v = ocp.vehicle
+    path = {k: e for k, e in v.path_outputs().items() if k in ocp.bounds}
+    if not path:
+        return ""
+    for name, values in zip(path, v.path_function(list(path.values()))(cols), strict=True):
+        lo, hi = ocp.bounds[name]
+        active = int(np.sum((values - lo < 1e-6 * max(1.0, abs(lo))) | (hi - values < 1e-6 * max(1.0, abs(hi)))))
+        if active:
+            return f"the {name} bound [{lo:g}, {hi:g}] (of state and control) is active at {active} nodes; not adjoined"
+    return ""
 
 
 def _midpoints(p: np.ndarray) -> np.ndarray:
