@@ -386,7 +386,7 @@ def driving_label(ocp: OCP, math: bool = True) -> str:
     if lateral is not None:
         lo, hi = lateral
         if math:
-            bound = rf"$|a_{{lat}}| \leq {hi:g}$" if lo == -hi else rf"$a_{{lat}} \in [{lo:g}, {hi:g}]$"
+            bound = rf"${lo:g} \leq a_{{lat}} \leq {hi:g}$"  # no "|": the label goes into Markdown tables
             parts.append(bound + " m/s$^2$")
         else:
             parts.append(f"|a_lat| <= {hi:g} m/s^2" if lo == -hi else f"a_lat in [{lo:g}, {hi:g}] m/s^2")

@@ -35,8 +35,8 @@ def note(summary: dict, ocp=None, columns=None) -> str:
     lateral = summary.get("lateral_acceleration") or {}
     if lateral.get("max_abs_nodes") is not None:
         dense = lateral.get("max_abs_dense")
-        between = f" ({dense:.2f} between nodes)" if dense is not None else ""
-        driving.append(f"max $|a_{{lat}}|$ {lateral['max_abs_nodes']:.2f} m/s$^2${between}")
+        between = f" ({dense:.3f} between nodes)" if dense is not None else ""
+        driving.append(f"max $|a_{{lat}}|$ {lateral['max_abs_nodes']:.3f} m/s$^2${between}")
     driving.append(f"$u_2$ changes sign {steering_changes(ocp, columns)} times")
     return text + "\n" + ", ".join(driving)
 

@@ -78,7 +78,7 @@ def comparison(scenarios: list[Path], results: Path) -> list[str]:
             f"{at_top_speed(fast, fc):.0f} % of the nodes and $u_2$ changes sign {changes(fast, fc)} times: "
             f"$T_f$ = {f['final_time']:.2f} s with a largest lateral "
             f"acceleration of {lateral(f, 'max_abs_nodes'):.2f} m/s$^2$. {slow.name} ({driving_label(slow)}): "
-            f"$T_f$ = {d['final_time']:.2f} s (objective {d['objective']:.2f}), largest $|a_{{lat}}|$ "
+            f"$T_f$ = {d['final_time']:.2f} s (objective {d['objective']:.2f}), largest absolute $a_{{lat}}$ "
             f"{lateral(d, 'max_abs_nodes'):.3f} m/s$^2$ at the nodes and {lateral(d, 'max_abs_dense'):.3f} between "
             f"them (the re-integrated controls), $u_2$ changes sign {changes(slow, dc)} times."
         )
