@@ -381,11 +381,17 @@ def _control_law(ham: sp.Expr, u: sp.Symbol, bounds: tuple[float, float], hessia
 def _notes(ocp: OCP) -> list[str]:
     """Caveats of the derivation that a reader must know."""
     notes = []
+    path = set(ocp.vehicle.path_outputs())
     state_bounds = [k for k in ocp.bounds if k in ocp.vehicle.states]
     if state_bounds:
         notes.append(
             f"state bounds on {', '.join(sorted(state_bounds))} are not adjoined: the system "
             "holds on arcs where they are inactive"
+        )
+    for name in sorted(path & set(ocp.bounds)):
+        notes.append(
+            f"the bound on {name} (a function of state and control) is not adjoined: the system holds on "
+            "arcs where it is inactive; where it is active the certificate does not apply"
         )
     if ocp.obstacles:
         notes.append("mu >= 0 and mu*c = 0 (complementarity); p may jump at junctions with c = 0")

@@ -131,7 +131,7 @@ def test_the_road_figure_draws_the_roundabout_and_the_bodies(tmp_path, doc):
     fig.savefig(tmp_path / "road.png", dpi=60)
     pixels = np.asarray(Image.open(tmp_path / "road.png").convert("L"), float)
     assert pixels.std() > 10  # not blank
-    assert len(fig.axes) == 4  # the plan and u1, phi, u2
+    assert len(fig.axes) == 5  # the plan and u1, u2, phi, the lateral acceleration
 
 
 def test_a_ring_too_narrow_for_the_truck_fails_with_a_diagnosis(tmp_path, doc):

@@ -97,6 +97,9 @@ def certify_trajectory(
     fns = pmp_functions(ocp)
     v = ocp.vehicle
     cols = as_arrays(traj)
+    reason = _unadjoined_path_bound(ocp, cols)
+    if reason:
+        return {"passed": None, "items": {}, "not_applicable": reason}
     if "mu" not in cols or not ocp.obstacles:
         cols["mu"] = np.zeros(len(cols["t"]))
     derived = fns.evaluate(cols)
@@ -155,6 +158,21 @@ def _path_terms(adjoined, cols: dict, states) -> tuple[dict, np.ndarray] | None:
             for s in states}  # fmt: skip
     value = sum((cols[f"mu_{a.name}"] * a.value for a in adjoined), np.zeros(len(cols["t"])))
     return grad, value
+
+
+def _unadjoined_path_bound(ocp: OCP, cols: dict) -> str:
+    """Why no certificate applies: a bound on a function of state and control (lateral acceleration)
+    active at some node; the engine does not adjoin it, so there H, p' and the maximum condition differ."""
+    v = ocp.vehicle
+    path = {k: e for k, e in v.path_outputs().items() if k in ocp.bounds}
+    if not path:
+        return ""
+    for name, values in zip(path, v.path_function(list(path.values()))(cols), strict=True):
+        lo, hi = ocp.bounds[name]
+        active = int(np.sum((values - lo < 1e-6 * max(1.0, abs(lo))) | (hi - values < 1e-6 * max(1.0, abs(hi)))))
+        if active:
+            return f"the {name} bound [{lo:g}, {hi:g}] (of state and control) is active at {active} nodes; not adjoined"
+    return ""
 
 
 def _midpoints(p: np.ndarray) -> np.ndarray:

@@ -3,7 +3,10 @@
 It reads only the node values (as written to trajectory.csv) and the OCP's SymPy
 definition: trapezoid defects, bounds, boundary conditions, obstacle clearance at
 the nodes and the pass direction decide; the clearance between the nodes and the
-drift of a scipy re-integration of the controls are measured and reported.
+drift of a scipy re-integration of the controls are measured and reported. The
+lateral acceleration (``Vehicle.lateral_acceleration``) is measured at the nodes and on
+the dense re-integration; bounded, it is checked at the nodes with the other bounds and
+between them within 5 % of the bound (``lateral_acceleration_dense``).
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ from model.analysis.columns import Columns, as_arrays
 from model.problem.ocp import OCP
 
 TOL = {"defect": 1e-6, "bound": 1e-6, "boundary": 1e-6, "clearance": 1e-6, "grid": 1e-9}
+DENSE_SHARE = 0.05  # between the nodes a bounded lateral acceleration may exceed its bound by 5 % of max(|lo|, |hi|)
+DENSE_STEPS = 10  # samples of the re-integration per interval
 
 
 def dynamics_function(ocp: OCP):
@@ -76,7 +81,13 @@ def validate(ocp: OCP, traj: Columns, tf: float, passing: str | None = None) -> 
         checks["exit_taken"] = _check(0.0, 0.0, measures["exit_taken"] == ocp.road.route.exit)
     else:
         measures["min_clearance"] = None
-    measures["reintegration"] = _reintegration_drift(ocp, t, X, U)
+    drift, dense = _reintegration_drift(ocp, t, X, U)
+    measures["reintegration"] = drift
+    if v.path_outputs():
+        measures["lateral_acceleration"] = lateral = _lateral_acceleration(ocp, traj, dense)
+        if "bound" in lateral:
+            ok = dense is not None and lateral["dense_excess"] <= DENSE_SHARE * lateral["scale"]
+            checks["lateral_acceleration_dense"] = _check(lateral["dense_excess"], DENSE_SHARE * lateral["scale"], ok)
     return {"passed": all(c["passed"] for c in checks.values()), "checks": checks, "measures": measures}
 
 
@@ -91,9 +102,32 @@ def _bound_violation(ocp: OCP, traj: dict[str, np.ndarray]) -> float:
 
 
 def _outputs(ocp: OCP, traj: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The vehicle's bounded outputs evaluated at the nodes."""
-    outputs = ocp.vehicle.outputs()
-    return dict(zip(outputs, ocp.vehicle.state_function(list(outputs.values()))(traj), strict=True))
+    """The vehicle's bounded outputs (of the state, and of state and control) evaluated at the nodes."""
+    v = ocp.vehicle
+    outputs, path = v.outputs(), v.path_outputs()
+    values = dict(zip(outputs, v.state_function(list(outputs.values()))(traj), strict=True))
+    return values | dict(zip(path, v.path_function(list(path.values()))(traj), strict=True))
+
+
+def _lateral_acceleration(ocp: OCP, traj: dict[str, np.ndarray], dense: dict[str, np.ndarray] | None) -> dict:
+    """max |a_lat| at the nodes and on the dense re-integration; with a bound, the dense excess over it.
+
+    ``dense_excess`` is the largest amount by which a_lat leaves [lo, hi] between the nodes (0 inside),
+    ``scale`` = max(|lo|, |hi|): the check allows 5 % of it (``DENSE_SHARE``).
+    """
+    v = ocp.vehicle
+    evaluate = v.path_function([v.path_outputs()["lateral_acceleration"]])
+    nodes = evaluate(traj)[0]
+    out: dict = {"max_abs_nodes": float(np.max(np.abs(nodes)))}
+    values = evaluate(dense)[0] if dense is not None else None
+    out["max_abs_dense"] = float(np.max(np.abs(values))) if values is not None else None
+    if "lateral_acceleration" in ocp.bounds:
+        lo, hi = ocp.bounds["lateral_acceleration"]
+        out["bound"] = [lo, hi]
+        out["scale"] = max(abs(lo), abs(hi))
+        series = values if values is not None else nodes
+        out["dense_excess"] = float(max(np.max(lo - series, initial=0.0), np.max(series - hi, initial=0.0)))
+    return out
 
 
 def _boundary_error(ocp: OCP, traj: dict[str, np.ndarray]) -> float:
@@ -120,11 +154,15 @@ def _dense_clearance(ocp: OCP, X: np.ndarray, f: np.ndarray, h: float, sub: int 
     return worst
 
 
-def _reintegration_drift(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray) -> dict:
+def _reintegration_drift(
+    ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray
+) -> tuple[dict, dict[str, np.ndarray] | None]:
     """Integrate the piecewise-linear controls from X(0) with scipy; compare at the nodes.
 
     Interval by interval (the controls are smooth inside each), carrying the integrated
-    state across nodes, so the drift accumulates as in one long integration.
+    state across nodes, so the drift accumulates as in one long integration. Also returns the
+    dense path: t, states and controls at ``DENSE_STEPS`` + 1 points of each interval (the
+    integrator's own dense output, which does not change its steps), or None if it failed.
     """
     from scipy.integrate import solve_ivp  # here, not at import: see model/nlp/imports.py
 
@@ -132,23 +170,32 @@ def _reintegration_drift(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray) 
     fn = sp.lambdify(v.state_symbols() + v.control_symbols(), v.rhs(numeric=True), "math")
     path = np.empty_like(X)
     path[:, 0] = X[:, 0]
+    share = np.linspace(0.0, 1.0, DENSE_STEPS + 1)
+    dense_t, dense_x, dense_u = [], [], []
     for k in range(len(t) - 1):
         t0, h, u0, du = t[k], t[k + 1] - t[k], U[:, k], U[:, k + 1] - U[:, k]
 
         def rhs(tt, x, t0=t0, h=h, u0=u0, du=du):
             return fn(*x, *(u0 + du * ((tt - t0) / h)))
 
-        sol = solve_ivp(rhs, (t0, t[k + 1]), path[:, k], rtol=1e-9, atol=1e-11, method="DOP853")
+        times = t0 + h * share
+        sol = solve_ivp(rhs, (t0, t[k + 1]), path[:, k], rtol=1e-9, atol=1e-11, method="DOP853", t_eval=times)
         if not sol.success:
-            return {"success": False, "message": sol.message}
+            return {"success": False, "message": sol.message}, None
         path[:, k + 1] = sol.y[:, -1]
+        dense_t.append(times)
+        dense_x.append(sol.y)
+        dense_u.append(u0[:, None] + du[:, None] * share[None, :])
     err = np.abs(path - X)
     ix, iy = v.states.index(v.position[0]), v.states.index(v.position[1])
     pos = np.hypot(path[ix] - X[ix], path[iy] - X[iy])
-    return {
+    drift = {
         "success": True,
         "max_position_error": float(np.max(pos)),
         "final_position_error": float(pos[-1]),
         "max_state_error": {s: float(np.max(err[i])) for i, s in enumerate(v.states)},
         "final_state_error": {s: float(err[i, -1]) for i, s in enumerate(v.states)},
     }
+    states, controls = np.concatenate(dense_x, axis=1), np.concatenate(dense_u, axis=1)
+    dense = {"t": np.concatenate(dense_t)} | dict(zip(v.states, states, strict=True))
+    return drift, dense | dict(zip(v.controls, controls, strict=True))

@@ -82,6 +82,8 @@ class Solution:
             "valid": bool(self.validation.get("passed")),
             "validation": self.validation.get("checks", {}),
             "reintegration": measures.get("reintegration"),
+            **({k: measures[k] for k in ("lateral_acceleration",) if k in measures}),
+            **self._steering_cost(),
             **({"accuracy": self.accuracy} if self.accuracy else {}),
             "solver_message": self.solver_message,
             "attempts": self.attempts,
@@ -89,6 +91,14 @@ class Solution:
             "certificate": self.certificate,
             **({"diagnosis": self.diagnosis} if self.diagnosis is not None else {}),
         }
+
+    def _steering_cost(self) -> dict:
+        """``steering_weight`` w and ``steering_integral`` (integral of u2^2 dt, trapezoid) of a weighted time cost."""
+        w = float(getattr(self.ocp.cost, "steering_weight", 0.0) or 0.0)
+        if not w or "u2" not in self.columns:
+            return {}
+        integral = float(np.trapezoid(np.asarray(self.columns["u2"]) ** 2, self.columns["t"]))
+        return {"steering_weight": w, "steering_integral": integral}
 
     def write(self, out: str | Path) -> None:
         """Write summary.json, trajectory.csv (and, on a road, swept_path.geojson) into ``out``.

@@ -46,8 +46,10 @@ PANEL_LABELS = {
     "u1": ("speed $u_1$", "m/s", 1.0),
     "u2": (r"steering rate $u_2$", "deg/s", DEG),
     "phi": (r"steering $\phi$", "deg", DEG),
+    "lateral_acceleration": (r"lateral $a_{lat}$", "m/s$^2$", 1.0),
     "articulation": (r"articulation $\theta-\theta_1$", "deg", DEG),
 }
+KMH = 3.6  # km/h per m/s
 
 
 # --------------------------------------------------------------------------- shapes as patches
@@ -304,8 +306,9 @@ def road_figure(
     cols = {k: np.asarray(columns[k], float) for k in ("t", *v.states, *v.controls)}
     (x0, x1), (y0, y1) = plan_limits(ocp, cols)
     plan_width = 4.9
-    fig = plt.figure(figsize=(7.4, max(4.0, 0.9 * plan_width * (y1 - y0) / (x1 - x0) + 1.3)), layout="constrained")
     rows = _panel_names(ocp, cols)
+    least = max(4.0, 1.0 * len(rows))  # about an inch per time panel, so that their labels do not overlap
+    fig = plt.figure(figsize=(7.4, max(least, 0.9 * plan_width * (y1 - y0) / (x1 - x0) + 1.3)), layout="constrained")
     grid = fig.add_gridspec(len(rows), 2, width_ratios=(plan_width, 7.4 - plan_width))
     ax = fig.add_subplot(grid[:, 0])
     draw_roundabout(ax, ocp)
@@ -326,13 +329,71 @@ def road_figure(
 
 def _panel_names(ocp: OCP, cols: Mapping[str, np.ndarray]) -> list[str]:
     names = [c for c in ("u1", "u2", "phi") if c in cols]
+    names += [k for k in ocp.vehicle.path_outputs() if k == "lateral_acceleration"]
     return names + [k for k in ocp.vehicle.outputs() if k == "articulation"]
 
 
 def _panel_values(ocp: OCP, cols: Mapping[str, np.ndarray], name: str) -> np.ndarray:
     if name in cols:
         return cols[name]
-    return ocp.vehicle.state_function([ocp.vehicle.outputs()[name]])(cols)[0]
+    v = ocp.vehicle
+    if name in v.path_outputs():
+        return v.path_function([v.path_outputs()[name]])(cols)[0]
+    return v.state_function([v.outputs()[name]])(cols)[0]
+
+
+# --------------------------------------------------------------------------- how the vehicle drives
+
+
+def sign_changes(values: np.ndarray, tol: float) -> int:
+    """How often a control changes sign along the nodes, values with |u| <= ``tol`` skipped.
+
+    Parameters
+    ----------
+    values : ndarray
+        Node values of one control (e.g. the steering rate u2).
+    tol : float
+        Values this close to 0 count as neither sign (for u2, 1e-3 of its largest bound).
+
+    Returns
+    -------
+    int
+        The number of sign changes: dozens for the bang-bang u2 of a time-optimal road solve.
+    """
+    signs = np.sign(np.asarray(values, float))
+    signs = signs[np.abs(values) > tol]
+    return int(np.sum(signs[1:] != signs[:-1]))
+
+
+def steering_changes(ocp: OCP, columns: Mapping[str, np.ndarray]) -> int:
+    """Sign changes of u2 along the nodes, ignoring |u2| <= 1e-3 of its largest bound."""
+    lo, hi = ocp.bounds["u2"]
+    return sign_changes(np.asarray(columns["u2"], float), 1e-3 * max(abs(lo), abs(hi)))
+
+
+def driving_label(ocp: OCP, math: bool = True) -> str:
+    """How the problem drives: time-optimal (bang-bang), or at its design speed with its comfort limits.
+
+    Every number is read from the problem: the largest forward speed of u1 (km/h), the
+    lateral-acceleration bound and the steering weight of the cost. With ``math``, TeX math in
+    ``$...$`` (matplotlib's mathtext and the paper's Markdown read it alike), else plain text.
+    """
+    lateral = ocp.bounds.get("lateral_acceleration")
+    weight = float(getattr(ocp.cost, "steering_weight", 0.0) or 0.0)
+    if lateral is None and not weight:
+        return "time-optimal (bang-bang steering, no lateral-acceleration limit)"
+    parts = [f"design speed {ocp.bounds['u1'][1] * KMH:.0f} km/h"]
+    if lateral is not None:
+        lo, hi = lateral
+        if math:
+            bound = rf"${lo:g} \leq a_{{lat}} \leq {hi:g}$"  # no "|": the label goes into Markdown tables
+            parts.append(bound + " m/s$^2$")
+        else:
+            parts.append(f"|a_lat| <= {hi:g} m/s^2" if lo == -hi else f"a_lat in [{lo:g}, {hi:g}] m/s^2")
+    if weight:
+        cost = rf"$J = T_f + {weight:g} \int u_2^2 \, dt$" if math else f"J = Tf + {weight:g} * integral of u2^2 dt"
+        parts.append(f"steering weight: {cost}")
+    return ", ".join(parts)
 
 
 def _time_panels(fig: plt.Figure, grid, ocp: OCP, cols: Mapping[str, np.ndarray], rows: list[str]) -> None:

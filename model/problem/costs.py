@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import sympy as sp
 
+from model.errors import InputError
 from model.vehicles import Vehicle, sym
 
 
@@ -36,13 +38,28 @@ class Energy(Cost):
 class Time(Cost):
     """J = Tf = integral of 1 dt, with a free final time.
 
+    ``steering_weight`` w > 0 makes it J = integral of (1 + w u2^2) dt = Tf + w integral of u2^2 dt
+    (scenario key ``[problem] steering_weight``): part of the Lagrangian, so the transcription, the
+    Pontryagin engine and the certificate read the same cost, and the maximum condition for u2 is a
+    projection (u2 = clip(p_phi / (2 w))) instead of bang-bang; 0 is the plain problem.
+
     ``rate_penalty`` eps > 0 adds eps * sum_k (u_{k+1} - u_k)^2 / h to the discrete
-    objective (a small regularisation against chattering); 0 is the plain problem.
+    objective (a small regularisation against chattering, not part of the Lagrangian); 0 is
+    the plain problem.
     """
 
     rate_penalty: float = 0.0
+    steering_weight: float = 0.0
     objective = "time"
     free_final_time = True
 
     def lagrangian(self, vehicle: Vehicle) -> sp.Expr:
-        return sp.Integer(1)
+        if not self.steering_weight:
+            return sp.Integer(1)
+        return sp.Integer(1) + self.steering_weight * sym("u2") ** 2
+
+    def __post_init__(self) -> None:
+        w = self.steering_weight
+        if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) or w < 0:
+            raise InputError("problem.steering_weight", f"must be a finite number >= 0 (s/rad^2), got {w!r}")
+        self.steering_weight = float(w)

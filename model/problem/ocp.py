@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from model.direct.solution import Solution
 
 PASSES = ("auto", "ccw", "cw")
+LATERAL = "lateral_acceleration"  # the [bounds] key of the vehicle's lateral acceleration, m/s^2
 
 
 @dataclass
@@ -87,13 +88,14 @@ class OCP:
     def validate(self) -> None:
         """Raise InputError naming the first inconsistent item."""
         v = self.vehicle
-        names = set(v.states) | set(v.controls) | set(v.outputs())
+        names = set(v.states) | set(v.controls) | set(v.outputs()) | set(v.path_outputs())
         positive = v.positive_parameters if v.positive_parameters is not None else tuple(v.parameters())
         for key, val in v.parameters().items():
             if not math.isfinite(val):
                 raise InputError(f"vehicle.{v.parameter_keys.get(key, key)}", f"must be a finite number, got {val}")
             if val <= 0 and key in positive:
                 raise InputError(f"vehicle.{v.parameter_keys.get(key, key)}", f"must be > 0, got {val}")
+        self._check_lateral_acceleration()
         for key, (lo, hi) in self.bounds.items():
             if key not in names:
                 raise InputError(f"bounds.{key}", f"unknown variable (model has {sorted(names)})")
@@ -109,6 +111,26 @@ class OCP:
         self._check_time()
         if self.passing not in PASSES:
             raise InputError("problem.pass", f"must be one of {PASSES}, got {self.passing!r}")
+
+    def _check_lateral_acceleration(self) -> None:
+        """``bounds.lateral_acceleration``: a model that defines it, finite lo < hi, and lo <= 0 <= hi."""
+        if LATERAL not in self.bounds:
+            return
+        if self.vehicle.lateral_acceleration is None:
+            raise InputError(
+                f"bounds.{LATERAL}",
+                f"the {self.vehicle.model or type(self.vehicle).__name__} model defines no "
+                "lateral-acceleration expression (Vehicle.lateral_acceleration)",
+            )
+        lo, hi = self.bounds[LATERAL]
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise InputError(f"bounds.{LATERAL}", f"must be two finite numbers in m/s^2, got [{lo}, {hi}]")
+        if not lo < hi:
+            raise InputError(f"bounds.{LATERAL}", f"lower bound {lo} must be below the upper bound {hi}")
+        if not lo <= 0 <= hi:
+            raise InputError(
+                f"bounds.{LATERAL}", f"[{lo}, {hi}] must contain 0 (driving straight has no lateral acceleration)"
+            )
 
     def _check_boundary(self, where: str, values: dict[str, float], require_all: bool) -> None:
         for key, val in values.items():

@@ -36,7 +36,7 @@ TOP_KEYS = {
     "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
     "disturbance", "control",
 }  # fmt: skip
-PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass", "weights"}
+PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass", "weights", "steering_weight"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
 OBJECTIVES = {"energy": Energy, "time": Time}
 
@@ -117,7 +117,18 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
 
 
 def _cost(objective: str, problem: dict[str, Any], vehicle: Vehicle):
-    """The objective; ``weights`` = {control = w > 0} weighs the energy's squared controls."""
+    """The objective; ``weights`` = {control = w > 0} weighs the energy's squared controls.
+
+    ``steering_weight`` = w >= 0 adds w * integral of u2^2 dt to the time objective.
+    """
+    if "steering_weight" in problem:
+        if objective != "time":
+            raise InputError(
+                "problem.steering_weight", f"applies to the time objective only (objective = {objective!r})"
+            )
+        if "u2" not in vehicle.controls:
+            raise InputError("problem.steering_weight", f"the {vehicle.model} model has no control u2")
+        return Time(steering_weight=number(problem, "steering_weight", "problem."))
     if "weights" not in problem:
         return OBJECTIVES[objective]()
     if objective != "energy":

@@ -37,6 +37,38 @@ class Vehicle:
         """Named functions of the state that ``[bounds]`` may limit (e.g. the articulation angle)."""
         return {}
 
+    @property
+    def lateral_acceleration(self) -> sp.Expr | None:
+        """The signed lateral acceleration of the reference point, m/s^2, as a SymPy expression.
+
+        Speed along the path times the yaw rate (> 0 turning left), a function of the states,
+        the controls and the parameters; ``[bounds] lateral_acceleration`` limits it at every node.
+        None for a model that does not define it (such a bound is then an input error).
+        """
+        return None
+
+    def path_outputs(self) -> dict[str, sp.Expr]:
+        """Named functions of the state and the control that ``[bounds]`` may limit (``lateral_acceleration``)."""
+        a_lat = self.lateral_acceleration
+        return {} if a_lat is None else {"lateral_acceleration": a_lat}
+
+    def path_function(self, exprs: list[sp.Expr]):
+        """Numpy evaluation of expressions of the state and the control (parameters substituted).
+
+        Returns a function of a mapping name -> array (states and controls) giving one float array
+        per expression, broadcast to the shape of the first state.
+        """
+        values = {sym(k): v for k, v in self.parameters().items()}
+        args = self.state_symbols() + self.control_symbols()
+        fn = sp.lambdify(args, [sp.sympify(e, strict=True).subs(values) for e in exprs], "numpy")
+        names = self.states + self.controls
+
+        def evaluate(columns) -> list[np.ndarray]:
+            shape = np.shape(columns[self.states[0]])
+            return [np.broadcast_to(np.asarray(a, float), shape) for a in fn(*[columns[n] for n in names])]
+
+        return evaluate
+
     def body_poses(self) -> dict[str, tuple[sp.Expr, sp.Expr, sp.Expr]]:
         """Reference point (x, y) and heading of each body that can be attached, by body name."""
         px, py = self.position

@@ -54,6 +54,12 @@ class TractorTrailer(Vehicle):
             "theta1": (u1 / L) * (sp.sin(beta) + (h / d) * sp.tan(phi) * sp.cos(beta)),
         }
 
+    @property
+    def lateral_acceleration(self) -> sp.Expr:
+        """The tractor's: u1^2 tan(phi) / d at its rear axle, as the truck's."""
+        u1, phi, d = sym("u1"), sym("phi"), sym("d")
+        return u1**2 * sp.tan(phi) / d
+
     def outputs(self) -> dict[str, sp.Expr]:
         """``articulation`` = theta - theta1, the angle a jackknife limit bounds."""
         return {"articulation": sym("theta") - sym("theta1")}

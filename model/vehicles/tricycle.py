@@ -35,3 +35,9 @@ class Tricycle(Truck):
             "theta": u1 * sp.sin(phi) / d,
             "phi": u2,
         }
+
+    @property
+    def lateral_acceleration(self) -> sp.Expr:
+        """u1^2 sin(phi) cos(phi) / d: the rear axle's speed u1 cos(phi) times the yaw rate u1 sin(phi) / d."""
+        u1, phi, d = sym("u1"), sym("phi"), sym("d")
+        return u1**2 * sp.sin(phi) * sp.cos(phi) / d

@@ -32,3 +32,9 @@ class Truck(Vehicle):
             "theta": u1 * sp.tan(phi) / d,
             "phi": u2,
         }
+
+    @property
+    def lateral_acceleration(self) -> sp.Expr:
+        """u1^2 tan(phi) / d: the rear axle's speed u1 times the yaw rate u1 tan(phi) / d."""
+        u1, phi, d = sym("u1"), sym("phi"), sym("d")
+        return u1**2 * sp.tan(phi) / d

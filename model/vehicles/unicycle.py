@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from model.vehicles.base import Vehicle
+from model.vehicles.base import Vehicle, sym
 
 
 @dataclass
@@ -21,3 +21,8 @@ class Unicycle(Vehicle):
         x, y, theta = self.state_symbols()
         u1, u2 = self.control_symbols()
         return {"x": u1 * sp.cos(theta), "y": u1 * sp.sin(theta), "theta": u2}
+
+    @property
+    def lateral_acceleration(self) -> sp.Expr:
+        """u1 u2: the speed times the turn rate."""
+        return sym("u1") * sym("u2")

@@ -1,10 +1,14 @@
-"""Road scenarios: a roundabout, a route and vehicle bodies; one solve, one figure each, one paper section."""
+"""Road scenarios: a roundabout, a route and vehicle bodies; one solve, one figure each, one paper section.
+
+A road <name>-design.toml is the route <name> at a design speed (u1 bounded, [bounds] lateral_acceleration,
+[problem] steering_weight): the section sets it beside the time-optimal <name>."""
 
 _road_globs = [config.get("roads", "workflows/roads/*.toml")]
 ROAD_FILES = {Path(f).stem: f for g in _road_globs for f in sorted(glob(str(repo_path(g))))}
 ROADS = sorted(ROAD_FILES)
 ROAD_FIGURE_CODE = closure(SCRIPTS / "roads_figure.py")
 ROAD_ANIMATION_CODE = closure(SCRIPTS / "roads_animation.py")
+ROAD_SECTION_CODE = closure(SCRIPTS / "roads_section.py")
 # The one road animated in the paper (config key road_animation; none if it is not among ROADS).
 ROAD_ANIMATION = config.get("road_animation", "semitrailer-left-turn")
 ROAD_ANIMATIONS = [f"results/figures/roads/{ROAD_ANIMATION}.gif"] if ROAD_ANIMATION in ROAD_FILES else []
@@ -58,8 +62,10 @@ rule road_animation:
 rule road_section:
     input:
         summaries=expand("results/roads/{road}/summary.json", road=ROADS),
+        trajectories=expand("results/roads/{road}/trajectory.csv", road=ROADS),
         scenarios=[ROAD_FILES[r] for r in ROADS],
         script=SCRIPTS / "roads_section.py",
+        code=ROAD_SECTION_CODE,
     params:
         animation=" ".join(f"--animation {a}" for a in ROAD_ANIMATIONS),
     output:

@@ -3,26 +3,96 @@
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 from pathlib import Path
 
+import numpy as np
+
 from model.plotting.results import fmt
+from model.plotting.roads import KMH, driving_label, steering_changes
+from model.problem.ocp import OCP
 from model.problem.scenario import load_scenario
+
+DESIGN_SUFFIX = "-design"  # a road solved at its design speed, beside the time-optimal <road>
+
+
+def read(scenario: Path, results: Path) -> tuple[OCP, dict, dict[str, np.ndarray]]:
+    """The problem, its summary.json and the node columns of its trajectory.csv (empty for a failure)."""
+    ocp = load_scenario(scenario).ocp
+    s = json.loads((results / scenario.stem / "summary.json").read_text())
+    with (results / scenario.stem / "trajectory.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    return ocp, s, {k: np.array([float(r[k]) for r in rows]) for k in (rows[0] if rows else {})}
+
+
+def changes(ocp: OCP, cols: dict[str, np.ndarray]) -> int | None:
+    """How often u2 changes sign (None without a trajectory)."""
+    return steering_changes(ocp, cols) if "u2" in cols else None
+
+
+def at_top_speed(ocp: OCP, cols: dict[str, np.ndarray]) -> float:
+    """The share of the nodes (%) where u1 is within 1 % of its upper bound."""
+    top = ocp.bounds["u1"][1]
+    return 100.0 * float(np.mean(cols["u1"] >= top - 0.01 * abs(top)))
+
+
+def lateral(s: dict, key: str) -> float | None:
+    return (s.get("lateral_acceleration") or {}).get(key)
+
+
+def fixed(value: float | None) -> str:
+    """Three decimals (a bound of 2 m/s^2 reads 2.000 / 2.002), a dash for a missing value."""
+    return "–" if value is None else f"{value:.3f}"
 
 
 def row(scenario: Path, results: Path) -> str:
-    sc = load_scenario(scenario)
-    ocp = sc.ocp
-    s = json.loads((results / scenario.stem / "summary.json").read_text())
+    ocp, s, cols = read(scenario, results)
+    count = changes(ocp, cols)
     bodies = ", ".join(f"{n} {b.length:.2f} x {b.width:.2f} m" for n, b in ocp.bodies.items())
     ok = "valid" if s.get("valid") else f"FAILED ({(s.get('diagnosis') or {}).get('message', s.get('status'))})"
     return (
         f"| {ocp.name} | {ocp.vehicle.model} ({bodies}) | exit {ocp.road.route.exit} of "
-        f"{len(ocp.road.roundabout.legs)}, {ocp.road.roundabout.traffic}-hand | {s.get('objective_name')} | "
+        f"{len(ocp.road.roundabout.legs)}, {ocp.road.roundabout.traffic}-hand | {s.get('objective_name')}: "
+        f"{driving_label(ocp)} | "
         f"{fmt(s.get('final_time'))} | {fmt(s.get('energy'))} | {s.get('exit_taken')} | "
-        f"{fmt(s.get('min_clearance'), 3)} | {fmt(s.get('min_clearance_dense'), 3)} | {s.get('iterations')} "
-        f"| {ok} |"
+        f"{fmt(s.get('min_clearance'), 3)} | {fmt(s.get('min_clearance_dense'), 3)} | "
+        f"{fixed(lateral(s, 'max_abs_nodes'))} / {fixed(lateral(s, 'max_abs_dense'))} | "
+        f"{'–' if count is None else count} | {s.get('iterations')} | {ok} |"
     )
+
+
+def comparison(scenarios: list[Path], results: Path) -> list[str]:
+    """One sentence per design-speed road beside its time-optimal one, every number from the results."""
+    by_stem = {p.stem: p for p in scenarios}
+    lines = []
+    for stem, path in by_stem.items():
+        base = by_stem.get(stem.removesuffix(DESIGN_SUFFIX)) if stem.endswith(DESIGN_SUFFIX) else None
+        if base is None:
+            continue
+        (fast, f, fc), (slow, d, dc) = read(base, results), read(path, results)
+        if not (f.get("valid") and d.get("valid")):
+            continue
+        lines.append(
+            f"- {fast.name}: time-optimal, $u_1$ is at its bound of {fast.bounds['u1'][1] * KMH:.0f} km/h on "
+            f"{at_top_speed(fast, fc):.0f} % of the nodes and $u_2$ changes sign {changes(fast, fc)} times: "
+            f"$T_f$ = {f['final_time']:.2f} s with a largest lateral "
+            f"acceleration of {lateral(f, 'max_abs_nodes'):.2f} m/s$^2$. {slow.name} ({driving_label(slow)}): "
+            f"$T_f$ = {d['final_time']:.2f} s (objective {d['objective']:.2f}), largest absolute $a_{{lat}}$ "
+            f"{lateral(d, 'max_abs_nodes'):.3f} m/s$^2$ at the nodes and {lateral(d, 'max_abs_dense'):.3f} between "
+            f"them (the re-integrated controls), $u_2$ changes sign {changes(slow, dc)} times."
+        )
+    if lines:
+        lines = [
+            "The time-optimal solves drive as fast as the bounds allow, with bang-bang steering rates; the "
+            "design-speed solves of the same routes bound $u_1$ to the design speed (forward only), the signed "
+            "lateral acceleration $a_{lat} = u_1^2 \\tan\\phi / d$ of the (tractor's) rear axle at every node and "
+            "interval midpoint, and add the steering weight to the final time:",
+            "",
+            *lines,
+            "",
+        ]
+    return lines
 
 
 def animation(gif: Path) -> list[str]:
@@ -51,18 +121,21 @@ def main() -> None:
         "corridor at every node. Clearances are the smallest distance from a body to the edge of its allowed "
         'region (negative: an encroachment); "between nodes" is measured on linearly interpolated states.',
         "",
-        "| scenario | vehicle | route | objective | Tf (s) | energy | exit taken | clearance at nodes (m) "
-        "| between nodes (m) | iterations | result |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| scenario | vehicle | route | objective: driving | Tf (s) | energy | exit taken | clearance at nodes (m) "
+        "| between nodes (m) | max abs. lateral acc. nodes / between (m/s$^2$) | $u_2$ sign changes | iterations "
+        "| result |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
         *(row(s, args.results) for s in args.scenarios),
         "",
+        *comparison(args.scenarios, args.results),
     ]
     for s in args.scenarios:
         lines += [
             f"![{s.stem}: the plan to scale (curbs, hatched truck apron, central island, centre and "
             "give-way lines), each body's swept path outlined, the bodies along the path, the axle tracks; "
-            "right: speed u1, steering rate u2, steering angle phi and, for a trailer, the "
-            f"articulation angle over time, their bounds dashed](results/figures/roads/{s.stem}.png)",
+            "right: speed u1, steering rate u2, steering angle phi, lateral acceleration and, for a trailer, the "
+            f"articulation angle over time, their bounds dashed; {driving_label(load_scenario(s).ocp, math=False)}]"
+            f"(results/figures/roads/{s.stem}.png)",
             "",
         ]
     if args.animation:
