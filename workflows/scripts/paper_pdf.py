@@ -4,10 +4,9 @@ with its embedded fonts, and pypdfium2 renders the first pages to PNG for a look
 
 The first `# ` heading becomes the title, `[TOC]` a table of contents, display equations are numbered, an
 image alone in its paragraph becomes a figure captioned by its alt text, kept where the text puts it (no
-floating into later sections or into a table), an animated GIF a sheet of four of its frames (a temporary PNG),
-and the references of paper/references.bib are appended. Math that pandoc cannot convert, or that Typst
-rejects, stops the build with one line naming the TeX expression; the PDF is written to a temporary file and
-renamed, so a failed build leaves no PDF behind.
+floating into later sections or into a table), and the references of paper/references.bib are appended.
+Math that pandoc cannot convert, or that Typst rejects, stops the build with one line naming the TeX
+expression; the PDF is written to a temporary file and renamed, so a failed build leaves no PDF behind.
 """
 
 from __future__ import annotations
@@ -42,10 +41,6 @@ MARKER = re.compile(r"[-+=/]|\d+\.")
 FIGURE_WIDTH = 0.88  # of the text width (A4, 2.3 cm margins: 16.4 cm)
 TEXT_WIDTH_CM, MAX_FIGURE_HEIGHT_CM = 16.4, 16.0
 TABLE_END = re.compile(r"\n  \)\]\n  , kind: table")  # how pandoc's Typst writer closes a table
-# An animated GIF has no motion in a PDF (Typst shows its first frame, the start): the PDF shows a 2 x 2 sheet of
-# its frames at these fractions of the animation instead, and its caption says so.
-STILL_FRACTIONS = (0.25, 0.5, 0.75, 1.0)
-STILL_NOTE = " (PDF: the animation's frames at 1/4, 1/2, 3/4 and the end of the motion, left to right, top to bottom)"
 LOCATION = re.compile(r"─ (?P<file>[^\s:]+):(?P<line>\d+):(?P<col>\d+)")
 
 PREAMBLE = r"""#set document(title: {meta})
@@ -176,16 +171,14 @@ def take_title(ast: dict) -> list[dict]:
     return title
 
 
-def prepare(ast: dict, root: Path, stills: Path | None = None) -> list[str]:
+def prepare(ast: dict, root: Path) -> list[str]:
     """Rewrite the document for Typst in place and return its formulas (TeX) in order.
 
     Each formula is wrapped in Typst comment marks (to name it if Typst rejects it); ``[TOC]`` becomes
-    an outline; image paths become root-relative and must exist; an animated GIF becomes a sheet of its
-    frames written to ``stills`` (a folder under ``root``; None: the GIF as it is) and its caption says so;
-    raw HTML other than comments stops the build, since the Typst writer would drop it.
+    an outline; image paths become root-relative and must exist; raw HTML other than comments stops the
+    build, since the Typst writer would drop it.
     """
     formulas: list[str] = []
-    sheets: set[str] = set()
 
     def change(el: dict) -> list[dict] | None:
         kind = el["t"]
@@ -197,12 +190,7 @@ def prepare(ast: dict, root: Path, stills: Path | None = None) -> list[str]:
             return [raw(TOC, block=True)]
         if kind == "Image":
             el["c"][2][0] = image_path(el["c"][2][0], root)
-            if stills is not None and el["c"][2][0].lower().endswith(".gif"):
-                el["c"][2][0] = still_path(el["c"][2][0], root, stills)
-                sheets.add(el["c"][2][0])
             size_image(el, root)
-        if kind == "Figure" and figure_image(el) in sheets:
-            el["c"][1][1][0]["c"].append({"t": "Str", "c": STILL_NOTE})
         if kind in ("Plain", "Para") and el["c"] and el["c"][0]["t"] == "Str" and MARKER.fullmatch(el["c"][0]["c"]):
             mark = el["c"][0]["c"]
             el["c"][0] = raw("\\" + mark if mark in "-+=/" else mark[:-1] + "\\.")
@@ -214,36 +202,6 @@ def prepare(ast: dict, root: Path, stills: Path | None = None) -> list[str]:
 
     walk(ast["blocks"], change)
     return formulas
-
-
-def figure_image(el: dict) -> str | None:
-    """The path of the image a pandoc Figure holds (its first block's first inline), if any."""
-    blocks = el["c"][2]
-    first = blocks[0]["c"][0] if blocks and blocks[0]["t"] in ("Plain", "Para") and blocks[0]["c"] else {}
-    return first["c"][2][0] if first.get("t") == "Image" else None
-
-
-def frame_sheet(gif: Path, out: Path, fractions: tuple[float, ...] = STILL_FRACTIONS) -> None:
-    """Write to ``out`` (PNG) the frames of the animated ``gif`` at ``fractions`` of its frames, two per row."""
-    with Image.open(gif) as img:
-        last = getattr(img, "n_frames", 1) - 1
-        frames = []
-        for f in fractions:
-            img.seek(round(f * last))
-            frames.append(img.convert("RGB"))
-    w, h = frames[0].size
-    sheet = Image.new("RGB", (2 * w, h * ((len(frames) + 1) // 2)), "white")
-    for k, frame in enumerate(frames):
-        sheet.paste(frame, ((k % 2) * w, (k // 2) * h))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    sheet.save(out)
-
-
-def still_path(src: str, root: Path, stills: Path) -> str:
-    """The Typst path of the frame sheet of the GIF at Typst path ``src``, written to ``stills`` under ``root``."""
-    out = stills / (Path(src).with_suffix("").as_posix().strip("/").replace("/", "__") + ".png")
-    frame_sheet(root / src.lstrip("/"), out)
-    return "/" + out.resolve().relative_to(root.resolve()).as_posix()
 
 
 def image_path(src: str, root: Path) -> str:
@@ -283,9 +241,7 @@ def typst_string(text: str) -> str:
     return f'"{escaped}"'
 
 
-def to_typst(
-    markdown: str, root: Path, bibliography: str | None = None, stills: Path | None = None
-) -> tuple[str, list[str]]:
+def to_typst(markdown: str, root: Path, bibliography: str | None = None) -> tuple[str, list[str]]:
     """Typst source of a Markdown paper.
 
     Parameters
@@ -296,9 +252,6 @@ def to_typst(
         Folder that the image paths are relative to (it becomes the Typst root).
     bibliography : str, optional
         BibTeX source whose entries are all listed as References at the end.
-    stills : Path, optional
-        Folder under ``root`` for the frame sheets that stand for animated GIFs (None: the GIFs themselves,
-        of which Typst shows the first frame).
 
     Returns
     -------
@@ -313,7 +266,7 @@ def to_typst(
     tree, _ = run_pandoc(markdown, READER, "json", ["--columns=10000"])  # tables: columns sized by content
     ast = json.loads(tree)
     title = take_title(ast)
-    formulas = prepare(ast, root, stills)
+    formulas = prepare(ast, root)
     body, messages = run_pandoc(json.dumps(ast), "json", "typst")
     check_math_log(messages)
     body = TABLE_END.sub(r"\n    table.hline(stroke: 0.8pt),\g<0>", body)  # a bottom rule under each table
@@ -446,14 +399,11 @@ def build(md: Path, out: Path, root: Path, bibliography: Path | None = None, typ
         Where to save the Typst source as well (for inspection).
     """
     bib = bibliography.read_text() if bibliography else None
-    near = out.parent if out.parent.resolve().is_relative_to(root.resolve()) else root
-    near.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix=".stills-", dir=near) as stills:  # frame sheets, gone after the build
-        source, formulas = to_typst(md.read_text(), root, bib, Path(stills))
-        if typ:
-            typ.parent.mkdir(parents=True, exist_ok=True)
-            typ.write_text(source)
-        write_atomically(compile_pdf(source, root, formulas), out)
+    source, formulas = to_typst(md.read_text(), root, bib)
+    if typ:
+        typ.parent.mkdir(parents=True, exist_ok=True)
+        typ.write_text(source)
+    write_atomically(compile_pdf(source, root, formulas), out)
 
 
 def main(argv: list[str] | None = None) -> None:
