@@ -33,7 +33,7 @@ def energy_reason(key: str | None, claims: dict[str, dict]) -> str:
     claim = claims.get(f"sec5.energy_bound.{key}")
     if claim is None:
         return "no derivation claim for this scenario"
-    return f"[{claim['id']}: {claim['verdict']}] {claim['evidence']}"
+    return f"[{claim['id']}: {claim['verdict']}] {claim['evidence'].rstrip('.')} (energies in {ENERGY_UNIT})"
 
 
 def local_optima(attempts: list[dict], same: float = 1e-4) -> int:
