@@ -93,8 +93,8 @@ def paths_panel(ax, ocp, trajectories: dict) -> None:
     ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
     draw_scale_bar(ax)
     spread = path_spread(trajectories)
-    same = f"the paths lie within {spread:.2g} m of the time-optimal one; " if spread is not None else ""
-    ax.set_title(f"rear-axle paths to scale ({same}shaded: swept area of the fastest and slowest)", fontsize=8)
+    same = f": they coincide, within {spread:.2g} m of the time-optimal one" if spread is not None else ""
+    ax.set_title(f"rear-axle paths to scale{same}\n(shaded: swept area of the fastest and slowest)", fontsize=9)
     ax.legend(fontsize=7, loc="lower left")
 
 
@@ -135,8 +135,8 @@ def findings(tmin: dict, ok: list[dict], failed: list[dict], spread: float | Non
     return (
         f"The time-optimal manoeuvre takes T_min = {fmt(tmin['final_time'], 5)} s and spends J = {fmt(jt, 5)} {unit};"
         f" at {fmt(ok[0]['ratio'], 3)} T_min the energy-optimal one spends {fmt(ok[0]['energy'], 5)} {unit}"
-        f" ({fmt(100 * (1 - ok[0]['energy'] / jt), 3)} % less), at {fmt(last['ratio'], 3)} T_min"
-        f" {fmt(last['energy'], 5)} {unit} ({fmt(100 * (1 - last['energy'] / jt), 3)} % less). J decreases"
+        f", {fmt(100 * (1 - ok[0]['energy'] / jt), 3)} % less; at {fmt(last['ratio'], 3)} T_min"
+        f" {fmt(last['energy'], 5)} {unit}, {fmt(100 * (1 - last['energy'] / jt), 3)} % less. J decreases"
         f" {'monotonically' if mono else 'NOT monotonically'} with Tf over the points computed"
         + (f"; {len(failed)} solve(s) failed and are left out." if failed else ".")
         + f" The rear-axle path length {length_range([tmin, *ok])}{apart}, so the figure's paths coincide; the"
