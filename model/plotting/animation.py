@@ -4,7 +4,8 @@ Each frame shows the plan to scale (as in ``model.plotting.roads``), the bodies 
 time, the envelope each body has swept so far, the axle tracks so far and the planned rear-axle
 path ahead, and a time label. States between the nodes are interpolated linearly, as for the
 validation's dense check (``model.analysis.bodies.substeps``), so the last frame's envelope is the
-one ``swept_polygons`` gives. Written with matplotlib's PillowWriter (no ffmpeg needed).
+one ``swept_polygons`` gives. Written with Pillow (no ffmpeg needed), the last frame first: a viewer
+that shows only the first frame (the PDF) shows the complete manoeuvre.
 """
 
 from __future__ import annotations
@@ -17,11 +18,11 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import shapely
-from matplotlib.animation import PillowWriter
 from matplotlib.colors import to_rgb
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, PathPatch
 from matplotlib.patches import Polygon as PolygonPatch
+from PIL import Image
 
 from model.analysis.bodies import body_corners
 from model.plotting.figures import apply_style
@@ -166,22 +167,30 @@ class RoadAnimation:
             s.tracks[name].set_data(*xy[:upto].T)
         s.label.set_text(f"t = {t:5.1f} s")
 
-    def save(self, path: str | Path, fps: float = 12.0, hold: float = 1.5) -> Path:
-        """Write the GIF: the moving frames, then the last frame held ``hold`` seconds.
+    def _grab(self) -> Image.Image:
+        """The figure as it is drawn now, an RGBA image."""
+        self.fig.canvas.draw()
+        return Image.fromarray(np.asarray(self.fig.canvas.buffer_rgba()).copy())
 
-        Pillow merges identical consecutive frames, so the GIF has ``len(times)`` frames, the last
-        one lasting ``1 / fps + hold`` (rounded to whole frames).
+    def save(self, path: str | Path, fps: float = 12.0, hold: float = 1.5) -> Path:
+        """Write the GIF: the whole manoeuvre (the last frame) held ``hold`` seconds, then the moving frames.
+
+        The frames are drawn in order (the envelope grows) and written starting with the last one, so the
+        first frame, all that a PDF or a still viewer shows, is the complete manoeuvre, and the loop plays
+        as before: the motion from t = 0, then the complete manoeuvre held. The GIF has ``len(times)``
+        frames, the first one lasting ``1 / fps + hold`` (rounded to whole frames).
         """
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        writer = PillowWriter(fps=fps)
-        with writer.saving(self.fig, path, self.dpi):
-            for k in range(len(self.times)):
-                self.draw(k)
-                writer.grab_frame()
-            for _ in range(round(hold * fps)):
-                writer.grab_frame()
+        frames = []
+        for k in range(len(self.times)):
+            self.draw(k)
+            frames.append(self._grab())
         plt.close(self.fig)
+        step = 1000.0 / fps
+        durations = [round(step * (1 + round(hold * fps)))] + [round(step)] * (len(frames) - 1)
+        frames = [frames[-1], *frames[:-1]]
+        frames[0].save(path, save_all=True, append_images=frames[1:], duration=durations, loop=0)
         return path
 
 
@@ -209,7 +218,7 @@ def road_animation(
     duration : float
         Playing time of the moving part, s; ``round(fps * duration)`` frames.
     hold : float
-        How long the last frame stays before the GIF loops, s.
+        How long the complete manoeuvre (the last frame, written first) stays, s.
     dpi : float
         Pixels per inch of the 5.6 x 5.6 inch frames.
 

@@ -34,6 +34,9 @@ STYLE = {
 PALETTE = plt.get_cmap("tab10").colors
 LINESTYLES = ("-", "--", "-.", ":")
 UNITS = {"u1": "m/s", "u2": "rad/s", "x": "m", "y": "m", "theta": "rad", "phi": "rad"}
+# The energy J = 1/2 int (u1^2 + u2^2) dt adds an m^2/s term (u1 in m/s) and a rad^2/s term (u2 in rad/s): the
+# paper adds them as numbers in SI units (the radian counted as 1), so every J is written with this unit.
+ENERGY_UNIT = "m²/s + rad²/s"
 LABELS = {"u1": "$u_1$", "u2": "$u_2$", "x": "$x$", "y": "$y$", "theta": r"$\theta$", "phi": r"$\phi$"}
 
 
@@ -129,7 +132,8 @@ def path_panel(ax: plt.Axes, frame: pd.DataFrame, ocp, color=PALETTE[0], label: 
 
 def energy_panel(ax: plt.Axes, frame: pd.DataFrame) -> None:
     ax.plot(frame["t"], cumulative_energy(frame), color=PALETTE[4])
-    ax.set(xlabel="t (s)", ylabel=r"$E(t)=\frac{1}{2}\int_0^t (u_1^2+u_2^2)\,ds$", title="(d) cumulative energy")
+    label = r"$E(t)=\frac{1}{2}\int_0^t (u_1^2+u_2^2)\,ds$" + f" ({ENERGY_UNIT})"
+    ax.set(xlabel="t (s)", ylabel=label, title="(d) cumulative energy")
 
 
 def failed_figure(result: Result, title: str) -> plt.Figure:
@@ -166,7 +170,7 @@ def solution_figure(axes, frame: pd.DataFrame, result: Result, ocp) -> str:
     path_panel(axes[1, 0], frame, ocp)
     energy_panel(axes[1, 1], frame)
     return (f"{ocp.title or result.name}  (Tf = {result.summary['final_time']:.4g} s, "
-            f"E = {result.summary['energy']:.4g})")
+            f"E = {result.summary['energy']:.4g} ({ENERGY_UNIT}))")
 
 
 @_solved_grid

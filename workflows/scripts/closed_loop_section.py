@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from model.plotting.figures import PALETTE, apply_style, draw_obstacles, plt, save  # noqa: E402
+from model.plotting.figures import ENERGY_UNIT, PALETTE, apply_style, draw_obstacles, plt, save  # noqa: E402
 
 CONTROLLERS = ("open-loop", "tracking", "mpc")
 COLORS = {"open-loop": PALETTE[3], "tracking": PALETTE[2], "mpc": PALETTE[0]}
@@ -33,6 +33,7 @@ TABLE = {  # header -> how to write the cell from a row
     "reached": lambda r: f"{r['numbers']['reach_rate']:.0%}",
     "position error mean / worst (m)": lambda r: pair(r, "position_error"),
     "heading error mean / worst (rad)": lambda r: pair(r, "heading_error"),
+    "runs within position tol. / heading tol. / no failed step": lambda r: criteria_cell(r),
     "energy / optimum mean / worst": lambda r: pair(r, "energy_ratio", 4),
     "objective / optimum mean / worst": lambda r: pair(r, "objective_ratio", 4),
     "runs with clearance < 0": lambda r: fmt(r["numbers"]["violations"]),
@@ -61,12 +62,47 @@ def ms_pair(row: dict) -> str:
     return f"{fmt(None if mean is None else 1e3 * mean, 2)} / {fmt(None if worst is None else 1e3 * worst, 2)}"
 
 
+def criteria_cell(row: dict) -> str:
+    """How many runs meet each part of the goal criterion, e.g. '3 / 0 / 1 of 3' ('-' where unknown)."""
+    c = row.get("criteria")
+    if not c:
+        return "-"
+    return " / ".join("-" if c[k] is None else str(c[k]) for k in ("position", "heading", "steps")) + f" of {c['runs']}"
+
+
+def run_summaries(folder: Path) -> list[dict]:
+    """The setting's runs: runs.csv (several runs), else the one run's summary.json; [] if neither exists."""
+    if (folder / "runs.csv").exists():
+        return pd.read_csv(folder / "runs.csv").to_dict("records")
+    return [json.loads((folder / "summary.json").read_text())] if (folder / "summary.json").exists() else []
+
+
+def criteria(row: dict) -> dict | None:
+    """Per part of the goal criterion (position tolerance, heading tolerance, no failed step), the runs meeting it."""
+    tol, runs = row.get("goal_tolerance") or {}, run_summaries(Path(row["dir"]))
+    if not runs or tol.get("position") is None:
+        return None
+
+    def count(ok) -> int:
+        return sum(1 for r in runs if ok(r))
+
+    heading = "theta" in (tol.get("angle_states") or [])
+    return {
+        "runs": len(runs),
+        "position": count(lambda r: r["final_position_error"] <= tol["position"]),
+        "heading": count(lambda r: r["final_heading_error"] <= tol["angle"]) if heading else None,
+        "steps": count(lambda r: int(r["failed_steps"]) == 0),
+    }
+
+
 def load_rows(paths: Sequence[Path]) -> list[dict]:
-    """Each row.json with its folder (``dir``); rows whose optimum failed keep ``numbers`` None."""
+    """Each row.json with its folder (``dir``) and its runs' ``criteria``; rows whose optimum failed keep
+    ``numbers`` None."""
     rows = []
     for p in paths:
         row = json.loads(Path(p).read_text())
         row["dir"] = str(Path(p).parent)
+        row["criteria"] = criteria(row) if row.get("numbers") else None
         rows.append(row)
     return rows
 
@@ -142,8 +178,19 @@ def head(geometry: str, first: dict) -> str:
     )
     return (
         f"**{geometry}**: {first['title']}. Open-loop optimum: objective {fmt(opt['objective'], 6)}, energy "
-        f"{fmt(opt['energy'], 6)}, Tf {fmt(opt['final_time'], 4)} s, {cert}; goal tolerance "
-        f"{fmt(tol.get('position'), 3)} m, {fmt(tol.get('angle'), 2)} rad{keep_out}."
+        f"{fmt(opt['energy'], 6)} ({ENERGY_UNIT}), Tf {fmt(opt['final_time'], 4)} s, {cert}; {goal_text(tol)}"
+        f"{keep_out}."
+    )
+
+
+def goal_text(tol: dict) -> str:
+    """The goal criterion of the *reached* column, from the row's goal tolerance."""
+    angles = tol.get("angle_states")
+    names = " and ".join({"theta": "heading θ", "phi": "steering φ"}.get(a, a) for a in angles) if angles else "angle"
+    return (
+        f"a run *reached* the goal if its final position error is at most {fmt(tol.get('position'), 3)} m AND its"
+        f" final {names} error at most {fmt(tol.get('angle'), 2)} rad, with no failed controller step (both tolerances"
+        " are drawn in the error figure)"
     )
 
 
@@ -158,24 +205,39 @@ def table(rows: list[dict], geometry: str) -> list[str]:
     return [*lines, ""]
 
 
+ERRORS = (("position_error", "position", "final position error (m)"),
+          ("heading_error", "angle", "final heading error (rad)"))  # fmt: skip
+
+
+def error_panel(ax, rows: list[dict], geometry: str, key: str, tol_key: str) -> None:
+    """One final error (mean, worst as a bar) against the level, one line per controller, its tolerance dashed."""
+    for c in CONTROLLERS:
+        pts = [r for r in of(rows, geometry) if r["controller"] == c and r["numbers"]]
+        if not pts:
+            continue
+        lv = np.array([r["level"] for r in pts])
+        mean = np.array([max(r["numbers"][f"{key}_mean"] or 0.0, 1e-9) for r in pts])
+        worst = np.array([max(r["numbers"][f"{key}_worst"] or 0.0, 1e-9) for r in pts])
+        ax.errorbar(lv, mean, yerr=[0 * mean, worst - mean], fmt="o-", capsize=3, color=COLORS[c], label=c)
+    tol = next((r["goal_tolerance"].get(tol_key) for r in of(rows, geometry) if r["numbers"]), None)
+    if tol:
+        ax.axhline(tol, color="0.4", ls="--", lw=1, label=f"goal tolerance {fmt(tol, 2)}")
+    ax.set(yscale="log", xlabel="disturbance level")
+
+
 def errors_figure(rows: list[dict], stem: Path, formats: Sequence[str]) -> None:
-    """Final position error (mean, worst as a bar) against the level, one line per controller, log scale."""
+    """Final position error (top) and heading error (bottom) against the level, one column per geometry.
+
+    A run reaches the goal only within both tolerances (and with no failed step), so the heading row shows
+    why runs inside the position tolerance can still count as not reached.
+    """
     shown = [g for g in geometries(rows) if len({r["level"] for r in of(rows, g)}) > 1] or geometries(rows)
-    fig, axes = plt.subplots(1, len(shown), figsize=(4.2 * len(shown), 3.4), squeeze=False)
-    for ax, g in zip(axes[0], shown, strict=True):
-        for c in CONTROLLERS:
-            pts = [r for r in of(rows, g) if r["controller"] == c and r["numbers"]]
-            if not pts:
-                continue
-            lv = np.array([r["level"] for r in pts])
-            mean = np.array([max(r["numbers"]["position_error_mean"], 1e-9) for r in pts])
-            worst = np.array([max(r["numbers"]["position_error_worst"], 1e-9) for r in pts])
-            ax.errorbar(lv, mean, yerr=[0 * mean, worst - mean], fmt="o-", capsize=3, color=COLORS[c], label=c)
-        tol = next((r["goal_tolerance"]["position"] for r in of(rows, g) if r["numbers"]), None)
-        if tol:
-            ax.axhline(tol, color="0.4", ls="--", lw=1, label="goal tolerance")
-        ax.set(yscale="log", xlabel="disturbance level", ylabel="final position error (m)", title=g)
-        ax.legend(loc="best")
+    fig, axes = plt.subplots(2, len(shown), figsize=(4.2 * len(shown), 6.2), squeeze=False, sharex="col")
+    for j, g in enumerate(shown):
+        for i, (key, tol_key, ylabel) in enumerate(ERRORS):
+            error_panel(axes[i, j], rows, g, key, tol_key)
+            axes[i, j].set(ylabel=ylabel, title=g if i == 0 else None)
+            axes[i, j].legend(loc="best", fontsize=7)
     save(fig, stem, formats)
 
 
@@ -306,7 +368,7 @@ def section(rows: list[dict], study: str, figures: Path | None) -> str:
         "optimum's controls replayed (open loop), a time-varying LQR tracking the optimal trajectory, and "
         "NMPC re-solving the scenario's own OCP from the measured state at every sample, warm-started. A "
         "level scales the geometry's level-1 disturbance (0: the model itself). Energies are the "
-        "unweighted 1/2 integral of u1^2 + u2^2 of the applied controls against that of the open-loop "
+        f"unweighted 1/2 integral of u1^2 + u2^2 ({ENERGY_UNIT}) of the applied controls against that of the open-loop "
         "optimum; clearances are over the samples; step times are wall-clock seconds of one controller "
         "call (realtime factor: the worst step over the sample time). Written by "
         "workflows/scripts/closed_loop_section.py from results/closed-loop.",
@@ -318,8 +380,9 @@ def section(rows: list[dict], study: str, figures: Path | None) -> str:
     lines += ["**Findings.** " + " ".join(findings(rows)), ""]
     if figures is not None:
         lines += [
-            f"![Final position error against the disturbance level (mean; bars up to the worst run; log "
-            f"scale), one line per controller; the goal tolerance dashed]({(figures / 'errors.png').as_posix()})",
+            f"![Final position error (top) and final heading error (bottom) against the disturbance level (mean;"
+            f" bars up to the worst run; log scale), one line per controller; each goal tolerance dashed: a run"
+            f" reaches the goal only below both (and with no failed step)]({(figures / 'errors.png').as_posix()})",
             "",
             f"![Closed-loop paths under the level-1 disturbance (first run) on the scene: the open-loop "
             f"optimum (reference) and the three controllers]({(figures / 'paths.png').as_posix()})",

@@ -3,10 +3,10 @@ pypandoc_binary wheel) turns the Markdown and its TeX math into Typst markup, th
 with its embedded fonts, and pypdfium2 renders the first pages to PNG for a look.
 
 The first `# ` heading becomes the title, `[TOC]` a table of contents, display equations are numbered, an
-image alone in its paragraph becomes a figure captioned by its alt text, and the references of
-paper/references.bib are appended. Math that pandoc cannot convert, or that Typst rejects, stops the build
-with one line naming the TeX expression; the PDF is written to a temporary file and renamed, so a failed
-build leaves no PDF behind.
+image alone in its paragraph becomes a figure captioned by its alt text, kept where the text puts it (no
+floating into later sections or into a table), and the references of paper/references.bib are appended.
+Math that pandoc cannot convert, or that Typst rejects, stops the build with one line naming the TeX
+expression; the PDF is written to a temporary file and renamed, so a failed build leaves no PDF behind.
 """
 
 from __future__ import annotations
@@ -66,7 +66,9 @@ PREAMBLE = r"""#set document(title: {meta})
       scale(x: f, y: f, reflow: true, body), counter(math.equation).display("(1)")))
   }}
 }})
-#show figure.where(kind: image): set figure(placement: auto)
+// figures stay where the text puts them (LaTeX's [H]): a float drifted into later sections, or split a table
+#show figure.where(kind: image): set figure(placement: none)
+#show heading: it => {{ place.flush(); it }}
 #show figure.caption: set text(size: 9pt)
 #show figure.where(kind: table): set text(size: 8pt)
 #show figure.where(kind: table): set par(justify: false)

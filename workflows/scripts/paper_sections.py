@@ -18,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from model.plotting.figures import ENERGY_UNIT
 from model.plotting.results import Result, comment_block, fmt, load_claims, load_result
 
 PLACEHOLDER = re.compile(r"\{\{\s*([a-z_]+)((?:\s+[^\s}]+)*)\s*\}\}")
@@ -84,7 +85,7 @@ def scenario_paragraph(r: Result) -> str:
         return (f"**The solve failed** ({r.status_text}). {reason} "
                 "The figures below show no solution: a failed solve is never plotted.")
     return (
-        f"Solved and validated: $T_f = {fmt(s['final_time'])}$ s, $E = {fmt(s['energy'])}$, "
+        f"Solved and validated: $T_f = {fmt(s['final_time'])}$ s, $E = {fmt(s['energy'])}$ ({ENERGY_UNIT}), "
         f"{s['iterations']} Ipopt iterations in {fmt(s['solve_seconds'], 2)} s on N = {s['intervals']} intervals. "
         f"The path passes the obstacle {s.get('pass')} (swept angle {fmt(s.get('swept_angle'), 3)} rad); "
         f"its smallest clearance beyond the safety distance is {fmt(s.get('min_clearance'), 3)} m at the nodes "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pandas as pd
 from studies_common import parser, scenario, table, write_json, write_text
 
+from model.plotting.figures import ENERGY_UNIT
 from model.studies.sweeps import convergence
 
 
@@ -25,6 +26,7 @@ def section(rows: list[dict], ladders: dict) -> str:
                     "scenario": "scenario",
                     "grids": "N",
                     "objective": "J (finest)",
+                    "unit": "unit of J",
                     "diffs": "successive change of J",
                     "order_J": "order of J",
                     "costate_change": "costate change (finest)",
@@ -53,9 +55,11 @@ def main() -> None:
         summary[name] = orders
         ok = bool(frame.ok.all())
         diffs = frame.objective.diff().abs().dropna().tolist()
+        time = scenario(name).cost.objective == "time"
         rows.append(
             {
                 "scenario": name,
+                "unit": "s (the final time)" if time else ENERGY_UNIT,
                 "grids": ",".join(map(str, ladder)),
                 "objective": frame.objective.iloc[-1] if ok else None,
                 "diffs": ", ".join(f"{d:.2e}" for d in diffs) if ok else "failed: " + ",".join(frame.status),

@@ -6,6 +6,7 @@ import numpy as np
 from studies_common import fmt, parser, table, write_json, write_text
 
 from model.indirect.shooting import example_problem, richardson, shoot
+from model.plotting.figures import ENERGY_UNIT
 from model.studies.sweeps import observed_orders, progress
 
 GRIDS = [100, 200, 400, 800]
@@ -55,7 +56,7 @@ def main() -> None:
                 " `scipy.optimize.least_squares` on DOP853 integrations (rtol 1e-12), started from the direct"
                 " solution's p(0).",
                 "",
-                table(rows, {"method": "method", "J": "J"}, digits=12),
+                table(rows, {"method": "method", "J": f"J [{ENERGY_UNIT}]"}, digits=12),
                 "",
                 f"Shooting {'converged' if shot.success else 'did not converge'} (residual {shot.residual:.1e},"
                 f" {shot.nfev} evaluations); observed orders of the direct J: "

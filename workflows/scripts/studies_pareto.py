@@ -8,8 +8,11 @@ import numpy as np
 import pandas as pd
 from studies_common import fmt, parser, plt, save, scenario, solved, table, write_json, write_text
 
+from derivations.paper.claims_numbers import PRINTED_RESULTS
+from model.plotting.figures import ENERGY_UNIT
 from model.studies.sweeps import front_statements, pareto_front
 
+PRINTED_ENERGIES = [e for _, _, _, e, _ in PRINTED_RESULTS]  # the seed paper's printed E of its cases
 # geometry (time scenario) -> the paper's energy cases on that front
 FRONTS = {"s1": ("time-s1", ["s1"]), "s2": ("time-s2", ["s2-case1", "s2-case2", "s2-case3"]), "s3": ("time-s3", ["s3"])}
 
@@ -59,7 +62,7 @@ def figure(fronts: pd.DataFrame, marks: list[dict], verdicts: dict, out: Path) -
                 m["case"], (m["final_time"], m["energy"]), fontsize=7, xytext=(4, 4), textcoords="offset points"
             )
     ax.set_xlabel("final time Tf [s] (dotted: minimum time)")
-    ax.set_ylabel("J = 1/2 int(u1^2 + u2^2) dt")
+    ax.set_ylabel(f"J = ½∫(u1² + u2²) dt ({ENERGY_UNIT})")
     ax.legend(fontsize=8)
     save(fig, out / "pareto")
 
@@ -107,13 +110,21 @@ def section(verdicts: dict, marks: list[dict], fronts: pd.DataFrame, fig: Path) 
                 "points": "points",
                 "failed": "failed",
                 "monotone": "J decreasing in Tf",
-                "C_max": "max C = 2J/Tf",
-                "C_bound": "u1max^2+u2max^2",
+                "C_max": "max C = 2J/Tf [m²/s² + rad²/s²]",
+                "C_bound": "u1max^2+u2max^2 [m²/s² + rad²/s²]",
                 "ratio": "C/bound near Tmin",
             },
         ),
         "",
-        table(samples, {"front": "geometry", "final_time_set": "Tf [s]", "objective": "J", "iterations": "iterations"}),
+        table(
+            samples,
+            {
+                "front": "geometry",
+                "final_time_set": "Tf [s]",
+                "objective": f"J [{ENERGY_UNIT}]",
+                "iterations": "iterations",
+            },
+        ),
         "",
         "What the fronts say about the paper's statements:",
         "",
@@ -124,7 +135,8 @@ def section(verdicts: dict, marks: list[dict], fronts: pd.DataFrame, fig: Path) 
         f" time (C/bound up to {fmt(max_ratio)} at 1.01 Tmin). At the paper's cases C is: "
         + ", ".join(f"{r['case']} {fmt(r['C'])}" for r in c_rows)
         + ".",
-        "- The paper's printed energies (27.7 to 71) lie far above every front: no admissible control reaches"
+        f"- The paper's printed energies ({fmt(min(PRINTED_ENERGIES))} to {fmt(max(PRINTED_ENERGIES))} {ENERGY_UNIT},"
+        " derivations/paper/claims_numbers.py) lie far above every front: no admissible control reaches"
         " them (J <= 1/2 C_bound Tf).",
         "",
         f"![Energy-optimal J against Tf; stars: the paper's cases; dotted: minimum time]({fig})",

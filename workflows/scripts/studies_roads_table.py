@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 from studies_common import fmt, parser, plt, table, write_text
 
-from model.plotting.figures import save
+from model.plotting.figures import ENERGY_UNIT, save
 
 
 def load(cells: list[Path]) -> list[dict]:
@@ -49,29 +49,79 @@ def flat(c: dict) -> dict:
     }
 
 
-def figure(df: pd.DataFrame, out: Path, formats: list[str]) -> None:
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.8), constrained_layout=True)
-    presets = list(dict.fromkeys(df.preset))
+MARKERS = {"o": "circles", "s": "squares", "^": "triangles", "D": "diamonds"}
+LINES = {"--": "dashed", "-": "solid", ":": "dotted", "-.": "dash-dotted"}
+PANELS = (("t_min", "minimum time (s)", "minimum time"),
+          ("swept_width_m", "swept width in the ring (m)", "swept width of the time-optimal manoeuvre"))  # fmt: skip
+
+
+def apron_style(j: int, lines: bool) -> dict:
+    """The j-th apron's marker (the first open, the others filled) and, where lines are drawn, its line style."""
+    return {"marker": list(MARKERS)[j % len(MARKERS)], "ls": list(LINES)[j % len(LINES)] if lines else "none",
+            "mfc": "white" if j == 0 else None}  # fmt: skip
+
+
+def apron_words(j: int, lines: bool) -> str:
+    """The j-th apron's style in words, as apron_style draws it."""
+    st = apron_style(j, lines)
+    line = f", {LINES[st['ls']]} line" if lines else ""
+    return f"{'open' if j == 0 else 'filled'} {MARKERS[st['marker']]}{line}"
+
+
+def draws_lines(df: pd.DataFrame) -> bool:
+    """Lines join the points only where some vehicle and apron has valid cells at two or more ICDs."""
+    return bool((df[df.feasible].groupby(["preset", "apron"]).icd.nunique() > 1).any())
+
+
+def draw_group(axes, g: pd.DataFrame, x: pd.Series, color: str, style: dict, label: str) -> None:
+    """One vehicle and apron: its valid cells as points, its cells without a valid trajectory as x on the axis."""
+    ok = g.feasible.to_numpy(bool)
+    for ax, (column, _, _) in zip(axes, PANELS, strict=True):
+        ax.plot(x[ok], g[column][ok], color=color, ms=6, label=label, **style)
+        if (~ok).any():
+            ax.plot(x[~ok], [0.02] * int((~ok).sum()), "x", color=color, ms=8, mew=2,
+                    transform=ax.get_xaxis_transform(), clip_on=False)  # fmt: skip
+
+
+def figure(df: pd.DataFrame, out: Path, formats: list[str]) -> str:
+    """Minimum time and swept width against the ICD (or per vehicle, for one ICD); returns the caption.
+
+    Colour: the vehicle; marker (and line, where a line joins two ICDs): the apron. The caption is
+    made from what is drawn.
+    """
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), constrained_layout=True)
+    presets, aprons = list(dict.fromkeys(df.preset)), sorted(df.apron.unique())
+    by_icd, lines = df.icd.nunique() > 1, draws_lines(df)
     for k, name in enumerate(presets):
-        color = f"C{k}"
-        for apron, style in ((0.0, "--"), (2.0, "-")):
+        for j, apron in enumerate(aprons):
             g = df[(df.preset == name) & (df.apron == apron)].sort_values("icd")
-            ok = g[g.feasible]
-            label = f"{name}, apron {apron:g} m"
-            ax1.plot(ok.icd, ok.t_min, style, marker="o", ms=4, color=color, label=label)
-            ax2.plot(ok.icd, ok.swept_width_m, style, marker="o", ms=4, color=color, label=label)
-            bad = g[~g.feasible]
-            for ax in (ax1, ax2) if len(bad) else ():
-                ax.plot(bad.icd, [0.02] * len(bad), "x", color=color, ms=8, mew=2,
-                        transform=ax.get_xaxis_transform(), clip_on=False)  # fmt: skip
-    ax1.set_xlabel("inscribed circle diameter ICD (m)")
-    ax1.set_ylabel("minimum time (s)")
-    ax2.set_xlabel("inscribed circle diameter ICD (m)")
-    ax2.set_ylabel("swept width in the ring (m)")
-    ax1.set_title("minimum time (x on the axis: no valid trajectory)", fontsize=9)
-    ax2.set_title("swept width of the time-optimal manoeuvre", fontsize=9)
-    fig.legend(*ax1.get_legend_handles_labels(), loc="outside lower center", ncol=min(6, 2 * len(presets)), fontsize=7)
+            dodge = 0.0 if by_icd else 0.3 * (j - (len(aprons) - 1) / 2) / max(1, len(aprons) - 1)
+            x = g.icd if by_icd else pd.Series(k + dodge, index=g.index)
+            draw_group(axes, g, x, f"C{k}", apron_style(j, lines), f"{name}, apron {apron:g} m")
+    failed = bool((~df.feasible).any())
+    for k, (ax, (_, ylabel, title)) in enumerate(zip(axes, PANELS, strict=True)):
+        ax.set_ylabel(ylabel)
+        ax.set_title(title + (" (x on the axis: no valid trajectory)" if failed and k == 0 else ""), fontsize=9)
+        if by_icd:
+            ax.set_xlabel("inscribed circle diameter ICD (m)")
+        else:
+            ax.set_xticks(range(len(presets)), presets)
+            ax.set_xlim(-0.6, len(presets) - 0.4)
+            ax.set_xlabel(f"design vehicle (ICD {df.icd.iloc[0]:g} m)")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center",
+               ncol=min(6, len(aprons) * len(presets)), fontsize=7)  # fmt: skip
     save(fig, out / "table", formats)
+    return caption(df, aprons, by_icd, lines, failed)
+
+
+def caption(df: pd.DataFrame, aprons: list[float], by_icd: bool, lines: bool, failed: bool) -> str:
+    """What the figure draws, in words."""
+    where = (
+        "against the inscribed circle diameter (ICD)" if by_icd else f"per design vehicle at ICD {df.icd.iloc[0]:g} m"
+    )
+    keys = "; ".join(f"apron {a:g} m: {apron_words(j, lines)}" for j, a in enumerate(aprons))
+    return (f"Minimum time (left) and swept width of the time-optimal manoeuvre (right) {where}; colour: the"
+            f" vehicle; {keys}" + ("; x on the axis: no valid trajectory" if failed else ""))  # fmt: skip
 
 
 def matrix(df: pd.DataFrame) -> str:
@@ -94,7 +144,7 @@ def matrix(df: pd.DataFrame) -> str:
     return table(rows, {"preset": "vehicle", **{f"{i:g}": f"ICD {i:g} m" for i in icds}})
 
 
-def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, ratio: float) -> str:
+def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, ratio: float, caption: str) -> str:
     rb = template["roundabout"]
     leg = rb["legs"][0]
     n_fail = int((~df.feasible).sum())
@@ -141,15 +191,14 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
                 "apron": "apron (m)",
                 "result": "result",
                 "t_min": "T_min (s)",
-                "energy": f"J at {ratio:g} T_min",
+                "energy": f"J at {ratio:g} T_min ({ENERGY_UNIT})",
                 "apron_used_m": "apron used (m)",
                 "swept_width_m": "swept width (m)",
                 "diagnosis": "diagnosis",
             },  # fmt: skip
         ),
         "",
-        f"![Minimum time and swept width against the ICD; solid: with the apron, dashed: without; x: no valid"
-        f" trajectory]({fig})",
+        f"![{caption}]({fig})",
         "",
     ]
     return "\n".join(lines)
@@ -173,10 +222,10 @@ def main() -> None:
     df = df.sort_values(["preset", "icd", "apron"], key=lambda s: s.map(order) if s.name == "preset" else s)
     args.out.mkdir(parents=True, exist_ok=True)
     df.to_csv(args.out / "table.csv", index=False)
-    figure(df, args.out, args.formats)
+    drawn = figure(df, args.out, args.formats)
     grid = {"vehicles": args.vehicles, "icd": args.icd, "apron": args.apron, "intervals": args.intervals}
     template = tomllib.loads(args.template.read_text())
-    write_text(args.section, section(df, args.mode, grid, template, args.out / "table.png", args.energy_ratio))
+    write_text(args.section, section(df, args.mode, grid, template, args.out / "table.png", args.energy_ratio, drawn))
 
 
 if __name__ == "__main__":

@@ -12,10 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import shapely
 from studies_common import fmt, parser, plt, table, write_json, write_text
 
 from model.analysis.bodies import swept_polygons
-from model.plotting.figures import save
+from model.plotting.figures import ENERGY_UNIT, save
 from model.plotting.roads import draw_roundabout, draw_scale_bar, geometry_patch
 from model.problem.scenario import load_scenario
 from model.studies.roads import apron_used, swept_width
@@ -47,47 +48,107 @@ def record(sol, ratio: float | None, objective: str) -> dict:
     }
 
 
-def figure(ocp, rows: list[dict], trajectories: dict, out: Path, formats: list[str]) -> None:
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11.5, 5.2), gridspec_kw={"width_ratios": (1, 1.25)})
-    good = [r for r in rows if r["valid"]]
+def path_spread(trajectories: dict) -> float | None:
+    """How far the rear-axle paths lie from the time-optimal one: the largest Hausdorff distance, m."""
+    lines = {k: shapely.LineString(np.column_stack([c["x"], c["y"]])) for k, c in trajectories.items()}
+    ref = lines.pop("time", None)
+    return max((ref.hausdorff_distance(line) for line in lines.values()), default=None) if ref else None
+
+
+def energy_panel(ax, rows: list[dict]) -> None:
+    """J against the final time: the energy-optimal points, and the time-optimal controls' J."""
     tmin = next(r for r in rows if r["objective"] == "time")
-    en = [r for r in good if r["objective"] == "energy"]
-    ax1.plot([r["final_time"] for r in en], [r["energy"] for r in en], "o-", label="energy-optimal J(Tf)")
+    en = [r for r in rows if r["valid"] and r["objective"] == "energy"]
+    ax.plot([r["final_time"] for r in en], [r["energy"] for r in en], "o-", label="energy-optimal J(Tf)")
     if tmin["valid"]:
-        ax1.plot(tmin["final_time"], tmin["energy"], "s", color="C3", label="time-optimal (J of its controls)")
-        ax1.axvline(tmin["final_time"], color="C3", ls=":", lw=1)
-    ax1.set_xlabel("final time Tf (s)")
-    ax1.set_ylabel("J = 1/2 int(u1^2 + u2^2) dt")
-    ax1.set_title("energy against time", fontsize=10)
-    ax1.legend(fontsize=8)
-    draw_roundabout(ax2, ocp)
+        ax.plot(tmin["final_time"], tmin["energy"], "s", color="C3", label="time-optimal (J of its controls)")
+        ax.axvline(tmin["final_time"], color="C3", ls=":", lw=1)
+    ax.set_xlabel("final time Tf (s)")
+    ax.set_ylabel(f"J = ½∫(u1² + u2²) dt ({ENERGY_UNIT})")
+    ax.set_title("energy against time", fontsize=10)
+    ax.legend(fontsize=8)
+
+
+def colors(keys: list[str]) -> dict:
     cmap = plt.get_cmap("viridis")
-    keys = list(trajectories)
-    for k, key in enumerate(keys):
+    return {key: "C3" if key == "time" else cmap(k / max(1, len(keys) - 1)) for k, key in enumerate(keys)}
+
+
+def paths_panel(ax, ocp, trajectories: dict) -> None:
+    """The rear-axle paths on the roundabout to scale, the fastest and slowest swept areas shaded."""
+    draw_roundabout(ax, ocp)
+    keys, color = list(trajectories), colors(list(trajectories))
+    for key in keys:
         cols = trajectories[key]
-        color = "C3" if key == "time" else cmap(k / max(1, len(keys) - 1))
         if key in (keys[0], keys[-1]):
             for poly in swept_polygons(ocp, cols).values():
-                ax2.add_patch(geometry_patch(poly, facecolor=color, alpha=0.2, lw=0, zorder=2))
-        ax2.plot(cols["x"], cols["y"], color=color, lw=1.2, label=key, zorder=4)
+                ax.add_patch(geometry_patch(poly, facecolor=color[key], alpha=0.2, lw=0, zorder=2))
+        ax.plot(cols["x"], cols["y"], color=color[key], lw=1.2, label=key, zorder=4)
     rb = ocp.road.roundabout
-    pad = 2 * max(g.lane_width for g in rb.legs)
-    lim = rb.outer_radius + pad
+    lim = rb.outer_radius + 2 * max(g.lane_width for g in rb.legs)
     allx = np.concatenate([c["x"] for c in trajectories.values()])
     ally = np.concatenate([c["y"] for c in trajectories.values()])
-    ax2.set_xlim(min(allx.min(), -lim) - 1, max(allx.max(), lim) + 1)
-    ax2.set_ylim(min(ally.min(), -lim) - 1, max(ally.max(), lim) + 1)
-    ax2.set_aspect("equal")
-    ax2.set_xlabel("x (m)")
-    ax2.set_ylabel("y (m)")
-    draw_scale_bar(ax2)
-    ax2.set_title("rear-axle paths to scale (shaded: swept area of the fastest and slowest)", fontsize=9)
-    ax2.legend(fontsize=7, loc="lower left")
+    ax.set_xlim(min(allx.min(), -lim) - 1, max(allx.max(), lim) + 1)
+    ax.set_ylim(min(ally.min(), -lim) - 1, max(ally.max(), lim) + 1)
+    ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
+    draw_scale_bar(ax)
+    spread = path_spread(trajectories)
+    same = f": they coincide, within {spread:.2g} m of the time-optimal one" if spread is not None else ""
+    ax.set_title(f"rear-axle paths to scale{same}\n(shaded: swept area of the fastest and slowest)", fontsize=9)
+    ax.legend(fontsize=7, loc="lower left")
+
+
+def controls_panels(axes, trajectories: dict) -> None:
+    """Speed and steering rate against the normalised time t / Tf: where the solves differ."""
+    color = colors(list(trajectories))
+    for key, cols in trajectories.items():
+        tau = cols["t"] / cols["t"][-1]
+        axes[0].plot(tau, cols["u1"], color=color[key], lw=1.2, label=key)
+        axes[1].plot(tau, cols["u2"], color=color[key], lw=1.2, label=key)
+    axes[0].set(xlabel="t / Tf", ylabel="speed u1 (m/s)")
+    axes[1].set(xlabel="t / Tf", ylabel="steering rate u2 (rad/s)")
+    axes[0].set_title("speed: what differs (the same path, driven slower)", fontsize=9)
+    axes[1].set_title("steering rate", fontsize=9)
+    axes[0].legend(fontsize=7)
+
+
+def figure(ocp, rows: list[dict], trajectories: dict, out: Path, formats: list[str]) -> None:
+    fig, axes = plt.subplots(2, 2, figsize=(11.5, 9.5), gridspec_kw={"width_ratios": (1, 1.25)})
+    energy_panel(axes[0, 0], rows)
+    paths_panel(axes[0, 1], ocp, trajectories)
+    controls_panels(axes[1], trajectories)
     fig.tight_layout()
     save(fig, out / "tradeoff", formats)
 
 
-def section(ocp, rows: list[dict], fig: Path, intervals: int) -> str:
+def length_range(rows: list[dict]) -> str:
+    """The rear-axle path lengths of ``rows`` in words: one value if they agree to 5 digits, else the range."""
+    lo, hi = (fmt(f(r["path_length"] for r in rows), 5) for f in (min, max))
+    return f"is {lo} m in every solve (to 5 digits)" if lo == hi else f"stays between {lo} and {hi} m"
+
+
+def findings(tmin: dict, ok: list[dict], failed: list[dict], spread: float | None) -> str:
+    """The trade-off in words: the energy saved, monotonicity, and why (the same path, driven slower)."""
+    jt, last, unit = tmin["energy"], ok[-1], f"({ENERGY_UNIT})"
+    mono = all(b["energy"] < a["energy"] for a, b in zip(ok[:-1], ok[1:], strict=False))
+    apart = "" if spread is None else f" and every path lies within {spread:.2g} m of the time-optimal one (Hausdorff)"
+    return (
+        f"The time-optimal manoeuvre takes T_min = {fmt(tmin['final_time'], 5)} s and spends J = {fmt(jt, 5)} {unit};"
+        f" at {fmt(ok[0]['ratio'], 3)} T_min the energy-optimal one spends {fmt(ok[0]['energy'], 5)} {unit}"
+        f", {fmt(100 * (1 - ok[0]['energy'] / jt), 3)} % less; at {fmt(last['ratio'], 3)} T_min"
+        f" {fmt(last['energy'], 5)} {unit}, {fmt(100 * (1 - last['energy'] / jt), 3)} % less. J decreases"
+        f" {'monotonically' if mono else 'NOT monotonically'} with Tf over the points computed"
+        + (f"; {len(failed)} solve(s) failed and are left out." if failed else ".")
+        + f" The rear-axle path length {length_range([tmin, *ok])}{apart}, so the figure's paths coincide; the"
+        f" speed profiles differ. The speed term 1/2 int u1^2 makes"
+        f" {fmt(100 * min(r['speed_share'] for r in [tmin, *ok]), 4)} % or more of J, so J is close to its bound"
+        " P^2 / (2 Tf) for a path of length P (Cauchy-Schwarz): J / (P^2 / (2 Tf)) = "
+        + ", ".join(f"{fmt(r['energy'] / (r['path_length'] ** 2 / (2 * r['final_time'])), 4)}" for r in ok)
+        + " at the fixed final times: slowing down, not a different path, is what saves the energy."
+    )
+
+
+def section(ocp, rows: list[dict], fig: Path, intervals: int, spread: float | None = None) -> str:
     tmin = next(r for r in rows if r["objective"] == "time")
     en = [r for r in rows if r["objective"] == "energy"]
     ok = [r for r in en if r["valid"]]
@@ -106,7 +167,7 @@ def section(ocp, rows: list[dict], fig: Path, intervals: int) -> str:
         lines += [f"The minimum-time problem FAILED: {tmin['diagnosis'] or tmin['status']}; no trade-off is computed.",
                   ""]  # fmt: skip
         return "\n".join(lines)
-    cols = {"objective": "objective", "ratio": "Tf / T_min", "final_time": "Tf (s)", "energy": "J",
+    cols = {"objective": "objective", "ratio": "Tf / T_min", "final_time": "Tf (s)", "energy": f"J ({ENERGY_UNIT})",
             "max_speed": "max speed (m/s)", "mean_speed": "mean speed (m/s)", "apron_used_m": "apron used (m)",
             "path_length": "path (m)", "speed_share": "share of J from u1",
             "swept_width_m": "swept width (m)", "min_clearance": "clearance (m)", "iterations": "iterations",
@@ -121,25 +182,12 @@ def section(ocp, rows: list[dict], fig: Path, intervals: int) -> str:
     ]
     lines += [table(shown, cols), ""]
     if ok:
-        jt = tmin["energy"]
-        last = ok[-1]
-        mono = all(b["energy"] < a["energy"] for a, b in zip(ok[:-1], ok[1:], strict=False))
-        lines += [
-            f"The time-optimal manoeuvre takes T_min = {fmt(tmin['final_time'], 5)} s and spends J = {fmt(jt, 5)};"
-            f" at {fmt(ok[0]['ratio'], 3)} T_min the energy-optimal one spends {fmt(ok[0]['energy'], 5)}"
-            f" ({fmt(100 * (1 - ok[0]['energy'] / jt), 3)} % less), at {fmt(last['ratio'], 3)} T_min"
-            f" {fmt(last['energy'], 5)} ({fmt(100 * (1 - last['energy'] / jt), 3)} % less). J decreases"
-            f" {'monotonically' if mono else 'NOT monotonically'} with Tf over the points computed"
-            + (f"; {len(failed)} solve(s) failed and are left out." if failed else ".")
-            + f" The rear-axle path length stays between {fmt(min(r['path_length'] for r in [tmin, *ok]), 5)} and"
-            f" {fmt(max(r['path_length'] for r in [tmin, *ok]), 5)} m and the speed term 1/2 int u1^2 makes"
-            f" {fmt(100 * min(r['speed_share'] for r in [tmin, *ok]), 4)} % or more of J, so J is close to its bound"
-            " P^2 / (2 Tf) for a path of length P (Cauchy-Schwarz): J / (P^2 / (2 Tf)) = "
-            + ", ".join(f"{fmt(r['energy'] / (r['path_length'] ** 2 / (2 * r['final_time'])), 4)}" for r in ok)
-            + " at the fixed final times: slowing down, not a different path, is what saves the energy.",
-            "",
-        ]
-    lines += [f"![Energy against the final time, and the rear-axle paths on the roundabout to scale]({fig})", ""]
+        lines += [findings(tmin, ok, failed, spread), ""]
+    lines += [
+        f"![Energy against the final time; the rear-axle paths on the roundabout to scale (they coincide); the speed"
+        f" and the steering rate against the normalised time t / Tf, where the solves differ]({fig})",
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -166,9 +214,11 @@ def main() -> None:
                 trajectories[f"energy, {ratio:g} T_min"] = {k: np.asarray(v) for k, v in esol.columns.items()}
     args.out.mkdir(parents=True, exist_ok=True)
     pd.DataFrame(rows).to_csv(args.out / "tradeoff.csv", index=False)
-    write_json(args.out / "tradeoff.json", {"scenario": str(args.scenario), "intervals": n, "rows": rows})
+    spread = path_spread(trajectories)
+    write_json(args.out / "tradeoff.json",
+               {"scenario": str(args.scenario), "intervals": n, "rows": rows, "path_spread_m": spread})  # fmt: skip
     figure(ocp, rows, trajectories, args.out, args.formats)
-    write_text(args.section, section(ocp, rows, args.out / "tradeoff.png", n))
+    write_text(args.section, section(ocp, rows, args.out / "tradeoff.png", n, spread))
 
 
 if __name__ == "__main__":

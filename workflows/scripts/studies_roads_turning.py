@@ -83,7 +83,7 @@ def figure(name: str, result: dict, out: Path, formats: list[str]) -> None:
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(f"{name}: two full turns at {result['phi_deg']:.2f} deg steering", fontsize=10)
-    ax.legend(fontsize=7, loc="lower left")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)  # below: off the annulus
     theta = np.degrees(run["theta"] - run["theta"][0])
     trailer = all_corners.get("trailer")
     from model.studies.roads import rectangle_distance

@@ -7,6 +7,7 @@ from pathlib import Path
 import pandas as pd
 from studies_common import parser, plt, save, scenario, table, write_text
 
+from model.plotting.figures import ENERGY_UNIT
 from model.studies.sweeps import as_energy, progress, row, solve_best, with_wheelbase
 
 # sweep name -> (time scenario, energy scenario, fixed Tf for the energy solves, wheelbases)
@@ -101,7 +102,7 @@ def section(frame: pd.DataFrame, fig: Path) -> str:
                     "tmin": "min Tf [s]",
                     "t_status": "time status",
                     "tf": "fixed Tf [s]",
-                    "J": "J at fixed Tf",
+                    "J": f"J at fixed Tf [{ENERGY_UNIT}]",
                     "e_status": "energy status",
                     "cert": "certificates pass",
                 },

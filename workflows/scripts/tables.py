@@ -10,6 +10,7 @@ from pathlib import Path
 import pandas as pd
 
 from derivations.paper.claims_numbers import PRINTED_RESULTS
+from model.plotting.figures import ENERGY_UNIT
 from model.plotting.results import Result, comment_block, fmt, load_claims, load_result
 from model.search.accuracy import objectives_on_grid
 
@@ -32,7 +33,7 @@ def energy_reason(key: str | None, claims: dict[str, dict]) -> str:
     claim = claims.get(f"sec5.energy_bound.{key}")
     if claim is None:
         return "no derivation claim for this scenario"
-    return f"[{claim['id']}: {claim['verdict']}] {claim['evidence']}"
+    return f"[{claim['id']}: {claim['verdict']}] {claim['evidence'].rstrip('.')} (energies in {ENERGY_UNIT})"
 
 
 def local_optima(attempts: list[dict], same: float = 1e-4) -> int:
@@ -97,8 +98,8 @@ def seconds(value: float | None) -> str:
 def markdown(table: pd.DataFrame) -> str:
     """The table and, below it, the reason for each difference from the printed values."""
     lines = [
-        "| scenario | objective | status | Tf (s) | printed Tf (s) | E | printed E | iterations | local optima "
-        "| solve time (s) | validation |",
+        f"| scenario | objective | status | Tf (s) | printed Tf (s) | E ({ENERGY_UNIT}) | printed E | iterations "
+        "| local optima | solve time (s) | validation |",
         "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
     ]
     for r in table.to_dict("records"):
@@ -113,7 +114,8 @@ def markdown(table: pd.DataFrame) -> str:
              if isinstance(r.get("accuracy_note"), str)]  # fmt: skip
     if finer:
         lines += ["", "Answers on a finer grid than the scenario's N (the goal-accuracy rule):", "", *finer]
-    lines += ["", "E is the energy ½∫(u1² + u2²) dt of the solution, whatever its objective. Local optima: the",
+    lines += ["", f"E is the energy ½∫(u1² + u2²) dt of the solution, whatever its objective, in {ENERGY_UNIT}"
+              " (u1 in m/s, u2 in rad/s; the printed E in the same units). Local optima: the",
               "distinct objectives (relative difference > 1e-4) of the validated starts of the search",
               "(`summary.json[\"attempts\"]`): more than one means the answer is the best of several.", "",
               "Differences from the printed values:", ""]
