@@ -91,19 +91,13 @@ def figure(folder: Path, ocp, summary: dict):
             result.summary.setdefault("failure", reason)
         return failed_figure(result, ocp.title or ocp.name), f"the solve failed ({result.status_text}), drawn as such"
     if ocp.road is not None:
-        from model.plotting.roads import road_figure
+        from model.plotting.roads import road_figure, road_note
 
-        return road_figure(ocp, result.trajectory, note=_road_note(result.summary)), "road manoeuvre to scale"
+        note = road_note(result.summary, ocp, result.trajectory)
+        return road_figure(ocp, result.trajectory, note=note), "road manoeuvre to scale"
     from model.plotting.figures import solution_figure
 
     return solution_figure(result, ocp), "controls, states, path and energy"
-
-
-def _road_note(summary: dict) -> str:
-    parts = [f"$T_f$ = {summary['final_time']:.2f} s"]
-    if summary.get("min_clearance") is not None:
-        parts.append(f"least clearance to a curb {summary['min_clearance']:.2f} m")
-    return ", ".join(parts)
 
 
 __all__ = ["FORMATS", "figure", "plot_folder"]

@@ -23,7 +23,7 @@ from matplotlib.path import Path as MplPath
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
 from model.analysis.bodies import body_corners, swept_polygons
-from model.plotting.figures import apply_style
+from model.plotting.figures import ENERGY_UNIT, apply_style
 from model.problem.ocp import OCP
 from model.scene.geometry import Disc
 from model.scene.roundabout import (
@@ -412,3 +412,27 @@ def _time_panels(fig: plt.Figure, grid, ocp: OCP, cols: Mapping[str, np.ndarray]
         if i < len(rows) - 1:
             ax.tick_params(labelbottom=False)
     ax.set_xlabel("t (s)", fontsize=7.5)
+def road_note(summary: Mapping, ocp: OCP | None = None, columns: Mapping | None = None) -> str:
+    """The lines under the figure's title: final time, energy and the least clearance at the nodes;
+    with the problem and its node columns, how it drives (time-optimal or its design speed and limits),
+    the largest |a_lat| at the nodes and between them, and how often u2 changes sign."""
+    parts = [
+        f"$T_f$ = {summary['final_time']:.2f} s" if summary.get("final_time") is not None else "",
+        f"energy {summary['energy']:.1f} {ENERGY_UNIT}" if summary.get("energy") is not None else "",
+    ]
+    if summary.get("min_clearance") is not None:
+        body = summary.get("min_clearance_body")
+        parts.append(f"least clearance to a curb {summary['min_clearance']:.2f} m" + (f" ({body})" if body else ""))
+    text = ", ".join(p for p in parts if p)
+    if ocp is None or columns is None:
+        return text
+    driving = [driving_label(ocp)]
+    lateral = summary.get("lateral_acceleration") or {}
+    if lateral.get("max_abs_nodes") is not None:
+        dense = lateral.get("max_abs_dense")
+        between = f" ({dense:.3f} between nodes)" if dense is not None else ""
+        driving.append(f"max $|a_{{lat}}|$ {lateral['max_abs_nodes']:.3f} m/s$^2${between}")
+    driving.append(f"$u_2$ changes sign {steering_changes(ocp, columns)} times")
+    return text + "\n" + ", ".join(driving)
+
+

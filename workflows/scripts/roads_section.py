@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from model.plotting.figures import ENERGY_UNIT
 from model.plotting.results import fmt
 from model.plotting.roads import KMH, driving_label, steering_changes
 from model.problem.ocp import OCP
@@ -95,11 +96,22 @@ def comparison(scenarios: list[Path], results: Path) -> list[str]:
     return lines
 
 
+def panels_text(ocp) -> str:
+    """The road figure's time panels in words (only those it draws for this vehicle)."""
+    names = ["speed u1", "steering rate u2", "steering angle phi"]
+    if ocp.vehicle.lateral_acceleration is not None:
+        names.append("lateral acceleration")
+    if "articulation" in ocp.vehicle.outputs():
+        names.append("articulation angle")
+    return ", ".join(names[:-1]) + " and " + names[-1]
+
+
 def animation(gif: Path) -> list[str]:
     """The paragraph embedding the animated GIF (the PDF shows its first frame)."""
     return [
         f"![{gif.stem}, animated: the vehicle drives its optimal trajectory; each body's swept path grows "
-        "behind it, the dotted line is the rear axle's path ahead. (In the PDF: the first frame; the HTML "
+        "behind it, the dotted line is the rear axle's path ahead. (In the PDF: its first frame, the complete "
+        "manoeuvre at t = Tf; the HTML "
         f"paper plays it, and it is `{gif.as_posix()}` in the results.)]({gif.as_posix()})",
         "",
     ]
@@ -121,7 +133,8 @@ def main() -> None:
         "corridor at every node. Clearances are the smallest distance from a body to the edge of its allowed "
         'region (negative: an encroachment); "between nodes" is measured on linearly interpolated states.',
         "",
-        "| scenario | vehicle | route | objective: driving | Tf (s) | energy | exit taken | clearance at nodes (m) "
+        f"| scenario | vehicle | route | objective: driving | Tf (s) | energy ({ENERGY_UNIT}) | exit taken "
+        "| clearance at nodes (m) "
         "| between nodes (m) | max abs. lateral acc. nodes / between (m/s$^2$) | $u_2$ sign changes | iterations "
         "| result |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
@@ -133,8 +146,8 @@ def main() -> None:
         lines += [
             f"![{s.stem}: the plan to scale (curbs, hatched truck apron, central island, centre and "
             "give-way lines), each body's swept path outlined, the bodies along the path, the axle tracks; "
-            "right: speed u1, steering rate u2, steering angle phi, lateral acceleration and, for a trailer, the "
-            f"articulation angle over time, their bounds dashed; {driving_label(load_scenario(s).ocp, math=False)}]"
+            f"right: {panels_text(load_scenario(s).ocp)} over time, their bounds dashed; "
+            f"{driving_label(load_scenario(s).ocp, math=False)}]"
             f"(results/figures/roads/{s.stem}.png)",
             "",
         ]
