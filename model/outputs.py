@@ -76,7 +76,7 @@ def write_files(folder: str | Path, files: dict[str, str | bytes]) -> None:
 
 
 @contextmanager
-def run_folder(out: str | Path) -> Iterator[Path]:
+def run_folder(out: str | Path, keep: tuple[str, ...] = ()) -> Iterator[Path]:
     """A staging folder for one run's files, moved into ``out`` when the block ends normally.
 
     Parameters
@@ -90,6 +90,9 @@ def run_folder(out: str | Path) -> Iterator[Path]:
         The staging folder to write into. If the block raises (a failure, KeyboardInterrupt)
         it is removed and ``out`` is untouched; otherwise its files replace ``out``'s, and
         files of an earlier run (``RUN_FILES``, ``RUN_FOLDERS``) not written again are removed.
+    keep : tuple of str
+        Names in ``out`` the run writes separately and that are not removed (a closed loop
+        keeps the ``optimum`` folder its open-loop solve wrote).
     """
     out = Path(out)
     parent = out.parent if str(out.parent) else Path(".")
@@ -97,17 +100,17 @@ def run_folder(out: str | Path) -> Iterator[Path]:
     stage = Path(tempfile.mkdtemp(dir=parent, prefix=f".{out.name}.", suffix=".partial"))
     try:
         yield stage
-        _commit(stage, out)
+        _commit(stage, out, keep)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
 
 
-def _commit(stage: Path, out: Path) -> None:
+def _commit(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> None:
     """Move the staged files into ``out`` and remove the earlier run's others, SIGINT held off."""
     blocked = _block_sigint()
     try:
         out.mkdir(parents=True, exist_ok=True)
-        _remove_earlier_run(out, stage)
+        _remove_earlier_run(out, stage, keep)
         for src in sorted(p for p in stage.rglob("*") if p.is_file()):
             dest = out / src.relative_to(stage)
             dest.parent.mkdir(parents=True, exist_ok=True)
@@ -117,12 +120,14 @@ def _commit(stage: Path, out: Path) -> None:
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
-def _remove_earlier_run(out: Path, stage: Path) -> None:
-    for folder in (out, *(out / name for name in RUN_FOLDERS)):
+def _remove_earlier_run(out: Path, stage: Path, keep: tuple[str, ...]) -> None:
+    folders = [name for name in RUN_FOLDERS if name not in keep]
+    for folder in (out, *(out / name for name in folders)):
         for name in RUN_FILES:
-            if (folder / name).is_file() and not (stage / folder.relative_to(out) / name).exists():
+            kept = folder == out and name in keep
+            if (folder / name).is_file() and not kept and not (stage / folder.relative_to(out) / name).exists():
                 (folder / name).unlink()
-    for name in RUN_FOLDERS:
+    for name in folders:
         folder = out / name
         if folder.is_dir() and not (stage / name).exists() and not any(folder.iterdir()):
             folder.rmdir()

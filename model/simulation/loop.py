@@ -50,8 +50,11 @@ class ClosedLoop:
         return bool(self.summary["reached_goal"])
 
     def write(self, out: str | Path) -> None:
-        """DIR/closed_loop.csv and DIR/summary.json (and DIR/runs.csv for several runs), each atomically."""
-        with run_folder(out) as stage:
+        """DIR/closed_loop.csv and DIR/summary.json (and DIR/runs.csv for several runs), together.
+
+        An ``optimum`` folder beside them (the open-loop solve, written by ``Solution.write``) is kept.
+        """
+        with run_folder(out, keep=("optimum",)) as stage:
             write_files(stage, self.files())
 
     def files(self) -> dict[str, str]:
