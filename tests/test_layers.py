@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from tools.import_graph import ROOT, imports_of, module_name, project_modules
+from tools.import_graph import ROOT, imports_of, module_file, module_name, project_modules
 
 # Each layer and the layers it may import (its own always allowed). Order: bottom to top.
 LAYERS = {
@@ -84,3 +84,49 @@ def test_a_solve_loads_no_pandas_matplotlib_or_scipy_stats(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "[]"
     assert (tmp_path / "trajectory.csv").read_text().startswith("t,x,y,theta,phi,u1,u2,p_x")
+
+
+def private_uses(path, own: str | None = None) -> list[str]:
+    """``from x import _y`` and ``m._y`` (m a module imported from another layer) in ``path`` (of layer ``own``)."""
+    import ast
+
+    own = own or layer_of(module_name(path))
+    tree = ast.parse(path.read_text())
+    found, aliases = [], {}
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.ImportFrom)
+            and node.module
+            and node.level == 0
+            and node.module.split(".")[0] in ("model", "derivations")
+        ):
+            for a in node.names:
+                full = f"{node.module}.{a.name}"
+                if layer_of(node.module) != own and a.name.startswith("_") and not a.name.startswith("__"):
+                    found.append(f"from {node.module} import {a.name}")
+                if module_file(full):
+                    aliases[a.asname or a.name] = full
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.split(".")[0] in ("model", "derivations") and a.asname:
+                    aliases[a.asname] = a.name
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in aliases:
+            target = aliases[node.value.id]
+            if layer_of(target) != own and node.attr.startswith("_") and not node.attr.startswith("__"):
+                found.append(f"{target}.{node.attr}")
+    return found
+
+
+@pytest.mark.parametrize("path", project_modules(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_private_name_is_used_across_layers(path):
+    assert not private_uses(path), private_uses(path)
+
+
+def test_the_private_name_check_catches_one(tmp_path):
+    bad = tmp_path / "probe.py"
+    bad.write_text("from model.direct.solution import _hidden\nimport model.nlp.ipopt as ip\nip._x\n")
+    assert private_uses(bad, own="model.simulation") == [
+        "from model.direct.solution import _hidden",
+        "model.nlp.ipopt._x",
+    ]

@@ -250,6 +250,10 @@ class CasadiNLP(NLP):
     def n_constraints(self) -> int:
         return len(self._rows)
 
+    def constraint_rows(self) -> np.ndarray:
+        """For each row of the reduced NLP (Ipopt's g), its index in ``constraints`` (the model's rows)."""
+        return self._rows.copy()
+
     def nnz_jacobian(self) -> int:
         return len(self._jac_rc[0])
 

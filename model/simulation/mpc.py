@@ -273,7 +273,7 @@ class HorizonModel:
         for v, val in zip(nlp.variables, saved, strict=True):
             v.set_value(val, skip_validation=True)
         self.columns = TimeLayout(np.array([_fraction(nlp.variables[c], n) for c in cols]), n)
-        rows = nlp._rows  # the reduced NLP's rows among nlp.constraints (no public accessor)
+        rows = nlp.constraint_rows()  # the reduced NLP's rows among nlp.constraints
         self.rows = TimeLayout(np.array([_fraction(nlp.constraints[r], n) for r in rows]), n)
         position = {id(v): j for j, v in enumerate(nlp.variables[c] for c in cols)}
         self.node_cols = {
