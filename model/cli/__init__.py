@@ -49,8 +49,9 @@ def parser() -> argparse.ArgumentParser:
     )
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     s = sub.add_parser("solve", help="solve a scenario; write DIR/summary.json and DIR/trajectory.csv")
-    s.add_argument("scenario", type=Path, help="scenario file (TOML)")
-    s.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    s.add_argument("scenario", type=Path, nargs="+", help="scenario file (TOML); several: a batch in one process")
+    s.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder (a batch: DIR/<scenario name>/ for each)")  # fmt: skip
     s.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals")
     s.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log and the time of each phase")
     s.add_argument("--quiet", action="store_true", help="print no progress on stderr (results and errors only)")
@@ -105,7 +106,12 @@ def _main(argv: list[str] | None) -> int:
     t0 = time.perf_counter()
     from model.problem.scenario import load_scenario
 
+    batch = args.command == "solve" and len(args.scenario) > 1
     try:
+        if batch:
+            return _solve_batch(load_batch(args.scenario), args)
+        if args.command == "solve":
+            args.scenario = args.scenario[0]
         scenario = load_scenario(args.scenario)
         args.load_seconds = time.perf_counter() - t0
         if getattr(args, "intervals", None) is not None and args.intervals < 1:
@@ -240,6 +246,54 @@ def solve_line(scenario, sol) -> str:
 def failure_reason(sol) -> str:
     failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
     return sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
+
+
+def load_batch(paths: list[Path]) -> list:
+    """Every scenario of a batch, each checked as a single solve would be; InputError names the file."""
+    from model.problem.scenario import load_scenario
+
+    scenarios, names = [], {}
+    for path in paths:
+        try:
+            scenario = load_scenario(path)
+        except InputError as err:
+            raise InputError(str(path), str(err)) from None
+        if scenario.ocp.name in names:
+            raise InputError(str(path), f"its name {scenario.ocp.name!r} is also that of {names[scenario.ocp.name]}")
+        names[scenario.ocp.name] = path
+        scenarios.append(scenario)
+    return scenarios
+
+
+def _solve_batch(scenarios: list, args) -> int:
+    """Solve each scenario into DIR/<name>/ in this one process (the imports are paid once)."""
+    check_output_folder(args.out)
+    if args.intervals is not None and args.intervals < 1:
+        raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
+    for scenario in scenarios:
+        check_size(args.intervals or scenario.intervals, scenario.ocp, "--intervals" if args.intervals else None)
+    options = ipopt_options(args.ipopt)
+    if options:
+        from model.nlp.ipopt import IpoptOptionError, check_options
+
+        try:
+            check_options(options)
+        except IpoptOptionError as err:
+            raise InputError("--ipopt", str(err)) from None
+    out, codes = args.out, []
+    try:
+        for i, scenario in enumerate(scenarios, 1):
+            if not args.quiet:
+                print(f"[{i} of {len(scenarios)}] {scenario.path}", file=sys.stderr, flush=True)
+            args.out, args.load_seconds = out / scenario.ocp.name, 0.0
+            codes.append(_solve(scenario, args, options))
+    except KeyboardInterrupt:
+        print(f"roundabout: interrupted; {len(codes)} of {len(scenarios)} scenarios were written, the one being "
+              "solved was not", file=sys.stderr, flush=True)  # fmt: skip
+        return 130
+    solved = codes.count(0)
+    print(f"batch: {solved} of {len(codes)} solved and validated; one folder per scenario in {out}/")
+    return 0 if solved == len(codes) else 1
 
 
 def run_files(scenario) -> dict[str, bytes]:
