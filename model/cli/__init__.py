@@ -122,14 +122,7 @@ def _main(argv: list[str] | None) -> int:
                    "--intervals" if getattr(args, "intervals", None) else None)  # fmt: skip
         if args.command == "simulate":
             check_simulate(args, scenario)
-        options = ipopt_options(getattr(args, "ipopt", []))
-        if options:
-            from model.nlp.ipopt import IpoptOptionError, check_options
-
-            try:
-                check_options(options)
-            except IpoptOptionError as err:
-                raise InputError("--ipopt", str(err)) from None
+        options = checked_ipopt_options(getattr(args, "ipopt", []))
     except InputError as err:
         print(f"roundabout: invalid input: {err}", file=sys.stderr)
         return 2
@@ -194,6 +187,19 @@ def ipopt_options(pairs: list[str]) -> dict:
             except ValueError:
                 continue
         options[key.strip()] = value
+    return options
+
+
+def checked_ipopt_options(pairs: list[str]) -> dict:
+    """``--ipopt KEY=VALUE`` options, each checked by Ipopt itself (InputError for the first it rejects)."""
+    options = ipopt_options(pairs)
+    if options:
+        from model.nlp.ipopt import IpoptOptionError, check_options
+
+        try:
+            check_options(options)
+        except IpoptOptionError as err:
+            raise InputError("--ipopt", str(err)) from None
     return options
 
 
@@ -272,14 +278,7 @@ def _solve_batch(scenarios: list, args) -> int:
         raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
     for scenario in scenarios:
         check_size(args.intervals or scenario.intervals, scenario.ocp, "--intervals" if args.intervals else None)
-    options = ipopt_options(args.ipopt)
-    if options:
-        from model.nlp.ipopt import IpoptOptionError, check_options
-
-        try:
-            check_options(options)
-        except IpoptOptionError as err:
-            raise InputError("--ipopt", str(err)) from None
+    options = checked_ipopt_options(args.ipopt)
     out, codes = args.out, []
     try:
         for i, scenario in enumerate(scenarios, 1):
