@@ -378,6 +378,8 @@ def test_expressions_are_never_parsed_from_strings():
     truck = Truck(wheelbase=0.5)
     with pytest.raises(sp.SympifyError):
         truck.state_function(["__import__('os').getcwd()"])
+    with pytest.raises(sp.SympifyError):
+        truck.path_function(["__import__('os').getcwd()"])
     truck.dynamics = lambda: {name: "__import__('os').getcwd()" for name in truck.states}
     with pytest.raises(sp.SympifyError):
         plant_rhs(truck, Disturbance())

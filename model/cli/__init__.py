@@ -114,12 +114,9 @@ def _main(argv: list[str] | None) -> int:
             args.scenario = args.scenario[0]
         scenario = load_scenario(args.scenario)
         args.load_seconds = time.perf_counter() - t0
-        if getattr(args, "intervals", None) is not None and args.intervals < 1:
-            raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
         if args.command in ("solve", "simulate"):
             check_output_folder(args.out)
-        check_size(getattr(args, "intervals", None) or scenario.intervals, scenario.ocp,
-                   "--intervals" if getattr(args, "intervals", None) else None)  # fmt: skip
+        check_grid(getattr(args, "intervals", None), scenario)
         if args.command == "simulate":
             check_simulate(args, scenario)
         options = checked_ipopt_options(getattr(args, "ipopt", []))
@@ -147,6 +144,13 @@ def check_output_folder(out: Path) -> None:
     parent = next((p for p in (out, *out.parents) if p.exists()), Path("."))
     if not os.access(parent, os.W_OK):
         raise InputError("--out", f"cannot write under {parent}")
+
+
+def check_grid(override: int | None, scenario) -> None:
+    """``--intervals`` (if given) >= 1, and the grid's memory within what this machine has."""
+    if override is not None and override < 1:
+        raise InputError("--intervals", f"must be >= 1, got {override}")
+    check_size(override or scenario.intervals, scenario.ocp, "--intervals" if override else None)
 
 
 def check_size(intervals: int, ocp, key: str | None) -> None:
@@ -274,10 +278,8 @@ def load_batch(paths: list[Path]) -> list:
 def _solve_batch(scenarios: list, args) -> int:
     """Solve each scenario into DIR/<name>/ in this one process (the imports are paid once)."""
     check_output_folder(args.out)
-    if args.intervals is not None and args.intervals < 1:
-        raise InputError("--intervals", f"must be >= 1, got {args.intervals}")
     for scenario in scenarios:
-        check_size(args.intervals or scenario.intervals, scenario.ocp, "--intervals" if args.intervals else None)
+        check_grid(args.intervals, scenario)
     options = checked_ipopt_options(args.ipopt)
     out, codes = args.out, []
     try:

@@ -87,7 +87,7 @@ def solve_ocp(
         ``attempts`` lists every start with its status and objective.
     """
     start = time.perf_counter()
-    progress = Reporter(progress)
+    progress = progress if isinstance(progress, Reporter) else Reporter(progress)
     curves = starts is None and guess is None  # the smooth routes join a search of the default starts
     if starts is None:
         starts = search_starts(ocp, search) if guess is None else ((1.0, "arc"),)
@@ -154,8 +154,7 @@ class Reporter:
     """The search's progress: phase lines as given, start lines numbered as they are printed."""
 
     def __init__(self, sink: Callable[[str], None] | None) -> None:
-        self.sink = sink.sink if isinstance(sink, Reporter) else sink
-        self.count = sink.count if isinstance(sink, Reporter) else 0
+        self.sink, self.count = sink, 0
 
     def __call__(self, line: str) -> None:
         if self.sink is not None:
@@ -170,14 +169,11 @@ class Reporter:
              f"{sol.iterations} iterations, {sol.timings['ipopt']:.2f} s in Ipopt")  # fmt: skip
 
 
-def _record(attempts, solutions, progress, sol: Solution, passing: str, scale, route: str) -> None:
+def _record(attempts, solutions, progress: Reporter, sol: Solution, passing: str, scale, route: str) -> None:
     attempts.append({"pass": passing, "tf_guess_scale": scale, "route": route, "status": sol.status,
                      "valid": sol.ok, "objective": sol.objective})  # fmt: skip
     solutions.append(sol)
-    if isinstance(progress, Reporter):
-        progress.start(sol, passing, scale, route)
-    elif progress is not None:
-        Reporter(progress).start(sol, passing, scale, route)
+    progress.start(sol, passing, scale, route)
 
 
 def _cold_starts(ocp, intervals, starts, guess, verbose, options, attempts, solutions, progress, best):

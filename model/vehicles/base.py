@@ -58,16 +58,7 @@ class Vehicle:
         Returns a function of a mapping name -> array (states and controls) giving one float array
         per expression, broadcast to the shape of the first state.
         """
-        values = {sym(k): v for k, v in self.parameters().items()}
-        args = self.state_symbols() + self.control_symbols()
-        fn = sp.lambdify(args, [sp.sympify(e, strict=True).subs(values) for e in exprs], "numpy")
-        names = self.states + self.controls
-
-        def evaluate(columns) -> list[np.ndarray]:
-            shape = np.shape(columns[self.states[0]])
-            return [np.broadcast_to(np.asarray(a, float), shape) for a in fn(*[columns[n] for n in names])]
-
-        return evaluate
+        return self._numeric(self.states + self.controls, exprs)
 
     def body_poses(self) -> dict[str, tuple[sp.Expr, sp.Expr, sp.Expr]]:
         """Reference point (x, y) and heading of each body that can be attached, by body name."""
@@ -89,12 +80,17 @@ class Vehicle:
 
         Returns a function of a mapping state name -> array giving one float array per expression.
         """
-        values = {sym(k): v for k, v in self.parameters().items()}
-        fn = sp.lambdify(self.state_symbols(), [sp.sympify(e, strict=True).subs(values) for e in exprs], "numpy")
+        return self._numeric(self.states, exprs)
 
-        def evaluate(states) -> list[np.ndarray]:
-            shape = np.shape(states[self.states[0]])
-            return [np.broadcast_to(np.asarray(a, float), shape) for a in fn(*[states[s] for s in self.states])]
+    def _numeric(self, names: list[str], exprs: list[sp.Expr]):
+        """Expressions of the named variables (parameters substituted) as one numpy function of a mapping
+        name -> array; each result broadcast to the shape of the first state. Strict sympify: no string."""
+        values = {sym(k): v for k, v in self.parameters().items()}
+        fn = sp.lambdify([sym(n) for n in names], [sp.sympify(e, strict=True).subs(values) for e in exprs], "numpy")
+
+        def evaluate(columns) -> list[np.ndarray]:
+            shape = np.shape(columns[self.states[0]])
+            return [np.broadcast_to(np.asarray(a, float), shape) for a in fn(*[columns[n] for n in names])]
 
         return evaluate
 
