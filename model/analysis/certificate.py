@@ -31,6 +31,10 @@ transversality items then use p' = -dH/dx - sum_j mu_j dc_j/dx, and ``complement
 alone (no ``adjoined``) of a problem with such constraints cannot be judged on those items: they
 say ``"status": "not applicable"`` with a ``"reason"`` and are listed in ``not_applicable``;
 ``passed`` is then False if a judged item fails, else None (not established), never a silent True.
+
+Moving obstacles (``ocp.moving_obstacles``) are adjoined as the families ``moving`` (the reference
+point) or ``<body>_moving``; their rows depend on time, so H is not constant along an optimum and
+the ``hamiltonian`` item is "not applicable" with that reason.
 """
 
 from __future__ import annotations
@@ -44,6 +48,10 @@ from derivations.functions import pmp_functions
 from model.analysis.columns import Columns, as_arrays
 from model.problem.ocp import OCP
 
+MOVING_H = (
+    "the moving obstacles make the keep-out constraints depend on time: dH/dt = -sum_j mu_j dc_j/dt, "
+    "so H is not constant (nor 0 for a free final time)"
+)
 TOL = {"recovery": 1e-7, "adjoint": 1e-5, "maximum": 1e-5, "complementarity": 1e-6, "sign": 1e-6}
 
 
@@ -115,7 +123,10 @@ def certify_trajectory(
     reason = _reason(families, adjoined) if path is None else ""
     items = {"costate_recovery": _recovery(mids, cols, v.states)}
     items["adjoint"] = _adjoint(rhs, mids, h, flags, v.states) if rhs else _not_applicable(reason)
-    items["hamiltonian"] = _hamiltonian(ocp, cols, h, flags) if rhs else _not_applicable(reason)
+    if ocp.moving_obstacles:
+        items["hamiltonian"] = _not_applicable(MOVING_H)
+    else:
+        items["hamiltonian"] = _hamiltonian(ocp, cols, h, flags) if rhs else _not_applicable(reason)
     items["maximum"] = _maximum(fns.laws, ocp, cols)
     if any(s not in ocp.final for s in v.states):
         items["transversality"] = _transversality(ocp, cols, rhs, h) if rhs else _not_applicable(reason)
@@ -139,6 +150,8 @@ def _families(ocp: OCP) -> list[str]:
     out = [name for name in ocp.vehicle.outputs() if name in ocp.bounds]
     if ocp.road is not None and ocp.bodies:
         out += [f"{body} corridor" for body in ocp.bodies]
+    if ocp.moving_obstacles:
+        out.append("moving obstacles")
     return out
 
 

@@ -2,7 +2,8 @@
 
 It reads only the node values (as written to trajectory.csv) and the OCP's SymPy
 definition: trapezoid defects, bounds, boundary conditions, obstacle clearance at
-the nodes and the pass direction decide; the clearance between the nodes and the
+the nodes (of the static discs and, as exact rectangles, of the moving obstacles, ``moving_clearance``)
+and the pass direction decide; the clearance between the nodes and the
 drift of a scipy re-integration of the controls are measured and reported. The
 lateral acceleration (``Vehicle.lateral_acceleration``) is measured at the nodes and on
 the dense re-integration; bounded, it is checked at the nodes with the other bounds and
@@ -14,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from model.analysis.bodies import road_measures
+from model.analysis.bodies import moving_measures, road_measures
 from model.analysis.columns import Columns, as_arrays
 from model.problem.ocp import OCP
 
@@ -81,6 +82,9 @@ def validate(ocp: OCP, traj: Columns, tf: float, passing: str | None = None) -> 
         checks["exit_taken"] = _check(0.0, 0.0, measures["exit_taken"] == ocp.road.route.exit)
     else:
         measures["min_clearance"] = None
+    if ocp.moving_obstacles:
+        measures.update(moving_measures(ocp, traj))
+        checks["moving_clearance"] = _check(-min(measures["min_clearance_moving"], 0.0), TOL["clearance"])
     drift, dense = _reintegration_drift(ocp, t, X, U)
     measures["reintegration"] = drift
     if v.path_outputs():

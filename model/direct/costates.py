@@ -27,6 +27,7 @@ import pyomo.environ as pyo
 
 from model.analysis.certificate import Adjoined
 from model.direct.bodies import body_rows, point_definitions
+from model.direct.moving import moving_rows
 from model.nlp.casadi_nlp import CasadiNLP
 from model.problem.ocp import OCP
 
@@ -74,7 +75,7 @@ def path_multipliers(
     reduced primal answer whose duals ``m.dual`` holds.
     """
     families = [(name, m.component(f"bound_{name}")) for name in ocp.vehicle.outputs() if name in ocp.bounds]
-    families += body_rows(m)
+    families += body_rows(m) + moving_rows(m)
     families = [(name, comp) for name, comp in families if comp is not None]
     if not families:
         return {}, []

@@ -76,6 +76,7 @@ class Solution:
             "solve_seconds": self.solve_seconds,
             "min_clearance": measures.get("min_clearance"),
             "min_clearance_dense": measures.get("min_clearance_dense"),
+            **({k: v for k, v in measures.items() if k.startswith("min_clearance_moving")}),
             "pass": self.passing,
             **({"exit_taken": measures.get("exit_taken")} if self.ocp.road is not None else {}),
             "swept_angle": measures.get("swept_angle"),

@@ -21,6 +21,7 @@ from derivations.functions import pmp_functions
 from model.analysis.certificate import certify
 from model.analysis.validation import validate
 from model.direct.costates import costates, obstacle_multiplier, path_multipliers
+from model.direct.moving import fill_moving, note_settling, settle_final_time
 from model.direct.solution import Solution, trapezoid_energy
 from model.direct.transcription import build_model, grid
 from model.nlp.casadi_nlp import CasadiNLP
@@ -79,12 +80,16 @@ def solve_starts(
         for i, start in enumerate(starts, 1):
             LOG.debug("solving the N = %d %s (pass %s) from start %d of %d", intervals, kind, passing, i, len(starts))
             load_start(m, start)
+            fill_moving(m, ocp)  # the moving obstacles at this start's node times
             if nlp is None:
                 t1 = time.perf_counter()
                 nlp = CasadiNLP(m)
                 timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
-            res = run_ipopt(nlp, opts, x0=nlp.init_primals())
+            if ocp.moving_obstacles:
+                nlp.refresh_parameters()
+            res, settling = settle_final_time(m, ocp, nlp, run_ipopt(nlp, opts, x0=nlp.init_primals()), opts)
             sols.append(finish(ocp, m, nlp, res, passing, timings, analyse))
+            note_settling(sols[-1], settling)
     return sols
 
 

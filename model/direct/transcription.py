@@ -18,6 +18,7 @@ from pyomo.dae import ContinuousSet, DerivativeVar
 import model.direct.trapezoid  # noqa: F401  (registers dae.trapezoid)
 from model.direct.bodies import add_body_constraints
 from model.direct.expressions import sympy_to_pyomo
+from model.direct.moving import add_moving_obstacles
 from model.problem.ocp import OCP
 from model.vehicles import sym
 
@@ -46,6 +47,7 @@ def build_model(ocp: OCP, intervals: int, passing: str | None = None, relax: boo
     _add_path_bounds(m, ocp)
     _add_obstacles(m, ocp)
     add_body_constraints(m, ocp, relax)
+    add_moving_obstacles(m, ocp)
     if passing in ("ccw", "cw") and ocp.obstacles:
         _add_pass_direction(m, ocp, passing)
     _add_objective(m, ocp)

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 from model.errors import InputError
 from model.problem.costs import Cost, Energy
 from model.problem.methods import DEFAULT_PMP, DEFAULT_SOLVE, Method, load_method
+from model.scene.moving import MovingVehicle
 from model.scene.obstacles import Circle
 from model.scene.road import Road
 from model.vehicles import Body, Vehicle
@@ -39,6 +40,9 @@ class OCP:
         Any subset of the states at t = Tf (the rest are free).
     obstacles : list of Circle
         Discs to keep out of (radius + safety).
+    moving_obstacles : tuple of MovingVehicle
+        Other vehicles on known paths (``model.scene.moving``): the reference point, or with
+        ``bodies`` every body, stays ``safety`` from each one's rectangle at every node.
     final_time : float, optional
         Fixed for the energy cost; a first guess for the time cost.
     passing : {"auto", "ccw", "cw"}
@@ -79,9 +83,11 @@ class OCP:
     road: Road | None = None
     name: str = "problem"
     title: str = ""
+    moving_obstacles: tuple[MovingVehicle, ...] = ()
 
     def __post_init__(self) -> None:
         self.bounds = {k: (float(v[0]), float(v[1])) for k, v in self.bounds.items()}
+        self.moving_obstacles = tuple(self.moving_obstacles)
         self.validate()
 
     # -- checks that make bad input one clear error --------------------------
@@ -107,6 +113,7 @@ class OCP:
         self._check_boundary("initial", self.initial, require_all=True)
         self._check_boundary("final", self.final, require_all=False)
         self._check_obstacles()
+        self._check_moving()
         self._check_bodies()
         self._check_time()
         if self.passing not in PASSES:
@@ -161,6 +168,21 @@ class OCP:
                     raise InputError(
                         f"{where}.{px}",
                         f"({pt[px]}, {pt[py]}) lies inside obstacles[{i}] (radius + safety = {ob.keep_out})",
+                    )
+
+    def _check_moving(self) -> None:
+        """Each moving obstacle is a ``MovingVehicle``; the start point is clear of it at t = 0."""
+        px, py = self.vehicle.position
+        for i, ob in enumerate(self.moving_obstacles):
+            if not isinstance(ob, MovingVehicle):
+                raise InputError(f"moving_obstacles[{i}]", f"must be a MovingVehicle, got {type(ob).__name__}")
+            if px in self.initial and py in self.initial:
+                gap = float(ob.clearance_at(self.initial[px], self.initial[py], 0.0))
+                if gap < 0:
+                    raise InputError(
+                        f"initial.{px}",
+                        f"({self.initial[px]}, {self.initial[py]}) lies within moving_obstacles[{i}] "
+                        f"(rectangle + safety) at t = 0",
                     )
 
     def _check_bodies(self) -> None:

@@ -28,16 +28,18 @@ from model.problem.tables import (
     string,
     table_of,
 )
+from model.scene.moving import MovingVehicle
 from model.scene.obstacles import Circle
 from model.scene.roundabout import check_lane_width
 from model.vehicles import VEHICLES, Body, Vehicle, preset
 
 TOP_KEYS = {
     "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
-    "disturbance", "control",
+    "disturbance", "control", "moving_obstacles",
 }  # fmt: skip
 PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass", "weights", "steering_weight"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
+MOVING_KEYS = {"length", "width", "safety", "trajectory", "start", "speed", "yaw_rate"}
 OBJECTIVES = {"energy": Energy, "time": Time}
 
 
@@ -112,6 +114,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         road=road,
         name=string(data, "name", default_name),
         title=string(data, "title", ""),
+        moving_obstacles=_moving_obstacles(data.get("moving_obstacles", [])),
     )
     return Scenario(ocp=ocp, intervals=intervals, scheme=scheme, path=path, disturbance=disturbance, control=control)
 
@@ -212,3 +215,43 @@ def _obstacles(items: Any) -> list[Circle]:
         safety = number(item, "safety", where) if "safety" in item else 0.0
         out.append(Circle((float(center[0]), float(center[1])), number(item, "radius", where), safety))
     return out
+
+
+def _moving_obstacles(items: Any) -> tuple[MovingVehicle, ...]:
+    """[[moving_obstacles]]: a rectangle and its motion (docs/scenario-format.md)."""
+    out = []
+    for i, where, item in array_of_tables(items, "moving_obstacles"):
+        no_unknown(item, MOVING_KEYS, where)
+        for key in ("length", "width"):
+            if key not in item:
+                raise InputError(where + key, "missing")
+        sizes = {key: number(item, key, where) for key in ("length", "width")}
+        safety = number(item, "safety", where, 0.0)
+        out.append(MovingVehicle(**sizes, safety=safety, **_motion(item, where), key=f"moving_obstacles[{i}]"))
+    return tuple(out)
+
+
+def _motion(item: dict[str, Any], where: str) -> dict[str, Any]:
+    """Either ``trajectory`` [[t, x, y, heading], ...] or ``start`` [x, y, heading] with ``speed``, ``yaw_rate``."""
+    forms = [key for key in ("trajectory", "start") if key in item]
+    if len(forms) != 1:
+        got = "both" if forms else "neither"
+        raise InputError(where + "trajectory", f"give exactly one of trajectory and start (got {got})")
+    if forms == ["start"]:
+        start = item["start"]
+        if not (isinstance(start, list) and len(start) == 3 and all(is_number(v) for v in start)):
+            raise InputError(where + "start", f"must be [x, y, heading] (3 numbers), got {start!r}")
+        if "speed" not in item:
+            raise InputError(where + "speed", "missing: start = [x, y, heading] needs a speed (m/s)")
+        return {"start": tuple(float(v) for v in start), "speed": number(item, "speed", where),
+                "yaw_rate": number(item, "yaw_rate", where, 0.0)}  # fmt: skip
+    extra = [key for key in ("speed", "yaw_rate") if key in item]
+    if extra:
+        raise InputError(where + extra[0], "belongs to start = [x, y, heading], not to a trajectory")
+    samples = item["trajectory"]
+    if not isinstance(samples, list) or not samples:
+        raise InputError(where + "trajectory", "must be an array of samples [[t, x, y, heading], ...]")
+    for j, row in enumerate(samples):
+        if not (isinstance(row, list) and len(row) == 4 and all(is_number(v) for v in row)):
+            raise InputError(f"{where}trajectory[{j}]", f"must be [t, x, y, heading] (4 numbers), got {row!r}")
+    return {"trajectory": tuple(tuple(float(v) for v in row) for row in samples)}

@@ -1,8 +1,9 @@
-"""The scene: what the vehicle must keep clear of (circular obstacles; road geometry next).
+"""The scene: what the vehicle must keep clear of (static discs, moving vehicles, roads).
 
-Imports nothing of the project: shapes know no vehicle, problem or solver.
+Imports nothing of the project but ``model.errors``: shapes know no vehicle, problem or solver.
 """
 
-from model.scene.obstacles import Circle
+from model.scene.moving import MovingVehicle
+from model.scene.obstacles import Circle, Obstacle
 
-__all__ = ["Circle"]
+__all__ = ["Circle", "MovingVehicle", "Obstacle"]

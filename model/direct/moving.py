@@ -1,0 +1,186 @@
+"""Moving obstacles in the NLP: node-indexed disc centres, keep-out rows, the final-time fixed point.
+
+Each moving obstacle i (``ocp.moving_obstacles[i]``, a ``model.scene.moving.MovingVehicle``) is
+covered by its discs j (``MovingVehicle.cover``: they contain the rectangle). The model holds,
+for an MPC to refill per horizon (``fill_moving`` does it from the obstacles' poses):
+
+- ``m.moving_discs``: the Set of pairs (i, j);
+- ``m.moving_cx[i, j, k]``, ``m.moving_cy[i, j, k]``: mutable Params, the centre of disc j of
+  obstacle i at node k (k = 0 .. N, integers), i.e. at t_k = t0 + k Tf_ref / N;
+- ``m.moving_vx[i, j, k]``, ``m.moving_vy[i, j, k]``: mutable Params, that centre's velocity (m/s);
+- ``m.moving_R[i]``: mutable Param, disc radius + safety of obstacle i;
+- ``m.moving_t0``: mutable Param, the time of node 0 (0 for the manoeuvre; an MPC horizon's start);
+- ``m.moving_tf_ref``: mutable Param, the final time Tf_ref the centres were evaluated for.
+
+Keep-out rows, at every node (one Constraint over ``m.tau`` per pair, so the costates and the
+certificate read them as path-constraint families, ``moving_rows``):
+
+- the point-mass problem (no ``bodies``): ``moving_<i>_<j>``, |(x, y) - c|^2 >= R^2, family ``moving``;
+- a vehicle with bodies: ``moving_<i>_<j>_<body>_<b>``, each of the body's cover discs (``Body.cover``
+  with ``model.direct.bodies.disc_count``) against each obstacle disc,
+  |c_body - c| >= r_body + R (squared), family ``<body>_moving``.
+
+A free final time moves the node times t_k = tau_k Tf. Chosen approach: a fixed point on Tf
+with a first-order term (docs/architecture.md, "Moving obstacles"). With Tf a variable the rows use
+c_k + v_k tau_k (Tf - Tf_ref): exact at Tf = Tf_ref, with the exact derivative in Tf there (for
+samples: the slope of the segment ahead of t_k). ``settle_final_time`` refills the Params at the
+solved Tf and re-solves warm until Tf moves less than ``SETTLE_TOL`` relative; at that point
+the rows are the true obstacle's (to second order in the last change) and their Tf-derivative is
+the true one, so the answer is a KKT point of the problem with the real, unstretched motion. With
+a fixed Tf (energy) the rows are c_k alone and one solve is exact. The validation checks the
+exact rectangles at the node times whatever the NLP did.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pyomo.environ as pyo
+
+from model.direct.bodies import _pose_point, disc_count
+from model.nlp.casadi_nlp import CasadiNLP
+from model.nlp.ipopt import IpoptResult
+from model.problem.ocp import OCP
+
+SETTLE_TOL = 1e-6  # relative change of Tf below which the fixed point is reached
+SETTLE_LIMIT = 12  # re-solves at most
+
+
+def add_moving_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    """The Params and keep-out rows of the module docstring (nothing without moving obstacles)."""
+    if not ocp.moving_obstacles:
+        return
+    n = len(m.nodes) - 1
+    pairs = [(i, j) for i, ob in enumerate(ocp.moving_obstacles) for j in range(len(ob.cover()[0]))]
+    m.moving_discs = pyo.Set(initialize=pairs, dimen=2)
+    m.moving_nodes = pyo.RangeSet(0, n)
+    for name in ("cx", "cy", "vx", "vy"):
+        m.add_component(f"moving_{name}", pyo.Param(m.moving_discs, m.moving_nodes, mutable=True, initialize=0.0))
+    radius = {i: ob.cover()[1] + ob.safety for i, ob in enumerate(ocp.moving_obstacles)}
+    m.moving_R = pyo.Param(pyo.RangeSet(0, len(radius) - 1), mutable=True, initialize=radius)
+    m.moving_t0 = pyo.Param(mutable=True, initialize=0.0)
+    m.moving_tf_ref = pyo.Param(mutable=True, initialize=float(pyo.value(m.tf)))
+    fill_moving(m, ocp)
+    centre = _centre(m)
+    if ocp.bodies:
+        _body_rows(m, ocp, centre)
+    else:
+        _point_rows(m, ocp, centre)
+
+
+def _centre(m: pyo.ConcreteModel) -> Callable:
+    """``(i, j, t) -> (x, y)``: the obstacle disc centre the rows use at node time t (module docstring)."""
+    index = {t: k for k, t in enumerate(m.nodes)}
+    free = m.tf.is_variable_type()
+
+    def centre(i: int, j: int, t):
+        k = index[t]
+        if not free:
+            return m.moving_cx[i, j, k], m.moving_cy[i, j, k]
+        shift = t * (m.tf - m.moving_tf_ref)  # t is tau_k
+        return m.moving_cx[i, j, k] + m.moving_vx[i, j, k] * shift, m.moving_cy[i, j, k] + m.moving_vy[i, j, k] * shift
+
+    return centre
+
+
+def _point_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable) -> None:
+    px, py = ocp.vehicle.position
+    X, Y = m.component(px), m.component(py)
+    for i, j in m.moving_discs:
+
+        def rule(_m, t, i=i, j=j):
+            cx, cy = centre(i, j, t)
+            return (X[t] - cx) ** 2 + (Y[t] - cy) ** 2 >= m.moving_R[i] ** 2
+
+        _register(m, "moving", f"moving_{i}_{j}", pyo.Constraint(m.tau, rule=rule))
+
+
+def _body_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable) -> None:
+    poses = ocp.vehicle.body_poses()
+    for name, body in ocp.bodies.items():
+        offsets, r_body = body.cover(disc_count(body.length, body.width))
+        for b, offset in enumerate(offsets):
+            point = _pose_point(m, ocp, poses[name], float(offset), 0.0)
+            for i, j in m.moving_discs:
+
+                def rule(_m, t, i=i, j=j, point=point, r_body=r_body):
+                    (bx, by), (cx, cy) = point(t), centre(i, j, t)
+                    return (bx - cx) ** 2 + (by - cy) ** 2 >= (r_body + m.moving_R[i]) ** 2
+
+                _register(m, f"{name}_moving", f"moving_{i}_{j}_{name}_{b}", pyo.Constraint(m.tau, rule=rule))
+
+
+def _register(m: pyo.ConcreteModel, family: str, tag: str, component: pyo.Constraint) -> None:
+    m.add_component(tag, component)
+    m.moving_row_list = [*getattr(m, "moving_row_list", []), (family, component)]
+
+
+def moving_rows(m: pyo.ConcreteModel) -> list[tuple[str, pyo.Constraint]]:
+    """(family, constraint) of every moving-obstacle row: family ``moving`` or ``<body>_moving``."""
+    return list(getattr(m, "moving_row_list", []))
+
+
+def fill_moving(
+    m: pyo.ConcreteModel, ocp: OCP, final_time: float | None = None, start_time: float | None = None
+) -> None:
+    """Set the centre and velocity Params at the node times t0 + k Tf / N (defaults: the model's t0 and Tf).
+
+    Also sets ``moving_tf_ref`` (and ``moving_t0``) to the values used. No-op without moving obstacles.
+    """
+    if not ocp.moving_obstacles:
+        return
+    tf = float(pyo.value(m.tf)) if final_time is None else float(final_time)
+    t0 = float(pyo.value(m.moving_t0)) if start_time is None else float(start_time)
+    m.moving_tf_ref.set_value(tf)
+    m.moving_t0.set_value(t0)
+    n = len(m.nodes) - 1
+    times = t0 + np.arange(n + 1) * tf / n
+    for i, ob in enumerate(ocp.moving_obstacles):
+        centres, _ = ob.discs(times)
+        speeds = ob.disc_velocities(times)
+        for j in range(centres.shape[1]):
+            for k in range(n + 1):
+                m.moving_cx[i, j, k] = float(centres[k, j, 0])
+                m.moving_cy[i, j, k] = float(centres[k, j, 1])
+                m.moving_vx[i, j, k] = float(speeds[k, j, 0])
+                m.moving_vy[i, j, k] = float(speeds[k, j, 1])
+
+
+def settle_final_time(
+    m: pyo.ConcreteModel, ocp: OCP, nlp: CasadiNLP, res: IpoptResult, options: dict | None = None
+) -> tuple[IpoptResult, dict | None]:
+    """The fixed point on a free Tf: refill the Params at the solved Tf, re-solve warm, until Tf settles.
+
+    Returns the last Ipopt result and ``{"settled", "resolves", "final_time_change"}`` (None when
+    there is nothing to settle: no moving obstacle or a fixed Tf). A re-solve that does not
+    converge ends the loop unsettled.
+    """
+    if not ocp.moving_obstacles or not m.tf.is_variable_type():
+        return res, None
+    from model.direct.resolve import WARM_OPTIONS  # here: resolve imports the solve that imports this
+    from model.nlp.ipopt import run_ipopt
+
+    change = np.inf
+    for count in range(SETTLE_LIMIT + 1):
+        nlp.load_primals(res.x)
+        tf, ref = float(pyo.value(m.tf)), float(pyo.value(m.moving_tf_ref))
+        change = abs(tf - ref)
+        if change <= SETTLE_TOL * max(1.0, tf):
+            return res, {"settled": True, "resolves": count, "final_time_change": change}
+        if res.status not in ("optimal", "acceptable") or count == SETTLE_LIMIT:
+            break
+        fill_moving(m, ocp, tf)
+        nlp.refresh_parameters()
+        res = run_ipopt(nlp, {**(options or {}), **WARM_OPTIONS}, x0=res.x,
+                        duals=(res.mult_g, res.mult_x_L, res.mult_x_U))  # fmt: skip
+    return res, {"settled": False, "resolves": count, "final_time_change": change}
+
+
+def note_settling(sol, settling: dict | None) -> None:
+    """Record the fixed point in ``sol.timings`` and fail an optimal answer whose Tf did not settle."""
+    if settling is None:
+        return
+    sol.timings["moving_fixed_point"] = settling
+    if not settling["settled"] and sol.status == "optimal":
+        sol.status = "moving_not_settled"
