@@ -23,8 +23,9 @@ certificate read them as path-constraint families, ``moving_rows``):
 A free final time moves the node times t_k = tau_k Tf. Chosen approach: a fixed point on Tf
 with a first-order term (docs/architecture.md, "Moving obstacles"). With Tf a variable the rows use
 c_k + v_k tau_k (Tf - Tf_ref): exact at Tf = Tf_ref, with the exact derivative in Tf there (for
-samples: the slope of the segment ahead of t_k). ``settle_final_time`` refills the Params at the
-solved Tf and re-solves warm until Tf moves less than ``SETTLE_TOL`` relative; at that point
+samples: the slope of the segment ahead of t_k). ``solve_moving`` refills the Params at the
+solved Tf and re-solves warm until Tf moves less than ``SETTLE_TOL`` relative, Tf kept within a
+trust region of ``TRUST`` around Tf_ref in each solve (outside it the first-order term is no model); at that point
 the rows are the true obstacle's (to second order in the last change) and their Tf-derivative is
 the true one, so the answer is a KKT point of the problem with the real, unstretched motion. With
 a fixed Tf (energy) the rows are c_k alone and one solve is exact. The validation checks the
@@ -40,11 +41,12 @@ import pyomo.environ as pyo
 
 from model.direct.bodies import _pose_point, disc_count
 from model.nlp.casadi_nlp import CasadiNLP
-from model.nlp.ipopt import IpoptResult
+from model.nlp.ipopt import IpoptResult, run_ipopt
 from model.problem.ocp import OCP
 
 SETTLE_TOL = 1e-6  # relative change of Tf below which the fixed point is reached
-SETTLE_LIMIT = 12  # re-solves at most
+SETTLE_LIMIT = 20  # re-solves at most
+TRUST = 0.2  # Tf may move by this share of Tf_ref in one solve of the fixed point
 
 
 def add_moving_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
@@ -147,34 +149,47 @@ def fill_moving(
                 m.moving_vy[i, j, k] = float(speeds[k, j, 1])
 
 
-def settle_final_time(
-    m: pyo.ConcreteModel, ocp: OCP, nlp: CasadiNLP, res: IpoptResult, options: dict | None = None
+def solve_moving(
+    m: pyo.ConcreteModel, ocp: OCP, nlp: CasadiNLP, options: dict | None = None
 ) -> tuple[IpoptResult, dict | None]:
-    """The fixed point on a free Tf: refill the Params at the solved Tf, re-solve warm, until Tf settles.
+    """Run Ipopt on the built model from its values; with moving obstacles and a free Tf, to the fixed point.
 
-    Returns the last Ipopt result and ``{"settled", "resolves", "final_time_change"}`` (None when
-    there is nothing to settle: no moving obstacle or a fixed Tf). A re-solve that does not
-    converge ends the loop unsettled.
+    The fixed point: Tf is kept in the trust region ``Tf_ref / (1 + TRUST) <= Tf <= Tf_ref (1 + TRUST)``
+    (the first-order term is a good model of the motion only near Tf_ref); after each solve the Params
+    are refilled at the solved Tf (``fill_moving``) and Ipopt restarts warm, until Tf moves less than
+    ``SETTLE_TOL`` relative. Tf's own bounds are restored at the end. Returns the last Ipopt result and
+    ``{"settled", "resolves", "final_time_change"}`` (None when there is nothing to settle: no moving
+    obstacle or a fixed Tf). A solve that does not converge ends the loop unsettled.
     """
+    if ocp.moving_obstacles:
+        nlp.refresh_parameters()  # the centres of this start (``fill_moving``)
     if not ocp.moving_obstacles or not m.tf.is_variable_type():
-        return res, None
+        return run_ipopt(nlp, options, x0=nlp.init_primals()), None
     from model.direct.resolve import WARM_OPTIONS  # here: resolve imports the solve that imports this
-    from model.nlp.ipopt import run_ipopt
 
-    change = np.inf
-    for count in range(SETTLE_LIMIT + 1):
-        nlp.load_primals(res.x)
-        tf, ref = float(pyo.value(m.tf)), float(pyo.value(m.moving_tf_ref))
-        change = abs(tf - ref)
-        if change <= SETTLE_TOL * max(1.0, tf):
-            return res, {"settled": True, "resolves": count, "final_time_change": change}
-        if res.status not in ("optimal", "acceptable") or count == SETTLE_LIMIT:
-            break
-        fill_moving(m, ocp, tf)
+    bounds, x0, duals, change = (m.tf.lb, m.tf.ub), nlp.init_primals(), None, np.inf
+    try:
+        for count in range(SETTLE_LIMIT + 1):
+            ref = float(pyo.value(m.moving_tf_ref))
+            m.tf.setlb(max(bounds[0], ref / (1 + TRUST)))
+            m.tf.setub(ref * (1 + TRUST) if bounds[1] is None else min(bounds[1], ref * (1 + TRUST)))
+            nlp.refresh_parameters()
+            opts = {**(options or {}), **(WARM_OPTIONS if duals is not None else {})}
+            res = run_ipopt(nlp, opts, x0=x0, duals=duals)
+            nlp.load_primals(res.x)
+            tf = float(pyo.value(m.tf))
+            change = abs(tf - ref)
+            if change <= SETTLE_TOL * max(1.0, tf):
+                return res, {"settled": True, "resolves": count, "final_time_change": change}
+            if res.status not in ("optimal", "acceptable"):
+                break
+            fill_moving(m, ocp, tf)
+            x0, duals = res.x, (res.mult_g, res.mult_x_L, res.mult_x_U)
+        return res, {"settled": False, "resolves": count, "final_time_change": change}
+    finally:
+        m.tf.setlb(bounds[0])
+        m.tf.setub(bounds[1])
         nlp.refresh_parameters()
-        res = run_ipopt(nlp, {**(options or {}), **WARM_OPTIONS}, x0=res.x,
-                        duals=(res.mult_g, res.mult_x_L, res.mult_x_U))  # fmt: skip
-    return res, {"settled": False, "resolves": count, "final_time_change": change}
 
 
 def note_settling(sol, settling: dict | None) -> None:

@@ -21,11 +21,11 @@ from derivations.functions import pmp_functions
 from model.analysis.certificate import certify
 from model.analysis.validation import validate
 from model.direct.costates import costates, obstacle_multiplier, path_multipliers
-from model.direct.moving import fill_moving, note_settling, settle_final_time
+from model.direct.moving import fill_moving, note_settling, solve_moving
 from model.direct.solution import Solution, trapezoid_energy
 from model.direct.transcription import build_model, grid
 from model.nlp.casadi_nlp import CasadiNLP
-from model.nlp.ipopt import IpoptResult, run_ipopt
+from model.nlp.ipopt import IpoptResult
 from model.problem.ocp import OCP
 
 # What a solve is doing, as DEBUG records on "roundabout.solve": the command line's progress
@@ -85,9 +85,7 @@ def solve_starts(
                 t1 = time.perf_counter()
                 nlp = CasadiNLP(m)
                 timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
-            if ocp.moving_obstacles:
-                nlp.refresh_parameters()
-            res, settling = settle_final_time(m, ocp, nlp, run_ipopt(nlp, opts, x0=nlp.init_primals()), opts)
+            res, settling = solve_moving(m, ocp, nlp, opts)  # run_ipopt, to the fixed point on Tf with moving obstacles
             sols.append(finish(ocp, m, nlp, res, passing, timings, analyse))
             note_settling(sols[-1], settling)
     return sols

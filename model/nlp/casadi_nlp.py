@@ -336,7 +336,8 @@ class CasadiNLP(NLP):
     def refresh_parameters(self) -> None:
         """Re-read mutable Param values, variable bounds and the constraint bounds."""
         self._p[:] = [float(pyo.value(q)) for q in self.params]
-        del self._lbx, self._ubx
+        for name in ("_lbx", "_ubx"):  # re-read on next use (also when nothing has read them since the last refresh)
+            self.__dict__.pop(name, None)
         self._evaluate_bounds()
 
     def get_obj_scaling(self):
