@@ -253,3 +253,40 @@ def test_static_circle_problems_keep_their_objective():
     sol = ocp.solve(intervals=40, search="quick")
     assert sol.ok and sol.objective == pytest.approx(0.2585005675661006, rel=1e-9)
     assert not hasattr(sol.model, "moving_discs")
+
+
+# -- figures --------------------------------------------------------------------------------------------
+def _other_vehicles(ax) -> list:
+    from matplotlib.colors import to_rgb
+
+    from model.plotting.figures import MOVING_COLOR
+
+    return [p for p in ax.patches if tuple(p.get_edgecolor()[:3]) == pytest.approx(to_rgb(MOVING_COLOR))]
+
+
+def test_the_figures_draw_the_other_vehicle_to_scale_at_the_bodies_times():
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from model.plotting.figures import path_panel
+    from model.plotting.roads import pose_nodes, road_figure
+
+    ocp = crossing_point_problem()
+    fig, ax = plt.subplots()
+    path_panel(ax, pd.DataFrame(straight_through(ocp)), ocp)
+    drawn = _other_vehicles(ax)
+    assert len(drawn) == 5
+    assert np.allclose(drawn[-1].get_xy()[:4], ocp.moving_obstacles[0].outline(4.5))  # the rectangle at Tf
+    plt.close(fig)
+    road = load_scenario(CROSSING).ocp  # a drive along x from the start to the goal: enough to draw
+    t = np.linspace(0.0, 12.0, 41)
+    cols = {"t": t, "x": np.linspace(-50.0, 50.0, 41), "y": np.full(41, -2.0), "theta": 0 * t, "phi": 0 * t,
+            "u1": 0 * t + 100 / 12, "u2": 0 * t}  # fmt: skip
+    fig = road_figure(road, cols)
+    nodes = pose_nodes(road, cols)
+    drawn = _other_vehicles(fig.axes[0])
+    assert len(drawn) == len(nodes)
+    car = road.moving_obstacles[0]
+    assert np.allclose(drawn[3].get_xy()[:4], car.outline(t[nodes[3]]))
+    assert np.ptp(drawn[3].get_xy()[:4, 0]) <= car.length + 1e-9  # to scale: 4.5 m x 1.8 m
+    plt.close(fig)

@@ -1,11 +1,12 @@
 """A road manoeuvre as an animated GIF: the vehicle driving its trajectory over the roundabout plan.
 
-Each frame shows the plan to scale (as in ``model.plotting.roads``), the bodies at the frame's
-time, the envelope each body has swept so far, the axle tracks so far and the planned rear-axle
-path ahead, and a time label. States between the nodes are interpolated linearly, as for the
-validation's dense check (``model.analysis.bodies.substeps``), so the last frame's envelope is the
-one ``swept_polygons`` gives. Written with Pillow (no ffmpeg needed), the last frame first: a viewer
-that shows only the first frame (the PDF) shows the complete manoeuvre.
+Each frame shows the plan to scale (as in ``model.plotting.roads``), the bodies and the other
+vehicles (moving obstacles, with their paths dotted) at the frame's time, the envelope each body
+has swept so far, the axle tracks so far and the planned rear-axle path ahead, and a time label.
+States between the nodes are interpolated linearly, as for the validation's dense check
+(``model.analysis.bodies.substeps``), so the last frame's envelope is the one ``swept_polygons``
+gives. Written with Pillow (no ffmpeg needed), the last frame first: a viewer that shows only the
+first frame (the PDF) shows the complete manoeuvre.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from matplotlib.patches import Polygon as PolygonPatch
 from PIL import Image
 
 from model.analysis.bodies import body_corners
-from model.plotting.figures import apply_style
+from model.plotting.figures import MOVING_COLOR, apply_style
 from model.plotting.roads import (
     BODY_COLORS,
     TRACK_STYLES,
@@ -71,6 +72,7 @@ class _Scene:
     tracks: dict[str, plt.Line2D]
     label: plt.Text
     outlines: dict[str, PathPatch]
+    others: list[PolygonPatch] = field(default_factory=list)
     envelopes: dict = field(default_factory=dict)
 
 
@@ -112,11 +114,16 @@ class RoadAnimation:
         draw_roundabout(ax, ocp, label=False)
         px, py = ocp.vehicle.position
         ax.plot(self.nodes[px], self.nodes[py], color="0.35", lw=0.7, ls=(0, (2, 3)), zorder=2)
+        span = np.linspace(0.0, float(self.nodes["t"][-1]), 200)
+        for ob in ocp.moving_obstacles:
+            ax.plot(*ob.path(span).T, color=MOVING_COLOR, lw=0.7, ls=":", zorder=2)
         frame_plan(ax, ocp, self.nodes)
         draw_scale_bar(ax)
         draw_north(ax)
         handles = [Patch(fc=(*to_rgb(BODY_COLORS.get(n, "0.4")), 0.6), ec=BODY_COLORS.get(n, "0.4"),
                          label=body_label(ocp, n)) for n in self.rectangles]  # fmt: skip
+        if ocp.moving_obstacles:
+            handles.append(Patch(fc=(*to_rgb(MOVING_COLOR), 0.6), ec=MOVING_COLOR, label="other vehicle"))
         handles += [Patch(fc=(0.5, 0.5, 0.6, 0.2), ec="0.3", lw=0.8, label="swept so far"),
                     Line2D([], [], color="0.35", lw=0.7, ls=(0, (2, 3)), label="planned rear axle path")]  # fmt: skip
         ax.set_title(textwrap.fill(ocp.title or ocp.name, 70), fontsize=8)
@@ -151,7 +158,9 @@ class RoadAnimation:
             (tracks[name],) = ax.plot([], [], color=color, lw=0.8, ls=TRACK_STYLES[name], zorder=7)
         label = ax.text(0.03, 0.97, "", transform=ax.transAxes, va="top", fontsize=9,
                         bbox={"fc": "white", "ec": "0.7", "alpha": 0.9})  # fmt: skip
-        return _Scene(bodies, tracks, label, outlines)
+        style = {"closed": True, "fc": (*to_rgb(MOVING_COLOR), 0.6), "ec": MOVING_COLOR, "lw": 1.0, "zorder": 8}
+        others = [ax.add_patch(PolygonPatch(np.zeros((4, 2)), **style)) for _ in self.ocp.moving_obstacles]
+        return _Scene(bodies, tracks, label, outlines, others)
 
     def draw(self, k: int) -> None:
         """Bring the artists to frame ``k`` (frames must be drawn in order for the envelope to grow)."""
@@ -165,6 +174,8 @@ class RoadAnimation:
             s.bodies[name].set_xy(shapely.get_coordinates(rects[upto - 1].exterior))
         for name, xy in self.tracks.items():
             s.tracks[name].set_data(*xy[:upto].T)
+        for patch, ob in zip(s.others, self.ocp.moving_obstacles, strict=True):
+            patch.set_xy(ob.outline(t))  # the other vehicle where it is at this frame's time
         s.label.set_text(f"t = {t:5.1f} s")
 
     def _grab(self) -> Image.Image:

@@ -14,6 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.patches import Circle as Disc  # noqa: E402
+from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
 
 from model.plotting.results import Result  # noqa: E402
 
@@ -102,6 +103,27 @@ def draw_obstacles(ax: plt.Axes, obstacles: Sequence, label: bool = True) -> Non
                           label="safety distance" if first else None))
 
 
+MOVING_COLOR = "#6a3d9a"  # the other vehicles (moving obstacles)
+
+
+def draw_moving_obstacles(ax: plt.Axes, ocp, times: Sequence[float], final_time: float, label: bool = True) -> None:
+    """Each moving obstacle to scale: its rectangle at ``times`` (fainter the earlier, each with its time)
+    and the path of its centre over [0, ``final_time``] dotted."""
+    times = np.asarray(times, float)
+    span = np.linspace(0.0, final_time, 200)
+    for i, ob in enumerate(ocp.moving_obstacles):
+        first = label and i == 0
+        ax.plot(*ob.path(span).T, color=MOVING_COLOR, lw=0.8, ls=":", zorder=3,
+                label="other vehicle's path" if first else None)  # fmt: skip
+        for k, t in enumerate(times):
+            alpha = 0.15 + 0.45 * (k + 1) / len(times)
+            ax.add_patch(PolygonPatch(ob.outline(t), closed=True, fc=(*matplotlib.colors.to_rgb(MOVING_COLOR), alpha),
+                                      ec=MOVING_COLOR, lw=0.7, zorder=5,
+                                      label="other vehicle" if first and k == 0 else None))  # fmt: skip
+            x, y = ob.path(t)
+            ax.annotate(f"{t:.1f} s", (x, y), fontsize=5.5, color=MOVING_COLOR, ha="center", va="center", zorder=9)
+
+
 def controls_panel(ax: plt.Axes, frame: pd.DataFrame, bounds: dict) -> None:
     for name, color in (("u1", PALETTE[0]), ("u2", PALETTE[3])):
         ax.plot(frame["t"], frame[name], color=color, label=f"{LABELS[name]} ({UNITS[name]})")
@@ -118,8 +140,15 @@ def states_panel(ax: plt.Axes, frame: pd.DataFrame) -> None:
 
 
 def path_panel(ax: plt.Axes, frame: pd.DataFrame, ocp, color=PALETTE[0], label: str = "path") -> None:
-    """The path in the plane with the obstacle, its safety circle, and start and goal poses."""
+    """The path in the plane with the obstacle, its safety circle, and start and goal poses.
+
+    Moving obstacles are drawn at five node times, where the path has a dot, with their paths."""
     draw_obstacles(ax, ocp.obstacles)
+    if ocp.moving_obstacles:
+        t = np.asarray(frame["t"], float)
+        marks = np.linspace(0, len(t) - 1, 5).round().astype(int)
+        draw_moving_obstacles(ax, ocp, t[marks], float(t[-1]))
+        ax.plot(np.asarray(frame["x"])[marks], np.asarray(frame["y"])[marks], "o", color=color, ms=3)
     ax.plot(frame["x"], frame["y"], color=color, label=label)
     span = max(np.ptp(frame["x"]), np.ptp(frame["y"]), 0.1)
     _pose_arrow(ax, ocp.initial, "tab:green", "start", 0.18 * span)

@@ -2,7 +2,8 @@
 
 ``road_figure`` draws the plan (paved area with its curbs, the hatched truck apron, the central
 island, the leg centre lines and give-way lines), the envelope each body sweeps, the bodies every
-few nodes, the axle tracks, a scale bar and a north arrow; beside it the controls, the steering
+few nodes (other vehicles, the moving obstacles, at the same times, with their paths), the axle
+tracks, a scale bar and a north arrow; beside it the controls, the steering
 angle and (for a trailer) the articulation angle over time with their bounds. ``draw_roundabout``,
 ``draw_scale_bar`` and ``geometry_patch`` are shared with the animation (``model.plotting.animation``).
 """
@@ -23,7 +24,7 @@ from matplotlib.path import Path as MplPath
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
 from model.analysis.bodies import body_corners, swept_polygons
-from model.plotting.figures import ENERGY_UNIT, apply_style
+from model.plotting.figures import ENERGY_UNIT, apply_style, draw_moving_obstacles
 from model.problem.ocp import OCP
 from model.scene.geometry import Disc
 from model.scene.roundabout import (
@@ -315,6 +316,12 @@ def road_figure(
     _draw_envelopes(ax, ocp, cols)
     nodes = np.arange(0, len(cols["t"]), every) if every else pose_nodes(ocp, cols)
     _draw_bodies(ax, ocp, cols, nodes)
+    if ocp.moving_obstacles:  # where each other vehicle was when the bodies were, both marked with the time
+        draw_moving_obstacles(ax, ocp, cols["t"][nodes], float(cols["t"][-1]))
+        px, py = v.position
+        for k in nodes:
+            ax.annotate(f"{cols['t'][k]:.1f} s", (cols[px][k], cols[py][k]), fontsize=5.5, color="black",
+                        ha="center", va="center", zorder=9)  # fmt: skip
     _draw_tracks(ax, ocp, cols)
     frame_plan(ax, ocp, cols)
     draw_scale_bar(ax)
@@ -423,6 +430,8 @@ def road_note(summary: Mapping, ocp: OCP | None = None, columns: Mapping | None 
     if summary.get("min_clearance") is not None:
         body = summary.get("min_clearance_body")
         parts.append(f"least clearance to a curb {summary['min_clearance']:.2f} m" + (f" ({body})" if body else ""))
+    if summary.get("min_clearance_moving") is not None:
+        parts.append(f"to the other vehicle {summary['min_clearance_moving']:.2f} m beyond its safety distance")
     text = ", ".join(p for p in parts if p)
     if ocp is None or columns is None:
         return text
