@@ -406,6 +406,12 @@ def _notes(ocp: OCP) -> list[str]:
             "(model/direct/bodies.py), whose gradient (c_X, c_Y) at a point the certificate evaluates "
             "on the NLP"
         )
+    if ocp.moving_obstacles:
+        notes.append(
+            f"the {len(ocp.moving_obstacles)} moving obstacle(s) (model/scene/moving.py) are not in this "
+            "system: their keep-out rows c_j(x, t) >= 0 depend on time, so the solve adjoins them from the NLP "
+            "(families moving or <body>_moving) and H is not constant along an optimum"
+        )
     return notes
 
 

@@ -2,7 +2,7 @@
 
 The public API, re-exported from the layers (see docs/architecture.md)::
 
-    from model import OCP, Truck, Energy, Circle, Resolver, load_scenario
+    from model import OCP, Truck, Energy, Circle, MovingVehicle, Resolver, load_scenario
 
 Names are imported on first use (PEP 562), so ``import model`` stays cheap and a
 command that only reads a scenario file never loads the solver.
@@ -20,6 +20,7 @@ _PUBLIC = {
     "Unicycle": "model.vehicles",
     "VEHICLES": "model.vehicles",
     "Circle": "model.scene",
+    "MovingVehicle": "model.scene",
     "OCP": "model.problem",
     "Cost": "model.problem",
     "Energy": "model.problem",
