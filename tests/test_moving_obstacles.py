@@ -220,6 +220,19 @@ def test_a_point_mass_solve_keeps_clear_of_the_moving_rectangle():
     assert cert["items"]["adjoint"]["passed"] and cert["items"]["complementarity"]["passed"]
 
 
+def test_a_warm_re_solve_with_another_final_time_moves_the_obstacle_to_the_new_node_times():
+    from model import Resolver
+
+    ocp = crossing_point_problem()
+    first = ocp.solve(intervals=40, search="quick", accuracy=None)
+    again = Resolver(first).solve(final_time=5.0)
+    assert again.ok and again.final_time == 5.0
+    centres, _ = ocp.moving_obstacles[0].discs(again.columns["t"])
+    assert again.columns["t"][-1] == pytest.approx(5.0)
+    assert [again.model.moving_cy[0, 3, k].value for k in (10, 40)] == pytest.approx(centres[[10, 40], 3, 1].tolist())
+    assert again.validation["measures"]["min_clearance_moving"] >= 0
+
+
 def test_the_crossing_car_road_example_solves_with_the_car_and_would_collide_without(tmp_path):
     """A free final time: the fixed point on Tf settles; every node clears the car's exact rectangle."""
     from model.direct.solve import solve_starts

@@ -150,9 +150,15 @@ def fill_moving(
 
 
 def solve_moving(
-    m: pyo.ConcreteModel, ocp: OCP, nlp: CasadiNLP, options: dict | None = None
+    m: pyo.ConcreteModel,
+    ocp: OCP,
+    nlp: CasadiNLP,
+    options: dict | None = None,
+    x0: np.ndarray | None = None,
+    duals: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[IpoptResult, dict | None]:
-    """Run Ipopt on the built model from its values; with moving obstacles and a free Tf, to the fixed point.
+    """Run Ipopt on the built model from ``x0`` (default: its values), warm with ``duals`` if given;
+    with moving obstacles and a free Tf, to the fixed point.
 
     The fixed point: Tf is kept in the trust region ``Tf_ref / (1 + TRUST) <= Tf <= Tf_ref (1 + TRUST)``
     (the first-order term is a good model of the motion only near Tf_ref); after each solve the Params
@@ -163,11 +169,12 @@ def solve_moving(
     """
     if ocp.moving_obstacles:
         nlp.refresh_parameters()  # the centres of this start (``fill_moving``)
+    x0 = nlp.init_primals() if x0 is None else x0
     if not ocp.moving_obstacles or not m.tf.is_variable_type():
-        return run_ipopt(nlp, options, x0=nlp.init_primals()), None
+        return run_ipopt(nlp, options, x0=x0, duals=duals), None
     from model.direct.resolve import WARM_OPTIONS  # here: resolve imports the solve that imports this
 
-    bounds, x0, duals, change = (m.tf.lb, m.tf.ub), nlp.init_primals(), None, np.inf
+    bounds, change = (m.tf.lb, m.tf.ub), np.inf
     try:
         for count in range(SETTLE_LIMIT + 1):
             ref = float(pyo.value(m.moving_tf_ref))

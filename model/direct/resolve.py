@@ -13,9 +13,9 @@ from __future__ import annotations
 import copy
 import time
 
+from model.direct.moving import fill_moving, note_settling, solve_moving
 from model.direct.solution import Solution
 from model.direct.solve import finish
-from model.nlp.ipopt import run_ipopt
 from model.scene.obstacles import Circle
 
 WARM_OPTIONS = {
@@ -83,14 +83,16 @@ class Resolver:
         """
         t0 = time.perf_counter()
         self._apply(final_time, initial or {}, final or {}, obstacles or {})
+        fill_moving(self.model, self.ocp)  # the moving obstacles at the (new) node times
         self.nlp.refresh_parameters()
         prev = self.last.ipopt
         opts = {**(WARM_OPTIONS if warm else {}), **(options or {})}
         duals = (prev.mult_g, prev.mult_x_L, prev.mult_x_U) if warm else None
-        res = run_ipopt(self.nlp, opts, x0=prev.x, duals=duals)
+        res, settling = solve_moving(self.model, self.ocp, self.nlp, opts, x0=prev.x, duals=duals)
         sol = finish(
             self.ocp, self.model, self.nlp, res, self.passing, {"update": time.perf_counter() - t0 - res.seconds}
         )
+        note_settling(sol, settling)
         if sol.ok:
             self.last = sol
         return sol
