@@ -99,7 +99,8 @@ def path_multipliers(
     position = {t: k for k, t in enumerate(nodes)}
     grouped: dict[str, list] = {}
     for name, comp in families:
-        grouped.setdefault(name, []).extend((row[id(comp[t])], position[t], comp[t]) for t in comp)
+        keys = [(key, key[-1] if isinstance(key, tuple) else key) for key in comp]  # the node time is the last index
+        grouped.setdefault(name, []).extend((row[id(comp[key])], position[t], comp[key]) for key, t in keys)
     columns, adjoined = {}, []
     for name, rows in grouped.items():
         r = np.array([q[0] for q in rows])

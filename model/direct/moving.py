@@ -5,28 +5,30 @@ covered by its discs j (``MovingVehicle.cover``: they contain the rectangle). Th
 for an MPC to refill per horizon (``fill_moving`` does it from the obstacles' poses):
 
 - ``m.moving_discs``: the Set of pairs (i, j);
-- ``m.moving_cx[i, j, k]``, ``m.moving_cy[i, j, k]``: mutable Params, the centre of disc j of
-  obstacle i at node k (k = 0 .. N, integers), i.e. at t_k = t0 + k Tf_ref / N;
-- ``m.moving_vx[i, j, k]``, ``m.moving_vy[i, j, k]``: mutable Params, that centre's velocity (m/s);
+- ``m.moving_cx[i, j, tau]``, ``m.moving_cy[i, j, tau]``: mutable Params, the centre of disc j of
+  obstacle i at the node tau (indexed by ``m.tau`` like every node variable: tau_k = k / N), i.e.
+  at t_k = t0 + tau_k Tf_ref;
+- ``m.moving_vx[i, j, tau]``, ``m.moving_vy[i, j, tau]``: mutable Params, that centre's velocity (m/s);
 - ``m.moving_R[i]``: mutable Param, disc radius + safety of obstacle i;
 - ``m.moving_t0``: mutable Param, the time of node 0 (0 for the manoeuvre; an MPC horizon's start);
 - ``m.moving_tf_ref``: mutable Param, the final time Tf_ref the centres were evaluated for.
 
-Keep-out rows, at every node (one Constraint over ``m.tau`` per pair, so the costates and the
-certificate read them as path-constraint families, ``moving_rows``):
+Keep-out rows, at every node (the costates and the certificate read them as path-constraint
+families, ``moving_rows``; the node time is the last index):
 
-- the point-mass problem (no ``bodies``): ``moving_<i>_<j>``, |(x, y) - c|^2 >= R^2, family ``moving``;
-- a vehicle with bodies: ``moving_<i>_<j>_<body>_<b>``, each of the body's cover discs (``Body.cover``
-  with ``model.direct.bodies.disc_count``) against each obstacle disc,
-  |c_body - c| >= r_body + R (squared), family ``<body>_moving``.
+- the point-mass problem (no ``bodies``): ``m.moving_keep_out[i, j, t]``, |(x, y) - c|^2 >= R^2,
+  family ``moving``;
+- a vehicle with bodies: ``m.moving_<body>_keep_out[i, j, b, t]``, each of the body's cover discs b
+  (``Body.cover`` with ``model.direct.bodies.disc_count``; offsets ``m.moving_<body>_ahead[b]``)
+  against each obstacle disc, |c_body - c|^2 >= (r_body + R)^2, family ``<body>_moving``.
 
 A free final time moves the node times t_k = tau_k Tf. Chosen approach: a fixed point on Tf
 with a first-order term (docs/architecture.md, "Moving obstacles"). With Tf a variable the rows use
 c_k + v_k tau_k (Tf - Tf_ref): exact at Tf = Tf_ref, with the exact derivative in Tf there (for
 samples: the slope of the segment ahead of t_k). ``solve_moving`` refills the Params at the
 solved Tf and re-solves warm until Tf moves less than ``SETTLE_TOL`` relative, Tf kept within a
-trust region of ``TRUST`` around Tf_ref in each solve (outside it the first-order term is no model); at that point
-the rows are the true obstacle's (to second order in the last change) and their Tf-derivative is
+trust region of ``TRUST`` around Tf_ref in each solve (outside it the first-order term is no
+model); at that point the rows are the true obstacle's (to second order in the last change) and their Tf-derivative is
 the true one, so the answer is a KKT point of the problem with the real, unstretched motion. With
 a fixed Tf (energy) the rows are c_k alone and one solve is exact. The validation checks the
 exact rectangles at the node times whatever the NLP did.
@@ -39,10 +41,12 @@ from collections.abc import Callable
 import numpy as np
 import pyomo.environ as pyo
 
-from model.direct.bodies import _pose_point, disc_count
+from model.direct.bodies import disc_count
+from model.direct.expressions import sympy_to_pyomo
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import IpoptResult, run_ipopt
 from model.problem.ocp import OCP
+from model.vehicles import sym
 
 SETTLE_TOL = 1e-6  # relative change of Tf below which the fixed point is reached
 SETTLE_LIMIT = 20  # re-solves at most
@@ -50,15 +54,17 @@ TRUST = 0.2  # Tf may move by this share of Tf_ref in one solve of the fixed poi
 
 
 def add_moving_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
-    """The Params and keep-out rows of the module docstring (nothing without moving obstacles)."""
+    """The Params and keep-out rows of the module docstring (nothing without moving obstacles).
+
+    Every rule uses only Pyomo components indexed by the rows' own indices, so that each row family
+    is one CasADi template (``model.nlp.pyomo_sx``), not one expression walk per row.
+    """
     if not ocp.moving_obstacles:
         return
-    n = len(m.nodes) - 1
     pairs = [(i, j) for i, ob in enumerate(ocp.moving_obstacles) for j in range(len(ob.cover()[0]))]
     m.moving_discs = pyo.Set(initialize=pairs, dimen=2)
-    m.moving_nodes = pyo.RangeSet(0, n)
     for name in ("cx", "cy", "vx", "vy"):
-        m.add_component(f"moving_{name}", pyo.Param(m.moving_discs, m.moving_nodes, mutable=True, initialize=0.0))
+        m.add_component(f"moving_{name}", pyo.Param(m.moving_discs, m.tau, mutable=True, initialize=0.0))
     radius = {i: ob.cover()[1] + ob.safety for i, ob in enumerate(ocp.moving_obstacles)}
     m.moving_R = pyo.Param(pyo.RangeSet(0, len(radius) - 1), mutable=True, initialize=radius)
     m.moving_t0 = pyo.Param(mutable=True, initialize=0.0)
@@ -72,16 +78,14 @@ def add_moving_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
 
 
 def _centre(m: pyo.ConcreteModel) -> Callable:
-    """``(i, j, t) -> (x, y)``: the obstacle disc centre the rows use at node time t (module docstring)."""
-    index = {t: k for k, t in enumerate(m.nodes)}
+    """``(i, j, t) -> (x, y)``: the obstacle disc centre the rows use at node t (module docstring)."""
     free = m.tf.is_variable_type()
 
-    def centre(i: int, j: int, t):
-        k = index[t]
+    def centre(i, j, t):
         if not free:
-            return m.moving_cx[i, j, k], m.moving_cy[i, j, k]
+            return m.moving_cx[i, j, t], m.moving_cy[i, j, t]
         shift = t * (m.tf - m.moving_tf_ref)  # t is tau_k
-        return m.moving_cx[i, j, k] + m.moving_vx[i, j, k] * shift, m.moving_cy[i, j, k] + m.moving_vy[i, j, k] * shift
+        return m.moving_cx[i, j, t] + m.moving_vx[i, j, t] * shift, m.moving_cy[i, j, t] + m.moving_vy[i, j, t] * shift
 
     return centre
 
@@ -89,28 +93,32 @@ def _centre(m: pyo.ConcreteModel) -> Callable:
 def _point_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable) -> None:
     px, py = ocp.vehicle.position
     X, Y = m.component(px), m.component(py)
-    for i, j in m.moving_discs:
 
-        def rule(_m, t, i=i, j=j):
-            cx, cy = centre(i, j, t)
-            return (X[t] - cx) ** 2 + (Y[t] - cy) ** 2 >= m.moving_R[i] ** 2
+    def rule(_m, i, j, t):
+        cx, cy = centre(i, j, t)
+        return (X[t] - cx) ** 2 + (Y[t] - cy) ** 2 >= m.moving_R[i] ** 2
 
-        _register(m, "moving", f"moving_{i}_{j}", pyo.Constraint(m.tau, rule=rule))
+    _register(m, "moving", "moving_keep_out", pyo.Constraint(m.moving_discs, m.tau, rule=rule))
 
 
 def _body_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable) -> None:
-    poses = ocp.vehicle.body_poses()
+    """Per body: its cover discs' offsets ahead of the axle (``m.moving_<body>_ahead[b]``) and the rows."""
+    v = ocp.vehicle
+    poses = v.body_poses()
+    params = {sym(k): val for k, val in v.parameters().items()}
     for name, body in ocp.bodies.items():
         offsets, r_body = body.cover(disc_count(body.length, body.width))
-        for b, offset in enumerate(offsets):
-            point = _pose_point(m, ocp, poses[name], float(offset), 0.0)
-            for i, j in m.moving_discs:
+        ahead = pyo.Param(pyo.RangeSet(0, len(offsets) - 1), initialize=dict(enumerate(map(float, offsets))))
+        m.add_component(f"moving_{name}_ahead", ahead)
 
-                def rule(_m, t, i=i, j=j, point=point, r_body=r_body):
-                    (bx, by), (cx, cy) = point(t), centre(i, j, t)
-                    return (bx - cx) ** 2 + (by - cy) ** 2 >= (r_body + m.moving_R[i]) ** 2
+        def rule(_m, i, j, b, t, pose=poses[name], ahead=ahead, r_body=r_body):
+            x, y, h = (sympy_to_pyomo(e, {sym(s): m.component(s)[t] for s in v.states} | params) for e in pose)
+            cx, cy = centre(i, j, t)
+            bx, by = x + ahead[b] * pyo.cos(h), y + ahead[b] * pyo.sin(h)
+            return (bx - cx) ** 2 + (by - cy) ** 2 >= (r_body + m.moving_R[i]) ** 2
 
-                _register(m, f"{name}_moving", f"moving_{i}_{j}_{name}_{b}", pyo.Constraint(m.tau, rule=rule))
+        rows = pyo.Constraint(m.moving_discs, ahead.index_set(), m.tau, rule=rule)
+        _register(m, f"{name}_moving", f"moving_{name}_keep_out", rows)
 
 
 def _register(m: pyo.ConcreteModel, family: str, tag: str, component: pyo.Constraint) -> None:
@@ -126,7 +134,7 @@ def moving_rows(m: pyo.ConcreteModel) -> list[tuple[str, pyo.Constraint]]:
 def fill_moving(
     m: pyo.ConcreteModel, ocp: OCP, final_time: float | None = None, start_time: float | None = None
 ) -> None:
-    """Set the centre and velocity Params at the node times t0 + k Tf / N (defaults: the model's t0 and Tf).
+    """Set the centre and velocity Params at the node times t0 + tau_k Tf (defaults: the model's t0 and Tf).
 
     Also sets ``moving_tf_ref`` (and ``moving_t0``) to the values used. No-op without moving obstacles.
     """
@@ -136,17 +144,17 @@ def fill_moving(
     t0 = float(pyo.value(m.moving_t0)) if start_time is None else float(start_time)
     m.moving_tf_ref.set_value(tf)
     m.moving_t0.set_value(t0)
-    n = len(m.nodes) - 1
-    times = t0 + np.arange(n + 1) * tf / n
+    nodes = list(m.nodes)
+    times = t0 + np.array(nodes, dtype=float) * tf
     for i, ob in enumerate(ocp.moving_obstacles):
         centres, _ = ob.discs(times)
         speeds = ob.disc_velocities(times)
         for j in range(centres.shape[1]):
-            for k in range(n + 1):
-                m.moving_cx[i, j, k] = float(centres[k, j, 0])
-                m.moving_cy[i, j, k] = float(centres[k, j, 1])
-                m.moving_vx[i, j, k] = float(speeds[k, j, 0])
-                m.moving_vy[i, j, k] = float(speeds[k, j, 1])
+            for k, t in enumerate(nodes):
+                m.moving_cx[i, j, t] = float(centres[k, j, 0])
+                m.moving_cy[i, j, t] = float(centres[k, j, 1])
+                m.moving_vx[i, j, t] = float(speeds[k, j, 0])
+                m.moving_vy[i, j, t] = float(speeds[k, j, 1])
 
 
 def solve_moving(
