@@ -326,3 +326,33 @@ def test_each_row_family_is_one_casadi_template():
         assert len(rows) == len(m.moving_discs) * len(m.tau) * (len(m.moving_vehicle_ahead) if ocp.bodies else 1)
         block = component_rows(rows, walk, [])
         assert block is not None and block.n == len(rows)
+
+
+RECTANGLES = st.tuples(st.floats(-5, 5), st.floats(-5, 5), st.floats(-4, 4), st.floats(0.5, 6), st.floats(0.3, 3))
+
+
+@settings(max_examples=80, deadline=None)
+@given(a=RECTANGLES, b=RECTANGLES)
+def test_rectangle_gaps_agree_with_shapely(a, b):
+    """Apart: shapely's exact distance; overlapping: minus a depth no larger than either rectangle's half-diagonal."""
+    ra, rb = (MovingVehicle(r[3], r[4], trajectory=((0.0, r[0], r[1], r[2]),)) for r in (a, b))
+    ca, cb = ra.corners(np.zeros(1)), rb.corners(np.zeros(1))
+    gap = float(rectangle_gaps(ca, cb)[0])
+    pa, pb = shapely.Polygon(ca[0]), shapely.Polygon(cb[0])
+    if pa.intersects(pb):
+        assert gap <= 0 and -gap <= min(math.hypot(a[3], a[4]), math.hypot(b[3], b[4]))
+        if pa.intersection(pb).area > 1e-9:  # moving b by the depth along some axis separates them: depth > 0
+            assert gap < 0
+    else:
+        assert gap == pytest.approx(pa.distance(pb), abs=1e-12)
+
+
+def test_a_tractor_semitrailer_keeps_both_bodies_clear_of_the_car():
+    from model.direct.moving import moving_rows
+    from model.direct.transcription import build_model
+
+    ocp = load_scenario(ROOT / "examples" / "roundabout-semitrailer.toml").ocp
+    ocp = OCP(**{**vars(ocp), "moving_obstacles": load_scenario(CROSSING).ocp.moving_obstacles})
+    m = build_model(ocp, 10, "none")
+    assert [family for family, _ in moving_rows(m)] == ["vehicle_moving", "trailer_moving"]
+    assert len(m.moving_trailer_keep_out) == len(m.moving_discs) * len(m.moving_trailer_ahead) * 11
