@@ -7,7 +7,7 @@ from collections.abc import Mapping
 import matplotlib.pyplot as plt
 import numpy as np
 
-from model.plotting.figures import LABELS, PALETTE, UNITS, apply_style, draw_obstacles
+from model.plotting.figures import PALETTE, apply_style, draw_obstacles, tex, unit
 from model.plotting.roads import draw_roundabout, draw_scale_bar
 from model.problem.ocp import OCP
 
@@ -56,8 +56,8 @@ def closed_loop_figure(
         panel = fig.add_subplot(grid[row, 1])
         panel.plot(optimum["t"], optimum[name], color="0.35", ls="--", lw=1.0, label="optimum")
         panel.step(driven["t"], driven[f"sent_{name}"], where="post", color=PALETTE[row], lw=1.0, label="sent")
-        unit = UNITS.get(name, "")
-        panel.set(ylabel=f"{LABELS.get(name, name)}" + (f" ({unit})" if unit else ""))
+        units = unit(ocp.vehicle.roles, name)
+        panel.set(ylabel=tex(name) + (f" ({units})" if units else ""))
         if row == len(controls) - 1:
             panel.set(xlabel="t (s)")
         panel.legend(loc="best", fontsize=7)
