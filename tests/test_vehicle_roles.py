@@ -26,6 +26,7 @@ from model.problem.closed_loop import Disturbance
 from model.problem.scenario import parse_scenario
 from model.simulation.controllers import Tracking
 from model.simulation.loop import simulate
+from model.simulation.mpc import MPC
 from model.simulation.plant import Plant
 from model.vehicles import VEHICLES, Roles, Truck, Vehicle, sym
 from tests.conftest import ROOT
@@ -168,6 +169,19 @@ def test_the_tracking_controller_drives_the_renamed_car_as_the_truck(disc_pair):
     for key in ("final_position_error", "final_heading_error", "energy"):
         assert c[key] == pytest.approx(t[key], rel=1e-4, abs=1e-7), key
     same_columns(runs[1].columns, runs[0].columns, 1e-4)
+
+
+@pytest.mark.xfail(strict=True, reason="model/simulation/mpc.py (MPC._disturbance_bound) picks the estimated "
+                   "states by s.startswith('theta'): the car's heading psi is not estimated. Convert it to "
+                   "vehicle.roles.headings after the mpc package split, then drop this mark.")
+def test_the_mpc_drives_the_renamed_car_as_the_truck(disc_pair):
+    (ts, truck), (cs, car) = disc_pair
+    control = replace(ts.control, horizon=20)
+    t, c = (simulate(s, sol, MPC(sol, control, s.disturbance), s.disturbance, control).summary
+            for s, sol in ((ts, truck), (cs, car)))  # fmt: skip
+    assert t["reached_goal"]
+    for key in ("final_position_error", "final_heading_error", "energy"):
+        assert c[key] == pytest.approx(t[key], rel=1e-6), key
 
 
 def test_the_renamed_car_takes_the_road_as_the_truck(registered):
