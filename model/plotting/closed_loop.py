@@ -31,13 +31,16 @@ def closed_loop_figure(
     Returns
     -------
     Figure
-        The plan (left) and one panel per control over time (right).
+        The plan (left) and one panel per control over time (right): the speed, the steering (or turn)
+        rate, then any other control.
     """
     apply_style()
     optimum = {k: np.asarray(optimum[k], float) for k in optimum}
     driven = {k: np.asarray(driven[k], float) for k in driven}
     px, py = ocp.vehicle.position
-    controls = [c for c in ocp.vehicle.controls if f"sent_{c}" in driven]
+    v = ocp.vehicle
+    order = dict.fromkeys(c for c in (v.roles.speed, v.roles.turning, *v.controls) if c in v.controls)
+    controls = [c for c in order if f"sent_{c}" in driven]  # the speed first, then the steering rate
     fig = plt.figure(figsize=(9.5, 4.6), layout="constrained")
     grid = fig.add_gridspec(max(1, len(controls)), 2, width_ratios=(1.25, 1))
     ax = fig.add_subplot(grid[:, 0])
