@@ -36,27 +36,27 @@ RENAME = {"x": "px", "y": "py", "theta": "psi", "phi": "delta", "u1": "v", "u2":
 
 @dataclass
 class RenamedCar(Vehicle):
-    """The paper's truck, system (1), with other names in another order."""
+    """The paper's truck, system (1), with other names in another order (the wheelbase too: l)."""
 
     wheelbase: float = 0.1
     model = "renamed-car"
-    parameter_keys = {"d": "wheelbase"}
+    parameter_keys = {"l": "wheelbase"}
     states = ("psi", "px", "py", "delta")
     controls = ("steer_rate", "v")
     roles = Roles(x="px", y="py", heading="psi", steering="delta", speed="v", steering_rate="steer_rate")
 
     def parameters(self) -> dict[str, float]:
-        return {"d": float(self.wheelbase)}
+        return {"l": float(self.wheelbase)}
 
     def dynamics(self) -> dict[str, sp.Expr]:
         psi, px, py, delta = self.state_symbols()
         steer_rate, v = self.control_symbols()
-        d = sym("d")
-        return {"psi": v * sp.tan(delta) / d, "px": v * sp.cos(psi), "py": v * sp.sin(psi), "delta": steer_rate}
+        wheelbase = sym("l")
+        return {"psi": v * sp.tan(delta) / wheelbase, "px": v * sp.cos(psi), "py": v * sp.sin(psi), "delta": steer_rate}
 
     @property
     def lateral_acceleration(self) -> sp.Expr:
-        return sym("v") ** 2 * sp.tan(sym("delta")) / sym("d")
+        return sym("v") ** 2 * sp.tan(sym("delta")) / sym("l")
 
 
 @pytest.fixture
@@ -115,11 +115,12 @@ def test_a_role_that_names_no_state_is_refused_when_the_class_is_defined():
 def test_the_renamed_car_is_the_truck():
     car, truck = RenamedCar(0.3), Truck(0.3)
     f, g = car.dynamics(), truck.dynamics()
-    subs = {sym(new): sym(old) for old, new in RENAME.items()}
+    subs = {sym(new): sym(old) for old, new in {**RENAME, "d": "l"}.items()}
     for old, new in RENAME.items():
         if old in g:
             assert sp.simplify(f[new].subs(subs, simultaneous=True) - g[old]) == 0, new
     assert car.reference_speed() == truck.reference_speed() == 1
+    assert car.parameter_values() == truck.parameter_values() == {"wheelbase": 0.3}
 
 
 def test_the_plant_disturbs_the_roles_not_the_places():

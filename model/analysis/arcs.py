@@ -131,7 +131,7 @@ def boundary_arcs(ocp: OCP, traj: pd.DataFrame, tol: float = 1e-5) -> list[dict]
     px, py = ocp.vehicle.position
     on = ob.clearance(traj[px].to_numpy(), traj[py].to_numpy()) < tol
     t, phi = traj["t"].to_numpy(), traj[ocp.vehicle.roles.steering].to_numpy()
-    d = ocp.vehicle.parameters().get("d")
+    d = ocp.vehicle.parameter_values().get("wheelbase")
     predicted = math.atan(d / ob.keep_out) if d else None
     out = []
     for v, a, b in runs(on.astype(int)):

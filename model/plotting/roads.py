@@ -228,7 +228,7 @@ def axle_tracks(ocp: OCP, states: Mapping[str, np.ndarray]) -> dict[str, np.ndar
     px, py = v.position
     x, y = np.asarray(states[px], float), np.asarray(states[py], float)
     tracks = {}
-    d = v.parameters().get("d")
+    d = v.parameter_values().get("wheelbase")
     if d is not None and v.roles.heading in states:
         theta = np.asarray(states[v.roles.heading], float)
         tracks["front axle"] = np.column_stack([x + d * np.cos(theta), y + d * np.sin(theta)])

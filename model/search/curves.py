@@ -111,7 +111,7 @@ def curve_guess(ocp: OCP, legs: list[Leg], n: int, tf_scale: float = 1.0) -> tup
     at = np.linspace(0.0, s[-1], n + 1)
     values = {r.x: np.interp(at, s, pts[:, 0]), r.y: np.interp(at, s, pts[:, 1]), r.heading: np.interp(at, s, heading)}
     direction = np.sign(np.interp(at, s, gears))
-    d = v.parameters().get("d")
+    d = v.parameter_values().get("wheelbase")
     if r.steering is not None and d is not None:
         values[r.steering] = np.arctan(d * np.interp(at, s, kappa))
     for trailer in r.trailers:

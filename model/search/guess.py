@@ -37,7 +37,7 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
     heading += 2 * math.pi * round((theta0 - heading[0]) / (2 * math.pi))
     guess = {r.x: x, r.y: y, r.heading: heading}
     speed = np.hypot(dx, dy) / tf
-    d = v.parameters().get("d")
+    d = v.parameter_values().get("wheelbase")
     if d is not None and r.steering is not None:
         curvature = np.gradient(heading, s) / np.maximum(np.hypot(dx, dy), 1e-9)
         guess[r.steering] = np.arctan(curvature * d)

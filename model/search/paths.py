@@ -484,7 +484,7 @@ def path_guess(
     smp = sample(path, n)
     t = np.linspace(0.0, float(final_time), n + 1)
     speed = smp["direction"] * path.length / final_time
-    d = vehicle.parameters().get("d")
+    d = vehicle.parameter_values().get("wheelbase")
     r = vehicle.roles
     out = {r.x: smp["x"], r.y: smp["y"], r.heading: smp["theta"]}  # names: the path's pose, keyed by the roles
     if r.steering is not None:
@@ -523,7 +523,7 @@ def _path_controls(
 def _trailer_angle(vehicle: Vehicle, path: Path, n: int, theta1_0: float) -> np.ndarray:
     """The trailer heading at the n + 1 equal arc-length nodes of ``path`` (RK4 with steps of at most
     2 % of min(rho, L))."""
-    scale = min(path.rho, vehicle.parameters()["L"])
+    scale = min(path.rho, vehicle.parameter_values()["trailer_wheelbase"])
     m = max(2, math.ceil(path.length / (n * 0.02 * scale))) if path.length > 0 else 1
     fine = _evaluate(path, np.linspace(0.0, path.length, 2 * n * m + 1))
     heading = fine["theta"]  # names: the path's pose
@@ -540,8 +540,8 @@ def trailer_angle(
     equation divided by |u1|). ``theta``, ``kappa`` and ``direction`` are given at 2 k + 1 points half a
     ``step`` apart; the result holds theta1 at the k + 1 whole steps.
     """
-    p = vehicle.parameters()
-    h, trailer = p.get("h", 0.0), p["L"]
+    p = vehicle.parameter_values()
+    h, trailer = p.get("hitch_offset", 0.0), p["trailer_wheelbase"]
 
     def rate(j: int, th1: float) -> float:
         b = theta[j] - th1
@@ -591,7 +591,7 @@ def min_turning_radius(
         phi_max = _extent(bounds[r.steering], both_ways)
         if phi_max >= HALF_PI:
             return None
-        return math.inf if phi_max == 0.0 else vehicle.parameters()["d"] / math.tan(phi_max)
+        return math.inf if phi_max == 0.0 else vehicle.parameter_values()["wheelbase"] / math.tan(phi_max)
     if r.turn_rate is None or r.speed is None:
         return None
     curvature = f"{r.turn_rate}/{r.speed}"

@@ -66,12 +66,12 @@ def steady_poses(vehicle: Vehicle, phi: float) -> dict[str, float]:
     circle R_t with its velocity tangent: the hitch (R, h) and the axle differ by L along theta1
     (the state names are the vehicle's ``roles``; one trailer at most).
     """
-    p, r = vehicle.parameters(), vehicle.roles
-    d = p["d"]
+    p, r = vehicle.parameter_values(), vehicle.roles
+    d = p["wheelbase"]
     R = d / math.tan(phi)
     state = {r.x: R, r.y: 0.0, r.heading: math.pi / 2, r.steering: phi}
     for trailer in r.trailers:
-        h, L = p["h"], p["L"]
+        h, L = p["hitch_offset"], p["trailer_wheelbase"]
         rt = trailer_radius(R, h, L)
         # trailer axle at angle -beta from the hitch ray: hitch (R, h); axle at radius rt, tangent ccw
         hitch = np.array([R, h])
@@ -122,12 +122,12 @@ def steady_turn(vehicle: Vehicle, bodies: Mapping[str, Body], phi: float) -> dic
     """The steady circle at steering ``phi``: radii of the axles and the swept outer/inner radii."""
     state = steady_poses(vehicle, phi)
     radii = swept_radii(vehicle, bodies, state)
-    p, r = vehicle.parameters(), vehicle.roles
+    p, r = vehicle.parameter_values(), vehicle.roles
     R = state[r.x]
     out = {
         "phi": phi,  # names: a result key (the steering angle), not a state looked up
         "R": R,
-        "front_axle_radius": math.hypot(R, p["d"]),
+        "front_axle_radius": math.hypot(R, p["wheelbase"]),
         "outer": max(r["outer"] for r in radii.values()),
         "inner": min(r["inner"] for r in radii.values()),
         "outer_body": max(radii, key=lambda b: radii[b]["outer"]),
@@ -135,17 +135,25 @@ def steady_turn(vehicle: Vehicle, bodies: Mapping[str, Body], phi: float) -> dic
         "bodies": radii,
     }
     for trailer in r.trailers:
-        out["trailer_axle_radius"] = trailer_radius(R, p["h"], p["L"])
+        out["trailer_axle_radius"] = trailer_radius(R, p["hitch_offset"], p["trailer_wheelbase"])
         out["articulation"] = state[r.heading] - state[trailer]
     return out
 
 
+def _steering_limit(vehicle: Vehicle) -> float:
+    """The largest steering angle of a steady circle: below pi / 2, and with a trailer where its axle
+    radius stays real (R^2 + h^2 >= L^2)."""
+    p = vehicle.parameter_values()
+    hi = math.pi / 2 - 1e-4
+    if "trailer_wheelbase" in p:
+        L, h = p["trailer_wheelbase"], p["hitch_offset"]
+        hi = min(hi, math.atan(p["wheelbase"] / math.sqrt(max(L**2 - h**2, 0.0) + 1e-9)))
+    return hi
+
+
 def eu_steering(vehicle: Vehicle, bodies: Mapping[str, Body], outer: float = EU_OUTER, tol: float = 1e-12) -> float:
     """The steering angle whose steady circle has the outer swept radius ``outer`` (bisection)."""
-    p = vehicle.parameters()
-    lo, hi = 1e-4, math.pi / 2 - 1e-4
-    if "L" in p:  # the trailer axle radius must be real: R^2 + h^2 >= L^2
-        hi = min(hi, math.atan(p["d"] / math.sqrt(max(p["L"] ** 2 - p["h"] ** 2, 0.0) + 1e-9)))
+    lo, hi = 1e-4, _steering_limit(vehicle)
     if steady_turn(vehicle, bodies, hi)["outer"] > outer:
         raise ValueError(f"no steering angle brings the outer swept radius down to {outer} m")
     while hi - lo > tol:
@@ -198,7 +206,7 @@ def transient_turn(vehicle: Vehicle, bodies: Mapping[str, Body], phi: float, tur
     """
     import shapely
 
-    d, r = vehicle.parameters()["d"], vehicle.roles
+    d, r = vehicle.parameter_values()["wheelbase"], vehicle.roles
     R = d / math.tan(phi)
     state0 = {r.x: R, r.y: 0.0, r.heading: math.pi / 2, r.steering: phi, **dict.fromkeys(r.trailers, math.pi / 2)}
     t_turn = 2 * math.pi * R  # u1 = 1 m/s: theta' = tan(phi) / d = 1 / R
@@ -236,9 +244,10 @@ def transient_turn(vehicle: Vehicle, bodies: Mapping[str, Body], phi: float, tur
         "run": run,
     }
     for trailer in r.trailers:
-        p = vehicle.parameters()
-        ax = run[r.x] + p["h"] * np.cos(run[r.heading]) - p["L"] * np.cos(run[trailer])
-        ay = run[r.y] + p["h"] * np.sin(run[r.heading]) - p["L"] * np.sin(run[trailer])
+        p = vehicle.parameter_values()
+        h, L = p["hitch_offset"], p["trailer_wheelbase"]
+        ax = run[r.x] + h * np.cos(run[r.heading]) - L * np.cos(run[trailer])
+        ay = run[r.y] + h * np.sin(run[r.heading]) - L * np.sin(run[trailer])
         radius = np.hypot(ax, ay)
         out["trailer_axle_radius"] = [float(radius[(k + 1) * per_turn]) for k in range(turns)]
         run["trailer_axle_radius"] = radius
@@ -261,10 +270,7 @@ def _farthest(poly) -> float:
 
 def least_outer(vehicle: Vehicle, bodies: Mapping[str, Body], phi_limit: float | None) -> dict:
     """The steady circle at the largest steering allowed (the limit, or where the trailer axle radius vanishes)."""
-    p = vehicle.parameters()
-    hi = math.pi / 2 - 1e-4
-    if "L" in p:
-        hi = min(hi, math.atan(p["d"] / math.sqrt(max(p["L"] ** 2 - p["h"] ** 2, 0.0) + 1e-9)))
+    hi = _steering_limit(vehicle)
     if phi_limit is not None:
         hi = min(hi, phi_limit)
     return steady_turn(vehicle, bodies, hi)

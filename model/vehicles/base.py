@@ -112,6 +112,12 @@ class Vehicle:
         """Numeric values of the model's parameters, keyed by symbol name."""
         return {}
 
+    def parameter_values(self) -> dict[str, float]:
+        """The parameters' values by their scenario keys (``wheelbase``, ``hitch_offset``,
+        ``trailer_wheelbase``): what a guess or a study asks for, whatever the model's symbols."""
+        values = self.parameters()
+        return {key: values[name] for name, key in self.parameter_keys.items()}
+
     def dynamics(self) -> dict[str, sp.Expr]:
         """State derivatives as SymPy expressions of state, control, parameter symbols."""
         raise NotImplementedError
