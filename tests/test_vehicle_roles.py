@@ -111,6 +111,11 @@ def test_a_role_that_names_no_state_is_refused_when_the_class_is_defined():
         class Crossed(RenamedCar):
             roles = replace(RenamedCar.roles, speed="px")
 
+    with pytest.raises(TypeError, match=r"Roles.y = 'px' is already Roles.x"):
+
+        class Twice(RenamedCar):
+            roles = replace(RenamedCar.roles, y="px")
+
 
 def test_the_renamed_car_is_the_truck():
     car, truck = RenamedCar(0.3), Truck(0.3)

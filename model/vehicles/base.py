@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 from functools import lru_cache
+from typing import ClassVar
 
 import numpy as np
 import sympy as sp
@@ -50,7 +51,7 @@ class Roles:
     turn_rate: str | None = None
     trailers: tuple[str, ...] = ()
 
-    CONTROL_ROLES = ("speed", "steering_rate", "turn_rate")
+    CONTROL_ROLES: ClassVar[tuple[str, ...]] = ("speed", "steering_rate", "turn_rate")
 
     @property
     def position(self) -> tuple[str, str]:
@@ -68,14 +69,21 @@ class Roles:
         return tuple(s for s in (self.heading, *self.trailers) if s is not None)
 
     def check(self, states: tuple[str, ...], controls: tuple[str, ...]) -> None:
-        """Raise TypeError naming the first role that is not one of the model's states or controls."""
+        """Raise TypeError naming the first role that is not one of the model's states or controls,
+        or that names what another role names."""
+        seen: dict[str, str] = {}
         for role in fields(self):
             names = getattr(self, role.name)
             kind = controls if role.name in self.CONTROL_ROLES else states
             for name in names if isinstance(names, tuple) else (names,):
-                if name is not None and name not in kind:
+                if name is None:
+                    continue
+                if name not in kind:
                     which = "controls" if kind is controls else "states"
                     raise TypeError(f"Roles.{role.name} = {name!r} is not one of the {which} {kind}")
+                if name in seen:
+                    raise TypeError(f"Roles.{role.name} = {name!r} is already Roles.{seen[name]}")
+                seen[name] = role.name
 
 
 def sym(name: str) -> sp.Symbol:
@@ -150,7 +158,10 @@ class Vehicle:
         return self._numeric(self.states + self.controls, exprs)
 
     def body_poses(self) -> dict[str, tuple[sp.Expr, sp.Expr, sp.Expr]]:
-        """Reference point (x, y) and heading of each body that can be attached, by body name."""
+        """Reference point (x, y) and heading of each body that can be attached, by body name (none
+        without a heading)."""
+        if self.roles.heading is None:
+            return {}
         px, py = self.position
         return {"vehicle": (sym(px), sym(py), sym(self.roles.heading))}
 
