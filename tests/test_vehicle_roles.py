@@ -13,6 +13,7 @@ from __future__ import annotations
 import ast
 import copy
 import io
+import re
 import tokenize
 import tomllib
 from dataclasses import dataclass, replace
@@ -22,6 +23,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from model.errors import InputError
 from model.problem.closed_loop import Disturbance
 from model.problem.scenario import parse_scenario
 from model.simulation.controllers import Tracking
@@ -140,6 +142,20 @@ def test_the_plant_disturbs_the_roles_not_the_places():
     assert car.rhs(xc, uc) == pytest.approx(truck.rhs(xt, ut)[[2, 0, 1, 3]], rel=1e-14)
     assert car.step(xc, uc) == pytest.approx(truck.step(xt, ut)[[2, 0, 1, 3]], rel=1e-9)
     assert car._noise_scale.tolist() == [0.1, 1.0, 1.0, 0.0]
+
+
+def test_a_route_leaves_only_the_steering_and_trailer_headings_free(registered):
+    """A road scenario of the renamed car takes its start and goal from the route, by the car's names."""
+    doc = renamed(load("roundabout-truck.toml"))
+    doc["initial"] = {"delta": 0.1}
+    ocp = parse_scenario(doc).ocp
+    assert list(ocp.initial) == ["px", "py", "psi", "delta"] and ocp.initial["delta"] == 0.1
+    assert set(ocp.final) == {"px", "py", "psi"}
+    for key, words in (("psi", "set by the [route]: only delta may be given"), ("theta", "not a state of the")):
+        doc["initial"] = {key: 0.0}
+        with pytest.raises(InputError, match=re.escape(words)) as err:
+            parse_scenario(doc)
+        assert err.value.key == f"initial.{key}"
 
 
 # -- solves and the closed loop ---------------------------------------------------------------------
