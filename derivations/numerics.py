@@ -115,14 +115,17 @@ def _adjoint_residual(fns: PMPFunctions, columns: dict, derived: dict) -> float:
 
 def straight_drive(ocp: OCP, speed: float, nodes: int = 21) -> pd.DataFrame:
     """A synthetic exact extremal of the energy (or time) problem without active obstacles:
-    driving straight along x at constant ``speed``, p_x = speed (energy) or 1/speed (time)."""
+    driving straight along x at constant ``speed``, p_x = speed (energy) or 1/speed (time).
+
+    Every other state, control and costate is 0 (x, the speed: the vehicle's ``roles``)."""
     tf = ocp.final_time
     t = np.linspace(0.0, tf, nodes)
     time_cost = bool(ocp.cost.free_final_time)
     px = 1.0 / speed if time_cost else speed
     h = 0.0 if time_cost else speed**2 / 2
     zeros = np.zeros_like(t)
-    frame = {"t": t, "x": speed * t, "y": zeros, "theta": zeros, "phi": zeros, "u1": zeros + speed,
-             "u2": zeros, "p_x": zeros + px, "p_y": zeros, "p_theta": zeros, "p_phi": zeros,
-             "mu": zeros, "H": zeros + h}
+    v, r = ocp.vehicle, ocp.vehicle.roles
+    frame = {"t": t, **dict.fromkeys(v.states, zeros), r.x: speed * t}
+    frame |= {**dict.fromkeys(v.controls, zeros), r.speed: zeros + speed}
+    frame |= {**{f"p_{s}": zeros for s in v.states}, f"p_{r.x}": zeros + px, "mu": zeros, "H": zeros + h}
     return pd.DataFrame(frame)

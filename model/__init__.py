@@ -16,6 +16,7 @@ from typing import Any
 _PUBLIC = {
     "InputError": "model.errors",
     "Vehicle": "model.vehicles",
+    "Roles": "model.vehicles",
     "Truck": "model.vehicles",
     "Unicycle": "model.vehicles",
     "VEHICLES": "model.vehicles",

@@ -23,7 +23,7 @@ from model.plotting.roads import steering_changes
 from model.problem.costs import Time
 from model.problem.ocp import OCP
 from model.problem.scenario import parse_scenario
-from model.vehicles import VEHICLES, Vehicle, sym
+from model.vehicles import VEHICLES, Roles, Vehicle, sym
 from tests.conftest import ROOT
 
 TRUCK = ROOT / "examples" / "roundabout-truck.toml"
@@ -90,6 +90,7 @@ def test_a_vehicle_without_the_expression_cannot_be_bounded():
         model = "point"
         states = ("x", "y")
         controls = ("u1", "u2")
+        roles = Roles(heading=None, steering=None, speed=None, steering_rate=None)  # a point: a position only
 
         def dynamics(self):
             return {"x": sym("u1"), "y": sym("u2")}

@@ -329,6 +329,9 @@ def test_path_guess_needs_the_states_the_path_does_not_fix():
     class Odd(Unicycle):
         states = ("x", "y", "theta", "mass")
 
+        def dynamics(self):  # the unicycle's, and a constant mass (the speed control is read off the dynamics)
+            return {**Unicycle().dynamics(), "mass": sp.Integer(0)}
+
     path = reeds_shepp(ORIGIN, (1.0, 0.0, 0.0), 1.0)
     with pytest.raises(ValueError, match="mass"):
         path_guess(Odd(), path, 1.0, 4)

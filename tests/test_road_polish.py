@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from model.problem.scenario import parse_scenario
 from model.search.road_polish import reverses
+from model.vehicles import Truck
 
 # the SU-30's U-turn on a three-leg roundabout (benchmarks/bench_road_suite.py): the discs' cold
 # starts reverse away from the roundabout and back (49-54 s on N = 60); a forward U-turn takes 15.8 s
@@ -25,6 +28,7 @@ U_TURN = {
 
 class _Answer:
     def __init__(self, u1):
+        self.ocp = SimpleNamespace(vehicle=Truck())  # reverses() reads the vehicle's speed control (roles.speed)
         self.columns = {"u1": np.asarray(u1, dtype=float)}
 
 

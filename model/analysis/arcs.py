@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from model.problem.ocp import OCP
+from model.vehicles import Roles
 
 LABELS = {1: "upper", -1: "lower", 0: "interior"}
 SYMBOL = {"upper": "+", "lower": "-", "interior": "s"}
@@ -109,9 +110,11 @@ def chattering(
     ]
 
 
-def straight_arcs(traj: pd.DataFrame, tol: float = 1e-3, min_nodes: int = 3) -> list[dict]:
-    """Runs with u2 = 0 and phi = 0 (straight line): the singular arcs of the time problem."""
-    mask = (np.abs(traj["u2"].to_numpy()) < tol) & (np.abs(traj["phi"].to_numpy()) < tol)
+def straight_arcs(traj: pd.DataFrame, roles: Roles, tol: float = 1e-3, min_nodes: int = 3) -> list[dict]:
+    """Runs with u2 = 0 and phi = 0 (straight line; u2 the ``roles.steering_rate``, phi the
+    ``roles.steering``): the singular arcs of the time problem."""
+    rate, angle = traj[roles.steering_rate].to_numpy(), traj[roles.steering].to_numpy()
+    mask = (np.abs(rate) < tol) & (np.abs(angle) < tol)
     t = traj["t"].to_numpy()
     return [
         {"t0": float(t[a]), "t1": float(t[b]), "nodes": b - a + 1}
@@ -121,14 +124,14 @@ def straight_arcs(traj: pd.DataFrame, tol: float = 1e-3, min_nodes: int = 3) -> 
 
 
 def boundary_arcs(ocp: OCP, traj: pd.DataFrame, tol: float = 1e-5) -> list[dict]:
-    """Runs on the first obstacle (clearance < tol) with mean phi against atan(d / R)."""
-    if not ocp.obstacles:
+    """Runs on the first obstacle (clearance < tol) with mean phi (``roles.steering``) against atan(d / R)."""
+    if not ocp.obstacles or ocp.vehicle.roles.steering is None:
         return []
     ob = ocp.obstacles[0]
     px, py = ocp.vehicle.position
     on = ob.clearance(traj[px].to_numpy(), traj[py].to_numpy()) < tol
-    t, phi = traj["t"].to_numpy(), traj["phi"].to_numpy()
-    d = ocp.vehicle.parameters().get("d")
+    t, phi = traj["t"].to_numpy(), traj[ocp.vehicle.roles.steering].to_numpy()
+    d = ocp.vehicle.parameter_values().get("wheelbase")
     predicted = math.atan(d / ob.keep_out) if d else None
     out = []
     for v, a, b in runs(on.astype(int)):
@@ -148,12 +151,13 @@ def boundary_arcs(ocp: OCP, traj: pd.DataFrame, tol: float = 1e-5) -> list[dict]
 def arc_structure(solution) -> dict:
     """All of the above for one Solution (or anything with .ocp and .trajectory)."""
     ocp, traj = solution.ocp, solution.trajectory
+    r = ocp.vehicle.roles
     controls = {c: control_arcs(traj, c, ocp.bounds[c]) for c in ocp.vehicle.controls}
     chatter = {c: chattering(traj, c, ocp.bounds[c]) for c in ocp.vehicle.controls}
     return {
         "controls": controls,
         "chattering": chatter,
         "chattering_detected": any(chatter.values()),
-        "straight_arcs": straight_arcs(traj) if "u2" in traj and "phi" in traj else [],
+        "straight_arcs": straight_arcs(traj, r) if r.steering_rate in traj and r.steering in traj else [],
         "boundary_arcs": boundary_arcs(ocp, traj),
     }

@@ -94,11 +94,13 @@ class Solution:
         }
 
     def _steering_cost(self) -> dict:
-        """``steering_weight`` w and ``steering_integral`` (integral of u2^2 dt, trapezoid) of a weighted time cost."""
+        """``steering_weight`` w and ``steering_integral`` (integral of u2^2 dt, trapezoid, u2 the
+        vehicle's ``roles.turning`` control) of a weighted time cost."""
         w = float(getattr(self.ocp.cost, "steering_weight", 0.0) or 0.0)
-        if not w or "u2" not in self.columns:
+        u2 = self.ocp.vehicle.roles.turning
+        if not w or u2 not in self.columns:
             return {}
-        integral = float(np.trapezoid(np.asarray(self.columns["u2"]) ** 2, self.columns["t"]))
+        integral = float(np.trapezoid(np.asarray(self.columns[u2]) ** 2, self.columns["t"]))
         return {"steering_weight": w, "steering_integral": integral}
 
     def write(self, out: str | Path) -> None:

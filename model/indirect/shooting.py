@@ -91,13 +91,15 @@ def example_problem() -> OCP:
     from model.problem.costs import Energy
     from model.vehicles import Truck
 
+    truck = Truck(wheelbase=0.1)
+    r = truck.roles
     return OCP(
-        vehicle=Truck(wheelbase=0.1),
+        vehicle=truck,
         cost=Energy(),
         final_time=2.0,
-        bounds={"u1": (-1.0, 1.0), "u2": (-0.35, 0.35), "phi": (-0.6, 0.6)},
-        initial={"x": 0.0, "y": 0.0, "theta": 0.0, "phi": 0.0},
-        final={"x": 1.0, "y": 0.3, "theta": 0.5},
+        bounds={r.speed: (-1.0, 1.0), r.steering_rate: (-0.35, 0.35), r.steering: (-0.6, 0.6)},
+        initial={r.x: 0.0, r.y: 0.0, r.heading: 0.0, r.steering: 0.0},
+        final={r.x: 1.0, r.y: 0.3, r.heading: 0.5},
         name="indirect",
     )
 

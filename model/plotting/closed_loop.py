@@ -7,7 +7,7 @@ from collections.abc import Mapping
 import matplotlib.pyplot as plt
 import numpy as np
 
-from model.plotting.figures import LABELS, PALETTE, UNITS, apply_style, draw_obstacles
+from model.plotting.figures import PALETTE, apply_style, draw_obstacles, tex, unit
 from model.plotting.roads import draw_roundabout, draw_scale_bar
 from model.problem.ocp import OCP
 
@@ -31,13 +31,16 @@ def closed_loop_figure(
     Returns
     -------
     Figure
-        The plan (left) and one panel per control over time (right).
+        The plan (left) and one panel per control over time (right): the speed, the steering (or turn)
+        rate, then any other control.
     """
     apply_style()
     optimum = {k: np.asarray(optimum[k], float) for k in optimum}
     driven = {k: np.asarray(driven[k], float) for k in driven}
     px, py = ocp.vehicle.position
-    controls = [c for c in ocp.vehicle.controls if f"sent_{c}" in driven]
+    v = ocp.vehicle
+    order = dict.fromkeys(c for c in (v.roles.speed, v.roles.turning, *v.controls) if c in v.controls)
+    controls = [c for c in order if f"sent_{c}" in driven]  # the speed first, then the steering rate
     fig = plt.figure(figsize=(9.5, 4.6), layout="constrained")
     grid = fig.add_gridspec(max(1, len(controls)), 2, width_ratios=(1.25, 1))
     ax = fig.add_subplot(grid[:, 0])
@@ -56,8 +59,8 @@ def closed_loop_figure(
         panel = fig.add_subplot(grid[row, 1])
         panel.plot(optimum["t"], optimum[name], color="0.35", ls="--", lw=1.0, label="optimum")
         panel.step(driven["t"], driven[f"sent_{name}"], where="post", color=PALETTE[row], lw=1.0, label="sent")
-        unit = UNITS.get(name, "")
-        panel.set(ylabel=f"{LABELS.get(name, name)}" + (f" ({unit})" if unit else ""))
+        units = unit(ocp.vehicle.roles, name)
+        panel.set(ylabel=tex(name) + (f" ({units})" if units else ""))
         if row == len(controls) - 1:
             panel.set(xlabel="t (s)")
         panel.legend(loc="best", fontsize=7)

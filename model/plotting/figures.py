@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -13,10 +14,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+import sympy as sp  # noqa: E402
 from matplotlib.patches import Circle as Disc  # noqa: E402
 from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
 
 from model.plotting.results import Result  # noqa: E402
+from model.vehicles import Roles, sym  # noqa: E402
 
 STYLE = {
     "figure.dpi": 110,
@@ -34,11 +37,24 @@ STYLE = {
 }
 PALETTE = plt.get_cmap("tab10").colors
 LINESTYLES = ("-", "--", "-.", ":")
-UNITS = {"u1": "m/s", "u2": "rad/s", "x": "m", "y": "m", "theta": "rad", "phi": "rad"}
+ROLE_UNITS = {"heading": "rad", "steering": "rad", "speed": "m/s", "steering_rate": "rad/s", "turn_rate": "rad/s"}
 # The energy J = 1/2 int (u1^2 + u2^2) dt adds an m^2/s term (u1 in m/s) and a rad^2/s term (u2 in rad/s): the
 # paper adds them as numbers in SI units (the radian counted as 1), so every J is written with this unit.
 ENERGY_UNIT = "m²/s + rad²/s"
-LABELS = {"u1": "$u_1$", "u2": "$u_2$", "x": "$x$", "y": "$y$", "theta": r"$\theta$", "phi": r"$\phi$"}
+
+
+def tex(name: str) -> str:
+    """A state or control name as TeX math: ``u1`` -> ``$u_1$``, ``theta`` -> ``$\\theta$`` (SymPy's LaTeX)."""
+    return "$" + re.sub(r"_\{(\w)\}", r"_\1", sp.latex(sym(name))) + "$"
+
+
+def unit(roles: Roles, name: str) -> str:
+    """The unit of the state or control ``name`` by its role (``"m"``, ``"rad"``, ``"m/s"``, ...); "" without one."""
+    if name in roles.position:
+        return "m"
+    if name in roles.trailers:
+        return "rad"
+    return next((u for role, u in ROLE_UNITS.items() if getattr(roles, role) == name), "")
 
 
 def apply_style() -> None:
@@ -61,16 +77,17 @@ def save(fig: plt.Figure, stem: str | Path, formats: Sequence[str] = ("pdf", "pn
     return paths
 
 
-def cumulative_energy(frame: pd.DataFrame) -> np.ndarray:
-    """E(t) = 1/2 integral of (u1^2 + u2^2), trapezoid rule on the nodes (the paper's eq. 32)."""
+def cumulative_energy(frame: pd.DataFrame, controls: Sequence[str]) -> np.ndarray:
+    """E(t) = 1/2 integral of (u1^2 + u2^2) (the sum over ``controls``), trapezoid rule on the nodes
+    (the paper's eq. 32)."""
     t = frame["t"].to_numpy()
-    integrand = 0.5 * (frame["u1"].to_numpy() ** 2 + frame["u2"].to_numpy() ** 2)
+    integrand = 0.5 * sum(frame[c].to_numpy() ** 2 for c in controls)
     return np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (integrand[1:] + integrand[:-1]))])
 
 
 def phase_rate(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """Hypothesis 1: psi = atan2(u2, u1) and psi' = (u1 u2' - u2 u1') / (u1^2 + u2^2), by finite differences."""
-    t, u1, u2 = (frame[c].to_numpy(dtype=float) for c in ("t", "u1", "u2"))
+    t, u1, u2 = (frame[c].to_numpy(dtype=float) for c in ("t", "u1", "u2"))  # names: the paper's truck (its Fig. 8)
     du1, du2 = np.gradient(u1, t), np.gradient(u2, t)
     norm = np.maximum(u1**2 + u2**2, 1e-12)
     return np.arctan2(u2, u1), (u1 * du2 - u2 * du1) / norm
@@ -81,11 +98,11 @@ def _bounds(ax: plt.Axes, bounds: dict, name: str, color) -> None:
         ax.axhline(value, color=color, linestyle="--", linewidth=0.9, alpha=0.8)
 
 
-def _pose_arrow(ax: plt.Axes, pose: dict, color, label: str, length: float) -> None:
+def _pose_arrow(ax: plt.Axes, pose: dict, roles: Roles, color, label: str, length: float) -> None:
     """A pose: a dot at the position and, if the heading is fixed, an arrow along it."""
-    x, y = pose["x"], pose["y"]
-    if "theta" in pose:
-        dx, dy = length * np.cos(pose["theta"]), length * np.sin(pose["theta"])
+    x, y = pose[roles.x], pose[roles.y]
+    if roles.heading in pose:
+        dx, dy = length * np.cos(pose[roles.heading]), length * np.sin(pose[roles.heading])
         ax.annotate("", xy=(x + dx, y + dy), xytext=(x, y),
                     arrowprops={"arrowstyle": "-|>", "color": color, "lw": 2.2, "mutation_scale": 18})
         ax.plot([x + dx], [y + dy], alpha=0.0)  # keeps the arrow's tip inside the axes
@@ -124,17 +141,19 @@ def draw_moving_obstacles(ax: plt.Axes, ocp, times: Sequence[float], final_time:
             ax.annotate(f"{t:.1f} s", (x, y), fontsize=5.5, color=MOVING_COLOR, ha="center", va="center", zorder=9)
 
 
-def controls_panel(ax: plt.Axes, frame: pd.DataFrame, bounds: dict) -> None:
-    for name, color in (("u1", PALETTE[0]), ("u2", PALETTE[3])):
-        ax.plot(frame["t"], frame[name], color=color, label=f"{LABELS[name]} ({UNITS[name]})")
+def controls_panel(ax: plt.Axes, frame: pd.DataFrame, bounds: dict, roles: Roles) -> None:
+    """The speed and the steering (or turn) rate over time, bounds dashed."""
+    for name, color in ((roles.speed, PALETTE[0]), (roles.turning, PALETTE[3])):
+        ax.plot(frame["t"], frame[name], color=color, label=f"{tex(name)} ({unit(roles, name)})")
         _bounds(ax, bounds, name, color)
     ax.set(xlabel="t (s)", ylabel="control", title="(a) controls (bounds dashed)")
     ax.legend(loc="best")
 
 
-def states_panel(ax: plt.Axes, frame: pd.DataFrame) -> None:
-    for name, color in (("x", PALETTE[0]), ("y", PALETTE[2])):
-        ax.plot(frame["t"], frame[name], color=color, label=LABELS[name])
+def states_panel(ax: plt.Axes, frame: pd.DataFrame, roles: Roles) -> None:
+    """The position over time."""
+    for name, color in ((roles.x, PALETTE[0]), (roles.y, PALETTE[2])):
+        ax.plot(frame["t"], frame[name], color=color, label=tex(name))
     ax.set(xlabel="t (s)", ylabel="position (m)", title="(b) states")
     ax.legend(loc="best")
 
@@ -144,23 +163,25 @@ def path_panel(ax: plt.Axes, frame: pd.DataFrame, ocp, color=PALETTE[0], label: 
 
     Moving obstacles are drawn at five node times, where the path has a dot, with their paths."""
     draw_obstacles(ax, ocp.obstacles)
+    r = ocp.vehicle.roles
     if ocp.moving_obstacles:
         t = np.asarray(frame["t"], float)
         marks = np.linspace(0, len(t) - 1, 5).round().astype(int)
         draw_moving_obstacles(ax, ocp, t[marks], float(t[-1]))
-        ax.plot(np.asarray(frame["x"])[marks], np.asarray(frame["y"])[marks], "o", color=color, ms=3)
-    ax.plot(frame["x"], frame["y"], color=color, label=label)
-    span = max(np.ptp(frame["x"]), np.ptp(frame["y"]), 0.1)
-    _pose_arrow(ax, ocp.initial, "tab:green", "start", 0.18 * span)
-    if {"x", "y"} <= set(ocp.final):
-        _pose_arrow(ax, ocp.final, "tab:red", "goal", 0.18 * span)
+        ax.plot(np.asarray(frame[r.x])[marks], np.asarray(frame[r.y])[marks], "o", color=color, ms=3)
+    ax.plot(frame[r.x], frame[r.y], color=color, label=label)
+    span = max(np.ptp(frame[r.x]), np.ptp(frame[r.y]), 0.1)
+    _pose_arrow(ax, ocp.initial, r, "tab:green", "start", 0.18 * span)
+    if set(r.position) <= set(ocp.final):
+        _pose_arrow(ax, ocp.final, r, "tab:red", "goal", 0.18 * span)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set(xlabel="x (m)", ylabel="y (m)", title="(c) path")
     ax.legend(loc="best")
 
 
-def energy_panel(ax: plt.Axes, frame: pd.DataFrame) -> None:
-    ax.plot(frame["t"], cumulative_energy(frame), color=PALETTE[4])
+def energy_panel(ax: plt.Axes, frame: pd.DataFrame, controls: Sequence[str]) -> None:
+    """The cumulative energy of ``controls`` over time."""
+    ax.plot(frame["t"], cumulative_energy(frame, controls), color=PALETTE[4])
     label = r"$E(t)=\frac{1}{2}\int_0^t (u_1^2+u_2^2)\,ds$" + f" ({ENERGY_UNIT})"
     ax.set(xlabel="t (s)", ylabel=label, title="(d) cumulative energy")
 
@@ -194,10 +215,11 @@ def _solved_grid(draw):
 @_solved_grid
 def solution_figure(axes, frame: pd.DataFrame, result: Result, ocp) -> str:
     """The paper's Figures 4-7: (a) controls, (b) states, (c) path, (d) cumulative energy."""
-    controls_panel(axes[0, 0], frame, ocp.bounds)
-    states_panel(axes[0, 1], frame)
+    roles = ocp.vehicle.roles
+    controls_panel(axes[0, 0], frame, ocp.bounds, roles)
+    states_panel(axes[0, 1], frame, roles)
     path_panel(axes[1, 0], frame, ocp)
-    energy_panel(axes[1, 1], frame)
+    energy_panel(axes[1, 1], frame, ocp.vehicle.controls)
     return (f"{ocp.title or result.name}  (Tf = {result.summary['final_time']:.4g} s, "
             f"E = {result.summary['energy']:.4g} ({ENERGY_UNIT}))")
 
@@ -207,19 +229,18 @@ def costate_figure(axes, frame: pd.DataFrame, result: Result, ocp) -> str:
     """Costate estimates, switching functions beside the controls (with bounds), and H and mu."""
     ax = axes[0, 0]
     for i, name in enumerate(c for c in frame.columns if c.startswith("p_")):
-        ax.plot(frame["t"], frame[name], color=PALETTE[i], label=f"$p_{{{name[2:]}}}$".replace("theta", r"\theta")
-                .replace("phi", r"\phi"))
+        ax.plot(frame["t"], frame[name], color=PALETTE[i], label=f"$p_{{{tex(name[2:])[1:-1]}}}$")
     ax.set(xlabel="t (s)", ylabel="costate estimate", title="(a) costates (from the NLP multipliers)")
     ax.legend(loc="best", ncols=2)
-    for ax, name, tag in ((axes[0, 1], "u1", "b"), (axes[1, 0], "u2", "c")):
-        psi = f"psi_{name}"
+    v = ocp.vehicle
+    for ax, name, tag in ((axes[0, 1], v.roles.speed, "b"), (axes[1, 0], v.roles.turning, "c")):
+        psi, k, color = f"psi_{name}", v.controls.index(name) + 1, PALETTE[0 if name == v.roles.speed else 3]
         ax.plot(frame["t"], frame[psi], color="0.6", linewidth=4.0, alpha=0.7,
-                label=rf"$\psi_{{{name[1]}}}$ (switching function)")
-        ax.plot(frame["t"], frame[name], color=PALETTE[0 if name == "u1" else 3], linewidth=1.4,
-                label=f"{LABELS[name]} ({UNITS[name]})")
-        _bounds(ax, ocp.bounds, name, PALETTE[0 if name == "u1" else 3])
-        ax.set(xlabel="t (s)", ylabel=f"{LABELS[name]}, " + rf"$\psi_{{{name[1]}}}$",
-               title=f"({tag}) {LABELS[name]} and its switching function (bounds dashed)")
+                label=rf"$\psi_{{{k}}}$ (switching function)")
+        ax.plot(frame["t"], frame[name], color=color, linewidth=1.4, label=f"{tex(name)} ({unit(v.roles, name)})")
+        _bounds(ax, ocp.bounds, name, color)
+        ax.set(xlabel="t (s)", ylabel=f"{tex(name)}, " + rf"$\psi_{{{k}}}$",
+               title=f"({tag}) {tex(name)} and its switching function (bounds dashed)")
         ax.legend(loc="best")
     hamiltonian_panel(axes[1, 1], frame)
     return f"{ocp.title or result.name}: Pontryagin quantities"
@@ -273,9 +294,10 @@ def paths_figure(results: Sequence[Result], ocps: Sequence, order: Sequence[str]
             ax.plot([], [], " ", label=f"{r.name}: {r.status_text}, not plotted")
             continue
         style = LINESTYLES[len(ax.get_lines()) // 2 % len(LINESTYLES)]
-        ax.plot(r.trajectory["x"], r.trajectory["y"], color=color_for(r.name, order), linestyle=style,
+        px, py = ocp.vehicle.position
+        ax.plot(r.trajectory[px], r.trajectory[py], color=color_for(r.name, order), linestyle=style,
                 linewidth=2.2 if style == "-" else 1.8, label=f"{r.name} (Tf = {r.summary['final_time']:.3g} s)")
-        ax.plot(*(r.trajectory[["x", "y"]].to_numpy()[[0, -1]].T), "o", color=color_for(r.name, order), ms=4)
+        ax.plot(*(r.trajectory[[px, py]].to_numpy()[[0, -1]].T), "o", color=color_for(r.name, order), ms=4)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set(xlabel="x (m)", ylabel="y (m)", title="Paths around the roundabout")
     ax.legend(loc="best")

@@ -24,7 +24,7 @@ from matplotlib.path import Path as MplPath
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
 from model.analysis.bodies import body_corners, swept_polygons
-from model.plotting.figures import ENERGY_UNIT, apply_style, draw_moving_obstacles
+from model.plotting.figures import ENERGY_UNIT, apply_style, draw_moving_obstacles, tex
 from model.problem.ocp import OCP
 from model.scene.geometry import Disc
 from model.scene.roundabout import (
@@ -43,10 +43,13 @@ SCALE_BAR_GID = "scale-bar"
 CLOSE = 1e-4  # m: slits narrower than twice this between the carriageway's polygons are closed
 NICE_LENGTHS = (1, 2, 5, 10, 20, 25, 50, 100, 200, 500)
 DEG = 180.0 / math.pi
+ROLE_PANELS = {  # a time panel per role of the vehicle (the name in TeX after the text), in display units
+    "speed": ("speed", "m/s", 1.0),
+    "steering_rate": ("steering rate", "deg/s", DEG),
+    "turn_rate": ("turn rate", "deg/s", DEG),
+    "steering": ("steering", "deg", DEG),
+}
 PANEL_LABELS = {
-    "u1": ("speed $u_1$", "m/s", 1.0),
-    "u2": (r"steering rate $u_2$", "deg/s", DEG),
-    "phi": (r"steering $\phi$", "deg", DEG),
     "lateral_acceleration": (r"lateral $a_{lat}$", "m/s$^2$", 1.0),
     "articulation": (r"articulation $\theta-\theta_1$", "deg", DEG),
 }
@@ -226,9 +229,9 @@ def axle_tracks(ocp: OCP, states: Mapping[str, np.ndarray]) -> dict[str, np.ndar
     px, py = v.position
     x, y = np.asarray(states[px], float), np.asarray(states[py], float)
     tracks = {}
-    d = v.parameters().get("d")
-    if d is not None and "theta" in states:
-        theta = np.asarray(states["theta"], float)
+    d = v.parameter_values().get("wheelbase")
+    if d is not None and v.roles.heading in states:
+        theta = np.asarray(states[v.roles.heading], float)
         tracks["front axle"] = np.column_stack([x + d * np.cos(theta), y + d * np.sin(theta)])
     tracks["rear axle"] = np.column_stack([x, y])
     poses = v.body_poses()
@@ -300,7 +303,8 @@ def road_figure(
     Returns
     -------
     Figure
-        The plan axes first, then one axes per time panel (u1, u2, phi, and the articulation for a trailer).
+        The plan axes first, then one axes per time panel (the speed, the steering rate, the steering
+        angle: the vehicle's ``roles``, and the articulation for a trailer).
     """
     apply_style()
     v = ocp.vehicle
@@ -335,9 +339,25 @@ def road_figure(
 
 
 def _panel_names(ocp: OCP, cols: Mapping[str, np.ndarray]) -> list[str]:
-    names = [c for c in ("u1", "u2", "phi") if c in cols]
+    names = [c for c in _panel_roles(ocp) if c in cols]
     names += [k for k in ocp.vehicle.path_outputs() if k == "lateral_acceleration"]
     return names + [k for k in ocp.vehicle.outputs() if k == "articulation"]
+
+
+def _panel_roles(ocp: OCP) -> dict[str, str]:
+    """The vehicle's names with a time panel of their own, in panel order, name -> role."""
+    r = ocp.vehicle.roles
+    named = {role: getattr(r, role) for role in ROLE_PANELS}
+    return {name: role for role, name in named.items() if name is not None}
+
+
+def panel_label(ocp: OCP, name: str) -> tuple[str, str, float]:
+    """(text, unit, scale) of a time panel: its role and the vehicle's name for it (e.g. "speed $u_{1}$")."""
+    role = _panel_roles(ocp).get(name)
+    if role is None:
+        return PANEL_LABELS.get(name, (name, "", 1.0))
+    text, unit, scale = ROLE_PANELS[role]
+    return f"{text} {tex(name)}", unit, scale
 
 
 def _panel_values(ocp: OCP, cols: Mapping[str, np.ndarray], name: str) -> np.ndarray:
@@ -373,15 +393,16 @@ def sign_changes(values: np.ndarray, tol: float) -> int:
 
 
 def steering_changes(ocp: OCP, columns: Mapping[str, np.ndarray]) -> int:
-    """Sign changes of u2 along the nodes, ignoring |u2| <= 1e-3 of its largest bound."""
-    lo, hi = ocp.bounds["u2"]
-    return sign_changes(np.asarray(columns["u2"], float), 1e-3 * max(abs(lo), abs(hi)))
+    """Sign changes of u2 (``roles.turning``) along the nodes, ignoring |u2| <= 1e-3 of its largest bound."""
+    u2 = ocp.vehicle.roles.turning
+    lo, hi = ocp.bounds[u2]
+    return sign_changes(np.asarray(columns[u2], float), 1e-3 * max(abs(lo), abs(hi)))
 
 
 def driving_label(ocp: OCP, math: bool = True) -> str:
     """How the problem drives: time-optimal (bang-bang), or at its design speed with its comfort limits.
 
-    Every number is read from the problem: the largest forward speed of u1 (km/h), the
+    Every number is read from the problem: the largest forward speed of u1 (``roles.speed``, km/h), the
     lateral-acceleration bound and the steering weight of the cost. With ``math``, TeX math in
     ``$...$`` (matplotlib's mathtext and the paper's Markdown read it alike), else plain text.
     """
@@ -389,7 +410,8 @@ def driving_label(ocp: OCP, math: bool = True) -> str:
     weight = float(getattr(ocp.cost, "steering_weight", 0.0) or 0.0)
     if lateral is None and not weight:
         return "time-optimal (bang-bang steering, no lateral-acceleration limit)"
-    parts = [f"design speed {ocp.bounds['u1'][1] * KMH:.0f} km/h"]
+    r = ocp.vehicle.roles
+    parts = [f"design speed {ocp.bounds[r.speed][1] * KMH:.0f} km/h"]
     if lateral is not None:
         lo, hi = lateral
         if math:
@@ -398,7 +420,9 @@ def driving_label(ocp: OCP, math: bool = True) -> str:
         else:
             parts.append(f"|a_lat| <= {hi:g} m/s^2" if lo == -hi else f"a_lat in [{lo:g}, {hi:g}] m/s^2")
     if weight:
-        cost = rf"$J = T_f + {weight:g} \int u_2^2 \, dt$" if math else f"J = Tf + {weight:g} * integral of u2^2 dt"
+        u2 = r.turning
+        cost = (rf"$J = T_f + {weight:g} \int {tex(u2)[1:-1]}^2 \, dt$" if math
+                else f"J = Tf + {weight:g} * integral of {u2}^2 dt")  # fmt: skip
         parts.append(f"steering weight: {cost}")
     return ", ".join(parts)
 
@@ -409,7 +433,7 @@ def _time_panels(fig: plt.Figure, grid, ocp: OCP, cols: Mapping[str, np.ndarray]
     for i, name in enumerate(rows):
         ax = fig.add_subplot(grid[i, 1], sharex=first)
         first = first or ax
-        text, unit, scale = PANEL_LABELS.get(name, (name, "", 1.0))
+        text, unit, scale = panel_label(ocp, name)
         ax.plot(cols["t"], scale * _panel_values(ocp, cols, name), color="C0" if i < 2 else "C3", lw=1.1)
         for b in ocp.bounds.get(name, ()):
             if np.isfinite(b):
@@ -441,7 +465,7 @@ def road_note(summary: Mapping, ocp: OCP | None = None, columns: Mapping | None 
         dense = lateral.get("max_abs_dense")
         between = f" ({dense:.3f} between nodes)" if dense is not None else ""
         driving.append(f"max $|a_{{lat}}|$ {lateral['max_abs_nodes']:.3f} m/s$^2${between}")
-    driving.append(f"$u_2$ changes sign {steering_changes(ocp, columns)} times")
+    driving.append(f"{tex(ocp.vehicle.roles.turning)} changes sign {steering_changes(ocp, columns)} times")
     return text + "\n" + ", ".join(driving)
 
 

@@ -105,7 +105,7 @@ def _disturbance(table: dict[str, Any], vehicle: Vehicle | None) -> Disturbance:
     if gain <= 0:
         raise InputError(where + "speed_gain", f"must be > 0, got {gain:g}")
     bias = _finite(table, "steering_bias", where, 0.0)
-    if bias != 0 and vehicle is not None and "phi" not in vehicle.states:
+    if bias != 0 and vehicle is not None and vehicle.roles.steering is None:
         raise InputError(where + "steering_bias", f"the {vehicle.model} model has no steering angle phi; leave it 0")
     delay = _finite(table, "delay", where, 0.0)
     noise = _finite(table, "noise", where, 0.0)

@@ -39,7 +39,8 @@ class Time(Cost):
     """J = Tf = integral of 1 dt, with a free final time.
 
     ``steering_weight`` w > 0 makes it J = integral of (1 + w u2^2) dt = Tf + w integral of u2^2 dt
-    (scenario key ``[problem] steering_weight``): part of the Lagrangian, so the transcription, the
+    (scenario key ``[problem] steering_weight``), u2 the vehicle's ``roles.turning`` control (the
+    steering rate; the unicycle's turn rate): part of the Lagrangian, so the transcription, the
     Pontryagin engine and the certificate read the same cost, and the maximum condition for u2 is a
     projection (u2 = clip(p_phi / (2 w))) instead of bang-bang; 0 is the plain problem.
 
@@ -56,7 +57,7 @@ class Time(Cost):
     def lagrangian(self, vehicle: Vehicle) -> sp.Expr:
         if not self.steering_weight:
             return sp.Integer(1)
-        return sp.Integer(1) + self.steering_weight * sym("u2") ** 2
+        return sp.Integer(1) + self.steering_weight * sym(vehicle.roles.turning) ** 2
 
     def __post_init__(self) -> None:
         w = self.steering_weight

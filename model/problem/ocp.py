@@ -207,7 +207,7 @@ class OCP:
         if gap is not None and speed is not None and gap > speed * tf * (1 + 1e-9):
             raise InputError(
                 "problem.final_time",
-                f"infeasible: the goal is {gap:.4g} m away but |u1| <= {speed:g} "
+                f"infeasible: the goal is {gap:.4g} m away but |{self.vehicle.roles.speed}| <= {speed:g} "
                 f"covers at most {speed * tf:.4g} m in {tf:g} s",
             )
 
@@ -219,10 +219,11 @@ class OCP:
         return None
 
     def max_speed(self) -> float | None:
-        """max |u1| for vehicles whose first control is the speed."""
-        if "u1" not in self.bounds:
+        """max |u1|, u1 the vehicle's speed control (``roles.speed``); None without one or its bounds."""
+        speed = self.vehicle.roles.speed
+        if speed not in self.bounds:
             return None
-        lo, hi = self.bounds["u1"]
+        lo, hi = self.bounds[speed]
         return max(abs(lo), abs(hi))
 
     # -- the two things one does with a problem ------------------------------

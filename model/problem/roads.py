@@ -8,11 +8,11 @@ from model.errors import InputError
 from model.problem.tables import array_of_tables, no_unknown, number
 from model.scene.road import Road
 from model.scene.roundabout import Leg, Roundabout, Route
+from model.vehicles import Vehicle
 
 ROUNDABOUT_KEYS = {"center", "inscribed_diameter", "circulatory_width", "apron_width", "apron_use", "traffic", "legs"}
 LEG_KEYS = {"angle", "lane_width", "entry_radius", "exit_radius", "length"}
 ROUTE_KEYS = {"enter", "exit", "start_distance", "goal_distance"}
-FREE_AT_START = ("phi", "theta1")  # the only states [initial] / [final] may set beside a route
 
 
 def parse_road(data: dict[str, Any]) -> Road | None:
@@ -66,16 +66,23 @@ def _legs(items: Any) -> list[Leg]:
 
 
 
-def road_boundary_values(road: Road, initial: dict[str, float], final: dict[str, float], states) -> tuple[dict, dict]:
-    """[initial] and [final] of a routed scenario: the route's poses plus phi / theta1 where given."""
+def road_boundary_values(
+    road: Road, initial: dict[str, float], final: dict[str, float], vehicle: Vehicle
+) -> tuple[dict, dict]:
+    """[initial] and [final] of a routed scenario: the route's poses (the vehicle's position and heading,
+    steering 0, the trailers in line at the start) plus the steering and trailer headings where given."""
+    r = vehicle.roles
+    free = tuple(s for s in (r.steering, *r.trailers) if s is not None)  # the only states a route leaves free
     for where, values in (("initial", initial), ("final", final)):
         for key in values:
-            if key not in FREE_AT_START:
-                raise InputError(f"{where}.{key}", "set by the [route]: only phi and theta1 may be given with a route")
+            if key not in vehicle.states:
+                raise InputError(f"{where}.{key}", f"not a state of the {vehicle.model} model")
+            if key not in free:
+                raise InputError(f"{where}.{key}", f"set by the [route]: only {' and '.join(free) or 'nothing'} "
+                                 "may be given with a route")  # fmt: skip
     x, y, theta = road.start()
-    start = {"x": x, "y": y, "theta": theta, "phi": 0.0, "theta1": theta}
+    start = {r.x: x, r.y: y, r.heading: theta, **({r.steering: 0.0} if r.steering else {})}
+    start.update(dict.fromkeys(r.trailers, theta))
     gx, gy, gtheta = road.goal()
-    goal = {"x": gx, "y": gy, "theta": gtheta}
-    start = {k: v for k, v in {**start, **initial}.items() if k in states}
-    goal = {k: v for k, v in {**goal, **final}.items() if k in states}
-    return start, goal
+    goal = {r.x: gx, r.y: gy, r.heading: gtheta}
+    return {**start, **initial}, {**goal, **final}

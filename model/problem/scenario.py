@@ -100,7 +100,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     if road is not None:
         for body in bodies.values():
             check_lane_width(road.roundabout, body.width)
-        initial, final = road_boundary_values(road, initial, final, vehicle.states)
+        initial, final = road_boundary_values(road, initial, final, vehicle)
     ocp = OCP(
         vehicle=vehicle,
         cost=_cost(objective, problem, vehicle),
@@ -129,8 +129,8 @@ def _cost(objective: str, problem: dict[str, Any], vehicle: Vehicle):
             raise InputError(
                 "problem.steering_weight", f"applies to the time objective only (objective = {objective!r})"
             )
-        if "u2" not in vehicle.controls:
-            raise InputError("problem.steering_weight", f"the {vehicle.model} model has no control u2")
+        if vehicle.roles.turning is None:
+            raise InputError("problem.steering_weight", f"the {vehicle.model} model has no steering-rate control")
         return Time(steering_weight=number(problem, "steering_weight", "problem."))
     if "weights" not in problem:
         return OBJECTIVES[objective]()

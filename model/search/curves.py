@@ -35,12 +35,12 @@ def hermite(a: Pose, b: Pose, gear: int, scale: float, m: int = SAMPLES) -> np.n
 
 def end_poses(ocp: OCP) -> tuple[Pose, Pose] | None:
     """Start and goal poses (a free final heading: the start-goal bearing); None without a goal position."""
-    ini, fin = ocp.initial, ocp.final
-    if not all(k in fin for k in ("x", "y")) or not all(k in ini for k in ("x", "y", "theta")):
+    ini, fin, r = ocp.initial, ocp.final, ocp.vehicle.roles
+    if not all(k in fin for k in r.position) or not all(k in ini for k in (*r.position, r.heading)):
         return None
-    start = (float(ini["x"]), float(ini["y"]), float(ini["theta"]))
-    bearing = math.atan2(fin["y"] - start[1], fin["x"] - start[0])
-    return start, (float(fin["x"]), float(fin["y"]), float(fin.get("theta", bearing)))
+    start = (float(ini[r.x]), float(ini[r.y]), float(ini[r.heading]))
+    bearing = math.atan2(fin[r.y] - start[1], fin[r.x] - start[0])
+    return start, (float(fin[r.x]), float(fin[r.y]), float(fin.get(r.heading, bearing)))
 
 
 def curve_routes(ocp: OCP) -> dict[str, list[Leg]]:
@@ -94,7 +94,8 @@ def curve_guess(ocp: OCP, legs: list[Leg], n: int, tf_scale: float = 1.0) -> tup
     Returns
     -------
     dict of ndarray, float
-        Every state and control (phi = atan(d kappa), theta1 integrated along the path, other
+        Every state and control (the steering phi = atan(d kappa), the trailer heading integrated
+        along the path, other
         states interpolated from their initial to their final values; all clipped to their
         bounds), and the final time.
     """
@@ -104,23 +105,25 @@ def curve_guess(ocp: OCP, legs: list[Leg], n: int, tf_scale: float = 1.0) -> tup
     tf = ocp.final_time if ocp.final_time is not None else tf_scale * (length / (0.7 * (ocp.max_speed() or 1.0)) + 1.0)
     motion = np.arctan2(np.gradient(pts[:, 1]), np.gradient(pts[:, 0]))
     heading = np.unwrap(motion + np.where(gears < 0, math.pi, 0.0))
-    heading += 2 * math.pi * round((ocp.initial["theta"] - heading[0]) / (2 * math.pi))
+    v, r = ocp.vehicle, ocp.vehicle.roles
+    heading += 2 * math.pi * round((ocp.initial[r.heading] - heading[0]) / (2 * math.pi))
     kappa = gears * np.gradient(heading) / np.maximum(np.gradient(s), 1e-9)
     at = np.linspace(0.0, s[-1], n + 1)
-    v, px, py = ocp.vehicle, *ocp.vehicle.position
-    values = {px: np.interp(at, s, pts[:, 0]), py: np.interp(at, s, pts[:, 1]), "theta": np.interp(at, s, heading)}
+    values = {r.x: np.interp(at, s, pts[:, 0]), r.y: np.interp(at, s, pts[:, 1]), r.heading: np.interp(at, s, heading)}
     direction = np.sign(np.interp(at, s, gears))
-    d = v.parameters().get("d")
-    if "phi" in v.states and d is not None:
-        values["phi"] = np.arctan(d * np.interp(at, s, kappa))
-    if "theta1" in v.states:
-        values["theta1"] = trailer_heading(ocp, values["theta"], np.full(n + 1, at[1] - at[0]), direction)
+    d = v.parameter_values().get("wheelbase")
+    if r.steering is not None and d is not None:
+        values[r.steering] = np.arctan(d * np.interp(at, s, kappa))
+    for trailer in r.trailers:
+        values[trailer] = trailer_heading(ocp, values[r.heading], np.full(n + 1, at[1] - at[0]), direction)
     for name in v.states:
         if name not in values:
             a = ocp.initial.get(name, 0.0)
             values[name] = a + (ocp.final.get(name, a) - a) * at / length
     t = np.linspace(0.0, tf, n + 1)
-    controls = {"u1": direction * length / tf, "u2": np.gradient(values["phi"], t) if "phi" in values else 0 * t}
+    controls = {r.speed: direction * length / tf}
+    if r.steering_rate is not None:
+        controls[r.steering_rate] = np.gradient(values[r.steering], t) if r.steering in values else 0 * t
     values.update({c: controls.get(c, np.zeros(n + 1)) for c in v.controls})
     return {k: _clip(val, ocp.bounds.get(k)) for k, val in values.items()}, float(tf)
 

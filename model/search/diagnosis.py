@@ -97,11 +97,12 @@ def bound_diagnosis(ocp: OCP) -> dict | None:
 
     if ocp.cost.free_final_time or ocp.final_time is None or ocp.max_speed() is None:
         return None
-    if not all(k in ocp.final and k in ocp.initial for k in ("x", "y", "theta")):
+    pose = (*ocp.vehicle.position, ocp.vehicle.roles.heading)
+    if not all(k in ocp.final and k in ocp.initial for k in pose):
         return None
     rho = min_turning_radius(ocp.vehicle, ocp.bounds)
-    start = tuple(ocp.initial[k] for k in ("x", "y", "theta"))
-    goal = tuple(ocp.final[k] for k in ("x", "y", "theta"))
+    start = tuple(ocp.initial[k] for k in pose)
+    goal = tuple(ocp.final[k] for k in pose)
     bound = reeds_shepp_time(start, goal, rho, ocp.max_speed())
     if not ocp.final_time < bound:
         return None

@@ -28,22 +28,21 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
     ``route``: "arc" goes around the first obstacle in the ``passing`` direction;
     "line" drives straight at the goal and leaves the detour to the solver.
     """
-    v = ocp.vehicle
+    v, r = ocp.vehicle, ocp.vehicle.roles
     s = np.linspace(0.0, 1.0, n + 1)
-    px, py = v.position
     x, y = _path(ocp, passing if route == "arc" else "none", s)
     dx, dy = np.gradient(x, s), np.gradient(y, s)
     heading = np.unwrap(np.arctan2(dy, dx))
-    theta0 = ocp.initial.get("theta", heading[0])
+    theta0 = ocp.initial.get(r.heading, heading[0])
     heading += 2 * math.pi * round((theta0 - heading[0]) / (2 * math.pi))
-    guess = {px: x, py: y, "theta": heading}
+    guess = {r.x: x, r.y: y, r.heading: heading}
     speed = np.hypot(dx, dy) / tf
-    d = v.parameters().get("d")
-    if d is not None:
+    d = v.parameter_values().get("wheelbase")
+    if d is not None and r.steering is not None:
         curvature = np.gradient(heading, s) / np.maximum(np.hypot(dx, dy), 1e-9)
-        guess["phi"] = np.arctan(curvature * d)
-    if "theta1" in v.states:
-        guess["theta1"] = trailer_heading(ocp, heading, np.hypot(dx, dy) * np.gradient(s))
+        guess[r.steering] = np.arctan(curvature * d)
+    for trailer in r.trailers:
+        guess[trailer] = trailer_heading(ocp, heading, np.hypot(dx, dy) * np.gradient(s))
     for name in v.states:
         if name not in guess:
             a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])
@@ -56,8 +55,8 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
 def trailer_heading(
     ocp: OCP, heading: np.ndarray, ds: np.ndarray, direction: np.ndarray | None = None, substeps: int = 10
 ) -> np.ndarray:
-    """theta1 at the nodes of a guess path (``paths.trailer_angle``, RK4 in arc length), inside the
-    articulation bounds.
+    """The trailer heading (``roles.trailers``, one trailer) at the nodes of a guess path
+    (``paths.trailer_angle``, RK4 in arc length), inside the articulation bounds.
 
     ``ds`` is the path length per node step; ``direction`` (+1 forwards, -1 reversing) at the nodes,
     forwards if None; the heading is interpolated linearly between nodes, at ``substeps`` RK4 steps
@@ -69,7 +68,8 @@ def trailer_heading(
     gear = np.ones_like(fine) if direction is None else np.where(np.interp(fine, length, direction) < 0, -1.0, 1.0)
     kappa = gear * np.gradient(theta, fine) if length[-1] > 0 else np.zeros_like(fine)
     step = length[-1] / (substeps * (len(heading) - 1))
-    values = trailer_angle(ocp.vehicle, theta, kappa, gear, step, ocp.initial.get("theta1", heading[0]))
+    (trailer,) = ocp.vehicle.roles.trailers
+    values = trailer_angle(ocp.vehicle, theta, kappa, gear, step, ocp.initial.get(trailer, heading[0]))
     theta1 = np.interp(length, fine[::2], values)
     if "articulation" in ocp.bounds:  # keep the guess inside the jackknife limit
         lo, hi = ocp.bounds["articulation"]
@@ -78,11 +78,11 @@ def trailer_heading(
 
 
 def _controls(ocp: OCP, states: dict[str, np.ndarray], speed: np.ndarray, s: np.ndarray, tf: float):
-    """u1 is the speed; a control that is some state's derivative is that derivative."""
+    """The speed control is the speed; a control that is some state's derivative is that derivative."""
     v = ocp.vehicle
     out = {c: np.zeros_like(s) for c in v.controls}
-    if "u1" in out:
-        out["u1"] = speed
+    if v.roles.speed is not None:
+        out[v.roles.speed] = speed
     for name, f in zip(v.states, v.rhs(numeric=False), strict=True):
         if isinstance(f, sp.Symbol) and f.name in out and f == sym(f.name):
             out[f.name] = np.gradient(states[name], s) / tf
@@ -97,7 +97,7 @@ def _path(ocp: OCP, passing: str, s: np.ndarray) -> tuple[np.ndarray, np.ndarray
     if px in ocp.final and py in ocp.final:
         p1 = np.array([ocp.final[px], ocp.final[py]])
     else:
-        th = ocp.initial.get("theta", 0.0)
+        th = ocp.initial.get(ocp.vehicle.roles.heading, 0.0)
         p1 = p0 + (ocp.max_speed() or 1.0) * (ocp.final_time or 1.0) * 0.5 * np.array([math.cos(th), math.sin(th)])
     if not ocp.obstacles or passing not in ("ccw", "cw"):
         return p0[0] + (p1[0] - p0[0]) * s, p0[1] + (p1[1] - p0[1]) * s
@@ -141,7 +141,7 @@ RS_DETOUR = 2.0  # a Reeds-Shepp start that must reverse is used only up to this
 def reeds_shepp_start_path(ocp: OCP, ends: str | None = None) -> Path | None:
     """The Reeds-Shepp path of ``reeds_shepp_guess`` (same rules), or None where it does not apply."""
     rho = min_turning_radius(ocp.vehicle, ocp.bounds, both_ways=True)
-    keys = ("x", "y", "theta")
+    keys = (*ocp.vehicle.position, ocp.vehicle.roles.heading)
     if rho is None or math.isinf(rho) or not all(k in ocp.final for k in keys) or ocp.max_speed() is None:
         return None
     start, goal = tuple(ocp.initial[k] for k in keys), tuple(ocp.final[k] for k in keys)

@@ -437,7 +437,8 @@ def _evaluate(path: Path, s: np.ndarray) -> dict[str, np.ndarray]:
     x = np.where(k == 0.0, x0[i] + along * np.cos(th0[i]), x0[i] + (np.sin(theta) - np.sin(th0[i])) / safe)
     y = np.where(k == 0.0, y0[i] + along * np.sin(th0[i]), y0[i] - (np.cos(theta) - np.cos(th0[i])) / safe)
     signed = np.concatenate([[0.0], np.cumsum(lengths)])[i] + along
-    return {"s": s, "s_signed": signed, "x": x, "y": y, "theta": theta, "kappa": k, "direction": direction[i]}
+    return {"s": s, "s_signed": signed, "x": x, "y": y, "theta": theta, "kappa": k,  # names: the path's pose
+            "direction": direction[i]}  # fmt: skip
 
 
 # -- vehicles ---------------------------------------------------------------------------------
@@ -450,26 +451,27 @@ def path_guess(
 
     The reference point runs along the path at speed ``path.length / final_time`` (sign by
     direction), so the n + 1 nodes at equal times are the path's equal arc-length samples.
-    ``theta`` is continuous; a car-like model steers phi = atan(d kappa) (the truck, the
-    tricycle and the tractor; for the tricycle, whose reference point is the rear axle, too:
-    its rear axle turns on radius d / tan(phi)); u2 = d(phi)/dt by finite differences (it jumps
-    where the path's curvature does). The truck's and the tractor's u1 is the path speed, the
-    tricycle's the front wheel's, path speed / cos(phi). The unicycle's u2 is the turn rate
-    u1 kappa. The trailer angle ``theta1`` is integrated along the path (RK4) from
-    ``initial["theta1"]``, by default the path's start heading.
+    The names are the vehicle's ``roles``. The heading is continuous; a car-like model steers
+    phi = atan(d kappa) (the truck, the tricycle and the tractor; for the tricycle, whose reference
+    point is the rear axle, too: its rear axle turns on radius d / tan(phi)); the steering rate is
+    d(phi)/dt by finite differences (it jumps where the path's curvature does). The speed control is
+    the path speed over ``vehicle.reference_speed()`` (the truck's and the tractor's: the path speed;
+    the tricycle's front wheel's: path speed / cos(phi)). A turn-rate control (the unicycle's) is
+    speed kappa. The trailer heading (``roles.trailers``, one trailer) is integrated along the path
+    (RK4) from ``initial[<its name>]``, by default the path's start heading.
 
     Parameters
     ----------
     vehicle : Vehicle
-        Any model of ``model.vehicles``; states other than the position, ``theta``, ``phi``
-        and ``theta1`` are held at ``initial[name]``.
+        Any model of ``model.vehicles``; states other than the position, the heading, the steering
+        and the trailer heading are held at ``initial[name]``.
     path : Path
     final_time : float
         s (> 0).
     n : int
         Number of time steps; nodes at ``np.linspace(0, final_time, n + 1)``.
     initial : mapping, optional
-        Start values of states the path does not fix (``theta1``).
+        Start values of states the path does not fix (the trailer heading).
 
     Returns
     -------
@@ -482,15 +484,15 @@ def path_guess(
     smp = sample(path, n)
     t = np.linspace(0.0, float(final_time), n + 1)
     speed = smp["direction"] * path.length / final_time
-    d = vehicle.parameters().get("d")
-    px, py = vehicle.position
-    out = {px: smp["x"], py: smp["y"], "theta": smp["theta"]}
-    if "phi" in vehicle.states:
+    d = vehicle.parameter_values().get("wheelbase")
+    r = vehicle.roles
+    out = {r.x: smp["x"], r.y: smp["y"], r.heading: smp["theta"]}  # names: the path's pose, keyed by the roles
+    if r.steering is not None:
         if d is None:
-            raise ValueError(f"vehicle {vehicle.model!r} steers phi but has no wheelbase d")
-        out["phi"] = np.arctan(d * smp["kappa"])
-    if "theta1" in vehicle.states:
-        out["theta1"] = _trailer_angle(vehicle, path, n, initial.get("theta1", path.start[2]))
+            raise ValueError(f"vehicle {vehicle.model!r} steers {r.steering} but has no wheelbase d")
+        out[r.steering] = np.arctan(d * smp["kappa"])
+    for trailer in r.trailers:
+        out[trailer] = _trailer_angle(vehicle, path, n, initial.get(trailer, path.start[2]))
     for name in vehicle.states:
         if name not in out:
             if name not in initial:
@@ -503,12 +505,15 @@ def path_guess(
 def _path_controls(
     vehicle: Vehicle, states: dict[str, np.ndarray], smp: dict[str, np.ndarray], speed: np.ndarray, t: np.ndarray
 ) -> dict[str, np.ndarray]:
-    """u1 the speed (the tricycle's front wheel), u2 the steering rate or (no phi) the turn rate."""
-    out: dict[str, np.ndarray] = {}
-    if "u1" in vehicle.controls:
-        out["u1"] = speed / np.cos(states["phi"]) if vehicle.model == "tricycle" else speed
-    if "u2" in vehicle.controls:
-        out["u2"] = np.gradient(states["phi"], t) if "phi" in states else speed * smp["kappa"]
+    """The speed control (over the reference speed), the steering rate or (no steering) the turn rate."""
+    r, out = vehicle.roles, {}
+    if r.speed is not None:
+        (factor,) = vehicle.state_function([vehicle.reference_speed()])(states)
+        out[r.speed] = speed / factor
+    if r.steering_rate is not None and r.steering is not None:
+        out[r.steering_rate] = np.gradient(states[r.steering], t)
+    if r.turn_rate is not None:
+        out[r.turn_rate] = speed * smp["kappa"]
     missing = set(vehicle.controls) - set(out)
     if missing:
         raise ValueError(f"no path guess for controls {sorted(missing)} of {vehicle.model!r}")
@@ -516,11 +521,13 @@ def _path_controls(
 
 
 def _trailer_angle(vehicle: Vehicle, path: Path, n: int, theta1_0: float) -> np.ndarray:
-    """theta1 at the n + 1 equal arc-length nodes of ``path`` (RK4 with steps of at most 2 % of min(rho, L))."""
-    scale = min(path.rho, vehicle.parameters()["L"])
+    """The trailer heading at the n + 1 equal arc-length nodes of ``path`` (RK4 with steps of at most
+    2 % of min(rho, L))."""
+    scale = min(path.rho, vehicle.parameter_values()["trailer_wheelbase"])
     m = max(2, math.ceil(path.length / (n * 0.02 * scale))) if path.length > 0 else 1
     fine = _evaluate(path, np.linspace(0.0, path.length, 2 * n * m + 1))
-    values = trailer_angle(vehicle, fine["theta"], fine["kappa"], fine["direction"], path.length / (n * m), theta1_0)
+    heading = fine["theta"]  # names: the path's pose
+    values = trailer_angle(vehicle, heading, fine["kappa"], fine["direction"], path.length / (n * m), theta1_0)
     return values[::m]
 
 
@@ -533,8 +540,8 @@ def trailer_angle(
     equation divided by |u1|). ``theta``, ``kappa`` and ``direction`` are given at 2 k + 1 points half a
     ``step`` apart; the result holds theta1 at the k + 1 whole steps.
     """
-    p = vehicle.parameters()
-    h, trailer = p.get("h", 0.0), p["L"]
+    p = vehicle.parameter_values()
+    h, trailer = p.get("hitch_offset", 0.0), p["trailer_wheelbase"]
 
     def rate(j: int, th1: float) -> float:
         b = theta[j] - th1
@@ -570,25 +577,30 @@ def min_turning_radius(
     Returns
     -------
     float or None
-        Truck, tractor-trailer and tricycle: d / tan(phi_max) (the rear axle's radius; the
-        tricycle's front wheel runs on d / sin(phi_max)). Unicycle: 1 / max|kappa| with a
-        curvature bound ``bounds["u2/u1"]``, else min|u1| / max|u2| if u1's bounds exclude 0.
-        None where the radius has no positive lower bound (no bound on phi, |phi| up to pi/2,
-        a unicycle that can turn on the spot).
+        A steered model (truck, tractor-trailer, tricycle): d / tan(phi_max) with phi its
+        ``roles.steering`` (the rear axle's radius; the tricycle's front wheel runs on
+        d / sin(phi_max)). A model with a turn rate w (the unicycle's u2) and speed u (u1):
+        1 / max|kappa| with a curvature bound ``bounds["w/u"]`` (e.g. ``"u2/u1"``), else
+        min|u| / max|w| if u's bounds exclude 0. None where the radius has no positive lower
+        bound (no bound on phi, |phi| up to pi/2, a unicycle that can turn on the spot).
     """
-    if "phi" in vehicle.states:
-        if "phi" not in bounds:
+    r = vehicle.roles
+    if r.steering is not None:
+        if r.steering not in bounds:
             return None
-        phi_max = _extent(bounds["phi"], both_ways)
+        phi_max = _extent(bounds[r.steering], both_ways)
         if phi_max >= HALF_PI:
             return None
-        return math.inf if phi_max == 0.0 else vehicle.parameters()["d"] / math.tan(phi_max)
-    if "u2/u1" in bounds:
-        k = _extent(bounds["u2/u1"], both_ways)
+        return math.inf if phi_max == 0.0 else vehicle.parameter_values()["wheelbase"] / math.tan(phi_max)
+    if r.turn_rate is None or r.speed is None:
+        return None
+    curvature = f"{r.turn_rate}/{r.speed}"
+    if curvature in bounds:
+        k = _extent(bounds[curvature], both_ways)
         return math.inf if k == 0.0 else 1.0 / k
-    if "u1" in bounds and "u2" in bounds:
-        lo, hi = bounds["u1"]
-        w = _extent(bounds["u2"], both_ways)
+    if r.speed in bounds and r.turn_rate in bounds:
+        lo, hi = bounds[r.speed]
+        w = _extent(bounds[r.turn_rate], both_ways)
         if lo * hi > 0.0:
             return math.inf if w == 0.0 else min(abs(lo), abs(hi)) / w
     return None

@@ -18,12 +18,12 @@ from model.direct.solution import Solution
 from model.direct.solve import Start, solve_starts
 from model.problem.ocp import OCP
 
-REVERSING = 0.05  # an answer reverses if u1 < -REVERSING x max |u1| somewhere
+REVERSING = 0.05  # an answer reverses if u1 < -REVERSING x max |u1| somewhere (u1: roles.speed)
 
 
 def reverses(sol: Solution) -> bool:
-    """True if the answer's speed u1 changes sign (beyond REVERSING of its largest magnitude)."""
-    u1 = np.asarray(sol.columns.get("u1", []), dtype=float)
+    """True if the answer's speed u1 (``roles.speed``) changes sign (beyond REVERSING of its largest magnitude)."""
+    u1 = np.asarray(sol.columns.get(sol.ocp.vehicle.roles.speed, []), dtype=float)
     return u1.size > 0 and float(u1.min()) < -REVERSING * float(np.abs(u1).max())
 
 

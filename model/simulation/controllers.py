@@ -140,7 +140,7 @@ class Tracking:
         self.delay_samples = control.delay_samples(disturbance)
         self.model = Plant(self.vehicle, Disturbance(), control.sample_time)
         self.bounds = np.array([ocp.bounds[c] for c in self.vehicle.controls])
-        self.angles = np.array([s.startswith("theta") for s in self.vehicle.states])
+        self.angles = np.array([s in self.vehicle.roles.headings for s in self.vehicle.states])
         self.rate_limit = _rate_limit(ocp)
         A, B = discretise(self.vehicle, ref.states[:-1], ref.controls, ref.durations)
         Q, R = weights(ocp)
@@ -177,7 +177,7 @@ def weights(ocp) -> tuple[np.ndarray, np.ndarray]:
     """Stage weights Q (states) and R (controls) by Bryson's rule: 1 / (acceptable error)^2."""
     v = ocp.vehicle
     distance = ocp.straight_distance() or 1.0
-    scale = {s: HEADING_TOL if s.startswith("theta") else STEERING_SCALE for s in v.states}
+    scale = {s: HEADING_TOL if s in v.roles.headings else STEERING_SCALE for s in v.states}
     scale.update(dict.fromkeys(v.position, POSITION_SHARE * max(distance, 1e-6)))
     Q = np.diag([1.0 / scale[s] ** 2 for s in v.states])
     R = np.diag([1.0 / max(abs(lo), abs(hi), 1e-9) ** 2 for lo, hi in (ocp.bounds[c] for c in v.controls)])

@@ -125,7 +125,7 @@ def simulate(
     zero = np.zeros(len(v.controls))
     queue = deque([zero] * control.delay_samples(disturbance))
     x = np.array([ocp.initial[s] for s in v.states], dtype=float)
-    rows: dict[str, list] = {k: [] for k in ("x", "applied", "measured", "sent", "seconds")}
+    rows: dict[str, list] = {k: [] for k in ("state", "applied", "measured", "sent", "seconds")}
     failed, grid = 0, [0.0]
     while grid[-1] < _end(controller, tf) - 1e-9:
         t = grid[-1]
@@ -139,11 +139,11 @@ def simulate(
             sent = np.where(np.isfinite(sent), sent, 0.0)
         queue.append(sent)
         applied = queue.popleft()
-        for key, val in (("x", x), ("applied", applied), ("measured", y), ("sent", sent)):
+        for key, val in (("state", x), ("applied", applied), ("measured", y), ("sent", sent)):
             rows[key].append(val)
         grid.append(min(len(grid) * h, _end(controller, tf)))
         x = plant.step(x, applied, grid[-1] - t)
-    rows["x"].append(x)
+    rows["state"].append(x)
     columns = _columns(v, solution, np.array(grid), rows)
     summary = _summary(scenario, solution, controller, columns, rows["seconds"], failed, h)
     return ClosedLoop(columns=columns, summary=summary)
@@ -157,7 +157,7 @@ def _end(controller: Controller, tf: float) -> float:
 
 def _columns(v, solution: Solution, grid: np.ndarray, rows: dict) -> dict[str, np.ndarray]:
     """t, states, u1, u2 (applied), then measured states, sent controls and the optimum's states at t."""
-    X = np.array(rows["x"])
+    X = np.array(rows["state"])
     last = lambda a: np.vstack([np.array(a), np.array(a)[-1:]])  # noqa: E731 - the final row repeats the previous
     U, Y, S = last(rows["applied"]), last(rows["measured"]), last(rows["sent"])
     cols = {"t": grid}
@@ -192,7 +192,7 @@ def final_errors(scenario: Scenario, columns: dict[str, np.ndarray]) -> dict[str
     out = {}
     for s, goal in ocp.final.items():
         err = columns[s][-1] - goal
-        out[s] = float(abs(wrap(err)) if s.startswith("theta") else abs(err))
+        out[s] = float(abs(wrap(err)) if s in ocp.vehicle.roles.headings else abs(err))
     if px in ocp.final and py in ocp.final:
         out["position"] = float(math.hypot(columns[px][-1] - ocp.final[px], columns[py][-1] - ocp.final[py]))
     return out
@@ -237,7 +237,7 @@ def _summary(scenario, solution, controller, columns, seconds, failed: int, h: f
         "controller": controller.name,
         "steps": len(seconds),
         "final_position_error": errors.get("position"),
-        "final_heading_error": errors.get("theta"),
+        "final_heading_error": errors.get(v.roles.heading),
         "energy": zoh_energy(columns, v.controls),
         "final_time": float(columns["t"][-1]),
         "min_clearance": min_clearance(scenario, columns),

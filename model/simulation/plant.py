@@ -3,9 +3,10 @@
 The equations are the vehicle's SymPy dynamics (written once in ``model.vehicles``), changed by
 substitution only (docs/closed-loop-format.md):
 
-- ``u1 -> g u1`` in every state derivative (g = ``speed_gain``);
-- ``phi -> phi + b`` in every state derivative except ``phi'`` itself (b = ``steering_bias``);
-  the unicycle has no steering angle, so it takes no bias (the parser refuses one);
+- ``u1 -> g u1`` in every state derivative (g = ``speed_gain``; u1 the vehicle's ``roles.speed``);
+- ``phi -> phi + b`` in every state derivative except ``phi'`` itself (b = ``steering_bias``; phi
+  the ``roles.steering``); the unicycle has no steering angle, so it takes no bias (the parser
+  refuses one);
 - ``+ w_x``, ``+ w_y`` on the derivatives of the position states (w = ``drift``);
 - the length parameters (d, and for the trailer L, h) at the plant's true values.
 
@@ -23,7 +24,7 @@ from model.vehicles import Vehicle, sym
 
 RTOL = ATOL = 1e-10
 METHOD = "DOP853"
-HEADING = "theta"  # the measured heading; its noise is noise / 10 rad
+HEADING_NOISE = 0.1  # the measured heading's (roles.heading) noise is noise / 10 rad
 
 
 def plant_parameters(vehicle: Vehicle, disturbance: Disturbance) -> dict[str, float]:
@@ -45,18 +46,17 @@ def plant_rhs(vehicle: Vehicle, disturbance: Disturbance) -> list[sp.Expr]:
     ValueError
         For a steering bias on a model without a steering angle ``phi``.
     """
-    f = vehicle.dynamics()
-    u1 = sym(vehicle.controls[0])
-    has_phi = "phi" in vehicle.states
-    if disturbance.steering_bias != 0 and not has_phi:
+    f, r = vehicle.dynamics(), vehicle.roles
+    u1 = sym(r.speed)
+    if disturbance.steering_bias != 0 and r.steering is None:
         raise ValueError(f"the {vehicle.model} model has no steering angle phi: a steering bias cannot apply")
     params = {sym(k): v for k, v in plant_parameters(vehicle, disturbance).items()}
     drift = dict(zip(vehicle.position, disturbance.drift, strict=True))
     out = []
     for name in vehicle.states:
         expr = sp.sympify(f[name], strict=True).subs(u1, disturbance.speed_gain * u1, simultaneous=True)
-        if has_phi and name != "phi":
-            expr = expr.subs(sym("phi"), sym("phi") + disturbance.steering_bias)
+        if r.steering is not None and name != r.steering:
+            expr = expr.subs(sym(r.steering), sym(r.steering) + disturbance.steering_bias)
         out.append(expr.subs(params) + drift.get(name, 0.0))
     return out
 
@@ -124,7 +124,7 @@ class Plant:
 def _noise_scale(vehicle: Vehicle, state: str) -> float:
     if state in vehicle.position:
         return 1.0
-    return 0.1 if state == HEADING else 0.0
+    return HEADING_NOISE if state == vehicle.roles.heading else 0.0
 
 
 __all__ = ["Plant", "plant_parameters", "plant_rhs"]

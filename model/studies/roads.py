@@ -50,7 +50,7 @@ def preset_vehicle(name: str) -> tuple[Vehicle, dict[str, Body], float | None]:
     bodies = {"vehicle": Body(**data["body"])}
     if data.get("trailer_body"):
         bodies["trailer"] = Body(**data["trailer_body"], key="vehicle.trailer_body")
-    phi = data.get("bounds", {}).get("phi")
+    phi = data.get("bounds", {}).get(vehicle.roles.steering)
     return vehicle, bodies, (float(phi[1]) if phi else None)
 
 
@@ -63,14 +63,15 @@ def steady_poses(vehicle: Vehicle, phi: float) -> dict[str, float]:
     """The state of the steady left turn at steering ``phi`` > 0, centre at the origin, tractor heading +y.
 
     The tractor's rear axle is at (R, 0); the trailer heading follows from its axle lying on the
-    circle R_t with its velocity tangent: the hitch (R, h) and the axle differ by L along theta1.
+    circle R_t with its velocity tangent: the hitch (R, h) and the axle differ by L along theta1
+    (the state names are the vehicle's ``roles``; one trailer at most).
     """
-    p = vehicle.parameters()
-    d = p["d"]
+    p, r = vehicle.parameter_values(), vehicle.roles
+    d = p["wheelbase"]
     R = d / math.tan(phi)
-    state = {"x": R, "y": 0.0, "theta": math.pi / 2, "phi": phi}
-    if "theta1" in vehicle.states:
-        h, L = p["h"], p["L"]
+    state = {r.x: R, r.y: 0.0, r.heading: math.pi / 2, r.steering: phi}
+    for trailer in r.trailers:
+        h, L = p["hitch_offset"], p["trailer_wheelbase"]
         rt = trailer_radius(R, h, L)
         # trailer axle at angle -beta from the hitch ray: hitch (R, h); axle at radius rt, tangent ccw
         hitch = np.array([R, h])
@@ -79,7 +80,7 @@ def steady_poses(vehicle: Vehicle, phi: float) -> dict[str, float]:
         ang_a = ang_h - math.acos(rt / math.hypot(R, h))
         a = rt * np.array([math.cos(ang_a), math.sin(ang_a)])
         diff = hitch - a
-        state["theta1"] = math.atan2(diff[1], diff[0])
+        state[trailer] = math.atan2(diff[1], diff[0])
     return state
 
 
@@ -121,29 +122,38 @@ def steady_turn(vehicle: Vehicle, bodies: Mapping[str, Body], phi: float) -> dic
     """The steady circle at steering ``phi``: radii of the axles and the swept outer/inner radii."""
     state = steady_poses(vehicle, phi)
     radii = swept_radii(vehicle, bodies, state)
-    p = vehicle.parameters()
+    p, r = vehicle.parameter_values(), vehicle.roles
+    R = state[r.x]
     out = {
-        "phi": phi,
-        "R": state["x"],
-        "front_axle_radius": math.hypot(state["x"], p["d"]),
+        "phi": phi,  # names: a result key (the steering angle), not a state looked up
+        "R": R,
+        "front_axle_radius": math.hypot(R, p["wheelbase"]),
         "outer": max(r["outer"] for r in radii.values()),
         "inner": min(r["inner"] for r in radii.values()),
         "outer_body": max(radii, key=lambda b: radii[b]["outer"]),
         "inner_body": min(radii, key=lambda b: radii[b]["inner"]),
         "bodies": radii,
     }
-    if "theta1" in state:
-        out["trailer_axle_radius"] = trailer_radius(state["x"], p["h"], p["L"])
-        out["articulation"] = state["theta"] - state["theta1"]
+    for trailer in r.trailers:
+        out["trailer_axle_radius"] = trailer_radius(R, p["hitch_offset"], p["trailer_wheelbase"])
+        out["articulation"] = state[r.heading] - state[trailer]
     return out
+
+
+def _steering_limit(vehicle: Vehicle) -> float:
+    """The largest steering angle of a steady circle: below pi / 2, and with a trailer where its axle
+    radius stays real (R^2 + h^2 >= L^2)."""
+    p = vehicle.parameter_values()
+    hi = math.pi / 2 - 1e-4
+    if "trailer_wheelbase" in p:
+        L, h = p["trailer_wheelbase"], p["hitch_offset"]
+        hi = min(hi, math.atan(p["wheelbase"] / math.sqrt(max(L**2 - h**2, 0.0) + 1e-9)))
+    return hi
 
 
 def eu_steering(vehicle: Vehicle, bodies: Mapping[str, Body], outer: float = EU_OUTER, tol: float = 1e-12) -> float:
     """The steering angle whose steady circle has the outer swept radius ``outer`` (bisection)."""
-    p = vehicle.parameters()
-    lo, hi = 1e-4, math.pi / 2 - 1e-4
-    if "L" in p:  # the trailer axle radius must be real: R^2 + h^2 >= L^2
-        hi = min(hi, math.atan(p["d"] / math.sqrt(max(p["L"] ** 2 - p["h"] ** 2, 0.0) + 1e-9)))
+    lo, hi = 1e-4, _steering_limit(vehicle)
     if steady_turn(vehicle, bodies, hi)["outer"] > outer:
         raise ValueError(f"no steering angle brings the outer swept radius down to {outer} m")
     while hi - lo > tol:
@@ -160,7 +170,11 @@ def eu_steering(vehicle: Vehicle, bodies: Mapping[str, Body], outer: float = EU_
 
 def integrate(vehicle: Vehicle, state0: Mapping[str, float], u1: float, u2: float, t_end: float,
               samples: int = 2001, rtol: float = 1e-11, atol: float = 1e-12) -> dict[str, np.ndarray]:  # fmt: skip
-    """The model integrated with constant controls (scipy's DOP853): t and the states at ``samples`` times."""
+    """The model integrated with constant controls (scipy's DOP853): t and the states at ``samples`` times.
+
+    ``u1`` is the speed control's value (``roles.speed``), ``u2`` the steering (or turn) rate's
+    (``roles.turning``); any other control is 0.
+    """
     import sympy as sp
     from scipy.integrate import solve_ivp
 
@@ -168,7 +182,8 @@ def integrate(vehicle: Vehicle, state0: Mapping[str, float], u1: float, u2: floa
 
     xs, us = vehicle.state_symbols(), [sym(c) for c in vehicle.controls]
     f = sp.lambdify([xs, us], vehicle.rhs(numeric=True), "numpy")
-    u = [u1, u2] if len(us) == 2 else [u1]
+    held = {vehicle.roles.speed: u1, vehicle.roles.turning: u2}
+    u = [held.get(c, 0.0) for c in vehicle.controls]
     t = np.linspace(0.0, t_end, samples)
     sol = solve_ivp(lambda _t, x: np.asarray(f(x, u), float), (0.0, t_end),
                     [state0[s] for s in vehicle.states], method="DOP853", t_eval=t, rtol=rtol, atol=atol)  # fmt: skip
@@ -191,11 +206,9 @@ def transient_turn(vehicle: Vehicle, bodies: Mapping[str, Body], phi: float, tur
     """
     import shapely
 
-    d = vehicle.parameters()["d"]
+    d, r = vehicle.parameter_values()["wheelbase"], vehicle.roles
     R = d / math.tan(phi)
-    state0 = {"x": R, "y": 0.0, "theta": math.pi / 2, "phi": phi}
-    if "theta1" in vehicle.states:
-        state0["theta1"] = math.pi / 2
+    state0 = {r.x: R, r.y: 0.0, r.heading: math.pi / 2, r.steering: phi, **dict.fromkeys(r.trailers, math.pi / 2)}
     t_turn = 2 * math.pi * R  # u1 = 1 m/s: theta' = tan(phi) / d = 1 / R
     run = integrate(vehicle, state0, 1.0, 0.0, turns * t_turn, turns * per_turn + 1)
     body_corners_ = corners(vehicle, bodies, run)
@@ -224,16 +237,17 @@ def transient_turn(vehicle: Vehicle, bodies: Mapping[str, Body], phi: float, tur
     x0 = max(float(np.max(c[0, :, 0])) for c in body_corners_.values())
     half = slice(0, per_turn // 2 + 1)
     out = {
-        "phi": phi,
+        "phi": phi,  # names: a result key
         "R": R,
         "turns": per,
         "swing_out": max(float(np.max(c[half, :, 0])) for c in body_corners_.values()) - x0,
         "run": run,
     }
-    if "theta1" in vehicle.states:
-        p = vehicle.parameters()
-        ax = run["x"] + p["h"] * np.cos(run["theta"]) - p["L"] * np.cos(run["theta1"])
-        ay = run["y"] + p["h"] * np.sin(run["theta"]) - p["L"] * np.sin(run["theta1"])
+    for trailer in r.trailers:
+        p = vehicle.parameter_values()
+        h, L = p["hitch_offset"], p["trailer_wheelbase"]
+        ax = run[r.x] + h * np.cos(run[r.heading]) - L * np.cos(run[trailer])
+        ay = run[r.y] + h * np.sin(run[r.heading]) - L * np.sin(run[trailer])
         radius = np.hypot(ax, ay)
         out["trailer_axle_radius"] = [float(radius[(k + 1) * per_turn]) for k in range(turns)]
         run["trailer_axle_radius"] = radius
@@ -256,10 +270,7 @@ def _farthest(poly) -> float:
 
 def least_outer(vehicle: Vehicle, bodies: Mapping[str, Body], phi_limit: float | None) -> dict:
     """The steady circle at the largest steering allowed (the limit, or where the trailer axle radius vanishes)."""
-    p = vehicle.parameters()
-    hi = math.pi / 2 - 1e-4
-    if "L" in p:
-        hi = min(hi, math.atan(p["d"] / math.sqrt(max(p["L"] ** 2 - p["h"] ** 2, 0.0) + 1e-9)))
+    hi = _steering_limit(vehicle)
     if phi_limit is not None:
         hi = min(hi, phi_limit)
     return steady_turn(vehicle, bodies, hi)
@@ -277,11 +288,11 @@ def eu_turning_circle(vehicle: Vehicle, bodies: Mapping[str, Body], phi_limit: f
     try:
         phi = eu_steering(vehicle, bodies)
     except ValueError:
-        return {"phi": None, "phi_limit": phi_limit, "passes": False,
+        return {"phi": None, "phi_limit": phi_limit, "passes": False,  # names: result keys
                 "least_outer": least_outer(vehicle, bodies, phi_limit)}  # fmt: skip
     steady = steady_turn(vehicle, bodies, phi)
     out = {
-        "phi": phi,
+        "phi": phi,  # names: a result key
         "phi_deg": math.degrees(phi),
         "phi_limit": phi_limit,
         "within_limit": phi_limit is None or phi <= phi_limit,
@@ -316,15 +327,16 @@ def cell_document(template: dict, preset_name: str, icd: float, apron: float, in
     articulated vehicle (its tractor stays on the roadway), "none" for the passenger car P and
     "all" for a single-unit truck.
     """
-    from model.vehicles import preset
+    from model.vehicles import VEHICLES, preset
 
     data = preset(preset_name)
+    roles = VEHICLES[data["model"]].roles
     doc = copy.deepcopy(template)
     doc["vehicle"] = {"preset": preset_name}
     bounds = doc.setdefault("bounds", {})
-    if "phi" in data.get("bounds", {}):
-        bounds.pop("phi", None)
-    articulated = data["model"] == "tractor-trailer"
+    if roles.steering in data.get("bounds", {}):
+        bounds.pop(roles.steering, None)
+    articulated = bool(roles.trailers)
     if not articulated:
         bounds.pop("articulation", None)
     rb = doc["roundabout"]

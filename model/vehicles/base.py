@@ -1,13 +1,89 @@
-"""The vehicle base class: state and control names plus SymPy dynamics, written once.
+"""The vehicle base class: state and control names, their roles, and SymPy dynamics, written once.
 
 A new vehicle is one small subclass; the Pyomo transcription, the validator and
-the Pontryagin engine all read ``states``, ``controls`` and ``dynamics()``.
+the Pontryagin engine all read ``states``, ``controls`` and ``dynamics()``. Everything that
+needs to know *which* state is the heading or which control the speed (the guesses, the
+smooth routes, the plant's disturbances, the tracking controller, the plots) reads the
+vehicle's ``roles`` (``Roles``), never a literal name, so a model may name and order its
+states and controls as it likes.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
+from functools import lru_cache
+from typing import ClassVar
+
 import numpy as np
 import sympy as sp
+
+
+@dataclass(frozen=True)
+class Roles:
+    """What each of a vehicle's states and controls means, by name; None where the model has none.
+
+    The defaults are the seed paper's truck's names, so a model that uses them declares nothing.
+
+    Parameters
+    ----------
+    x, y : str
+        The states of the reference point's position, m (the rear axle centre).
+    heading : str or None
+        The state of the reference body's heading, rad (it wraps: an angle compared modulo 2 pi).
+    steering : str or None
+        The state of the steering angle, rad (None: the model does not steer, e.g. the unicycle).
+    speed : str or None
+        The control that sets the speed along the path (the rear axle's, or the steered wheel's).
+    steering_rate : str or None
+        The control that is the steering angle's rate, rad/s.
+    turn_rate : str or None
+        The control that is the heading's rate, rad/s, for a model without a steering angle.
+    trailers : tuple of str
+        The states of the trailers' headings, rad, first trailer first.
+    """
+
+    x: str = "x"
+    y: str = "y"
+    heading: str | None = "theta"
+    steering: str | None = "phi"
+    speed: str | None = "u1"
+    steering_rate: str | None = "u2"
+    turn_rate: str | None = None
+    trailers: tuple[str, ...] = ()
+
+    CONTROL_ROLES: ClassVar[tuple[str, ...]] = ("speed", "steering_rate", "turn_rate")
+
+    @property
+    def position(self) -> tuple[str, str]:
+        """(x, y): the reference point's position states."""
+        return (self.x, self.y)
+
+    @property
+    def turning(self) -> str | None:
+        """The control that turns the vehicle: the steering rate, else the turn rate (None: neither)."""
+        return self.steering_rate if self.steering_rate is not None else self.turn_rate
+
+    @property
+    def headings(self) -> tuple[str, ...]:
+        """The heading states, the vehicle's and each trailer's: the states that are angles modulo 2 pi."""
+        return tuple(s for s in (self.heading, *self.trailers) if s is not None)
+
+    def check(self, states: tuple[str, ...], controls: tuple[str, ...]) -> None:
+        """Raise TypeError naming the first role that is not one of the model's states or controls,
+        or that names what another role names."""
+        seen: dict[str, str] = {}
+        for role in fields(self):
+            names = getattr(self, role.name)
+            kind = controls if role.name in self.CONTROL_ROLES else states
+            for name in names if isinstance(names, tuple) else (names,):
+                if name is None:
+                    continue
+                if name not in kind:
+                    which = "controls" if kind is controls else "states"
+                    raise TypeError(f"Roles.{role.name} = {name!r} is not one of the {which} {kind}")
+                if name in seen:
+                    raise TypeError(f"Roles.{role.name} = {name!r} is already Roles.{seen[name]}")
+                seen[name] = role.name
 
 
 def sym(name: str) -> sp.Symbol:
@@ -16,18 +92,39 @@ def sym(name: str) -> sp.Symbol:
 
 
 class Vehicle:
-    """Base class: subclasses set ``states``, ``controls`` and ``dynamics``."""
+    """Base class: subclasses set ``states``, ``controls``, ``dynamics`` and (other names) ``roles``.
+
+    ``roles`` says which state is the position, the heading, the steering angle and each
+    trailer's heading, and which control the speed and the steering (or turn) rate; it is
+    checked against ``states`` and ``controls`` when the subclass is defined (TypeError).
+    """
 
     model: str = ""
     states: tuple[str, ...] = ()
     controls: tuple[str, ...] = ()
-    position: tuple[str, str] = ("x", "y")
+    roles: Roles = Roles()
     parameter_keys: dict[str, str] = {}  # parameter symbol -> its key in a scenario's [vehicle]
     positive_parameters: tuple[str, ...] | None = None  # symbols that must be > 0 (None: all of them)
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.states:
+            cls.roles.check(cls.states, cls.controls)
+
+    @property
+    def position(self) -> tuple[str, str]:
+        """The reference point's position states, ``roles.position``."""
+        return self.roles.position
 
     def parameters(self) -> dict[str, float]:
         """Numeric values of the model's parameters, keyed by symbol name."""
         return {}
+
+    def parameter_values(self) -> dict[str, float]:
+        """The parameters' values by their scenario keys (``wheelbase``, ``hitch_offset``,
+        ``trailer_wheelbase``): what a guess or a study asks for, whatever the model's symbols."""
+        values = self.parameters()
+        return {key: values[name] for name, key in self.parameter_keys.items()}
 
     def dynamics(self) -> dict[str, sp.Expr]:
         """State derivatives as SymPy expressions of state, control, parameter symbols."""
@@ -61,9 +158,20 @@ class Vehicle:
         return self._numeric(self.states + self.controls, exprs)
 
     def body_poses(self) -> dict[str, tuple[sp.Expr, sp.Expr, sp.Expr]]:
-        """Reference point (x, y) and heading of each body that can be attached, by body name."""
+        """Reference point (x, y) and heading of each body that can be attached, by body name (none
+        without a heading)."""
+        if self.roles.heading is None:
+            return {}
         px, py = self.position
-        return {"vehicle": (sym(px), sym(py), sym("theta"))}
+        return {"vehicle": (sym(px), sym(py), sym(self.roles.heading))}
+
+    def reference_speed(self) -> sp.Expr:
+        """The reference point's speed per unit of the speed control: |(x', y')| with ``roles.speed`` = 1
+        and the other controls 0, simplified; a SymPy expression of the states and the parameters
+        (1 for the truck, |cos(phi)| for the tricycle, whose speed control is the front wheel's)."""
+        f, r = self.dynamics(), self.roles
+        others = {sym(c): 0 for c in self.controls if c != r.speed}
+        return _speed_norm(f[r.x].subs(others), f[r.y].subs(others), sym(r.speed))
 
     # -- derived helpers ---------------------------------------------------
     def state_symbols(self) -> list[sp.Symbol]:
@@ -112,3 +220,9 @@ class Vehicle:
             subs = {sym(k): v for k, v in self.parameters().items()}
             exprs = [(e if isinstance(e, sp.Basic) else sp.Float(e)).subs(subs) for e in exprs]
         return exprs
+
+
+@lru_cache(maxsize=64)
+def _speed_norm(fx: sp.Expr, fy: sp.Expr, speed: sp.Symbol) -> sp.Expr:
+    """sqrt(fx^2 + fy^2) at ``speed`` = 1, simplified (cached: simplify takes tens of ms)."""
+    return sp.simplify(sp.sqrt(sp.sympify(fx) ** 2 + sp.sympify(fy) ** 2).subs(speed, 1))

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from model.vehicles.base import Vehicle, sym
+from model.vehicles.base import Roles, Vehicle, sym
 
 
 @dataclass
@@ -37,6 +37,7 @@ class TractorTrailer(Vehicle):
     positive_parameters = ("d", "L")  # h may be negative or zero; every other vehicle: all
     states = ("x", "y", "theta", "phi", "theta1")
     controls = ("u1", "u2")
+    roles = Roles(trailers=("theta1",))
 
     def parameters(self) -> dict[str, float]:
         return {"d": float(self.wheelbase), "h": float(self.hitch_offset), "L": float(self.trailer_wheelbase)}

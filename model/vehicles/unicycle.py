@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from model.vehicles.base import Vehicle, sym
+from model.vehicles.base import Roles, Vehicle, sym
 
 
 @dataclass
@@ -16,6 +16,7 @@ class Unicycle(Vehicle):
     model = "unicycle"
     states = ("x", "y", "theta")
     controls = ("u1", "u2")
+    roles = Roles(steering=None, steering_rate=None, turn_rate="u2")  # no steering angle: u2 turns it
 
     def dynamics(self) -> dict[str, sp.Expr]:
         x, y, theta = self.state_symbols()
