@@ -20,6 +20,7 @@ import pyomo.environ as pyo
 from derivations.functions import pmp_functions
 from model.analysis.certificate import certify
 from model.analysis.validation import validate
+from model.direct.bodies import DEFAULT_FORMULATION
 from model.direct.costates import costates, obstacle_multiplier, path_multipliers
 from model.direct.solution import Solution, trapezoid_energy
 from model.direct.transcription import build_model, grid
@@ -61,11 +62,16 @@ def solve_starts(
     options: dict | None = None,
     relax: bool = False,
     analyse: bool = True,
+    formulation: str = DEFAULT_FORMULATION,
+    deadline: float | None = None,
 ) -> list[Solution]:
     """Build the model of one pass direction once; solve it from each start in turn.
 
     ``relax``: solve the minimal-violation model instead (``build_model(..., relax=True)``).
     ``analyse=False``: skip validation and certificate (a screening solve, used only as a guess).
+    ``formulation``: the bodies' formulation on a road (``model.direct.bodies.FORMULATIONS``).
+    ``deadline``: a ``time.monotonic()`` instant; each Ipopt run gets the time left as
+    ``max_wall_time`` and the starts not begun by then are left out (the list is shorter).
     """
     t0 = time.perf_counter()
     # Pyomo creates many small objects: with the collector on, its full collections over the
@@ -73,19 +79,33 @@ def solve_starts(
     kind = "minimal-violation model" if relax else "model"
     LOG.debug("building the N = %d %s (pass %s)", intervals, kind, passing)
     with paused_gc():
-        m = build_model(ocp, intervals, passing, relax)
+        m = build_model(ocp, intervals, passing, relax, formulation)
         nlp, sols, timings = None, [], {}
         opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
         for i, start in enumerate(starts, 1):
+            budget = wall_time_options(opts, deadline)
+            if budget is None:
+                LOG.debug("the time limit is reached: %d of %d starts left out", len(starts) - i + 1, len(starts))
+                break
             LOG.debug("solving the N = %d %s (pass %s) from start %d of %d", intervals, kind, passing, i, len(starts))
             load_start(m, start)
             if nlp is None:
                 t1 = time.perf_counter()
                 nlp = CasadiNLP(m)
                 timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
-            res = run_ipopt(nlp, opts, x0=nlp.init_primals())
+            res = run_ipopt(nlp, budget, x0=nlp.init_primals())
             sols.append(finish(ocp, m, nlp, res, passing, timings, analyse))
     return sols
+
+
+def wall_time_options(options: dict, deadline: float | None) -> dict | None:
+    """``options`` with ``max_wall_time`` at most the seconds left until ``deadline``; None if none are left."""
+    if deadline is None:
+        return options
+    left = deadline - time.monotonic()
+    if left <= 0.0:
+        return None
+    return {**options, "max_wall_time": min(left, float(options.get("max_wall_time", left)))}
 
 
 def load_start(m: pyo.ConcreteModel, start: Start) -> None:
@@ -200,4 +220,5 @@ __all__ = [
     "paused_gc",
     "primal_columns",
     "solve_starts",
+    "wall_time_options",
 ]
