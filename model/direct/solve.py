@@ -64,6 +64,7 @@ def solve_starts(
     analyse: bool = True,
     formulation: str = DEFAULT_FORMULATION,
     deadline: float | None = None,
+    first_wall_time: float | None = None,
 ) -> list[Solution]:
     """Build the model of one pass direction once; solve it from each start in turn.
 
@@ -71,8 +72,12 @@ def solve_starts(
     ``analyse=False``: skip validation and certificate (a screening solve, used only as a guess).
     ``formulation``: the bodies' formulation on a road (``model.direct.bodies.FORMULATIONS``).
     ``deadline``: a ``time.monotonic()`` instant; each Ipopt run gets the time left as
-    ``max_wall_time`` and the starts not begun by then are left out (the list is shorter).
+    ``max_wall_time`` and the starts not begun by then are left out (the list is shorter; empty,
+    and no model built, if the deadline has passed already). ``first_wall_time``: the first start
+    runs in any case, for at least these seconds.
     """
+    if first_wall_time is None and wall_time_options({}, deadline) is None:
+        return []
     t0 = time.perf_counter()
     # Pyomo creates many small objects: with the collector on, its full collections over the
     # model cost 3x the build and seconds in loading the duals of a large road model
@@ -83,7 +88,7 @@ def solve_starts(
         nlp, sols, timings = None, [], {}
         opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
         for i, start in enumerate(starts, 1):
-            budget = wall_time_options(opts, deadline)
+            budget = wall_time_options(opts, deadline, first_wall_time if i == 1 else None)
             if budget is None:
                 LOG.debug("the time limit is reached: %d of %d starts left out", len(starts) - i + 1, len(starts))
                 break
@@ -98,11 +103,14 @@ def solve_starts(
     return sols
 
 
-def wall_time_options(options: dict, deadline: float | None) -> dict | None:
-    """``options`` with ``max_wall_time`` at most the seconds left until ``deadline``; None if none are left."""
+def wall_time_options(options: dict, deadline: float | None, floor: float | None = None) -> dict | None:
+    """``options`` with ``max_wall_time`` at most the seconds left until ``deadline`` (but at least ``floor``,
+    if given); None if none are left."""
     if deadline is None:
         return options
     left = deadline - time.monotonic()
+    if floor is not None:
+        left = max(left, floor)
     if left <= 0.0:
         return None
     return {**options, "max_wall_time": min(left, float(options.get("max_wall_time", left)))}

@@ -5,8 +5,9 @@
 run of the search goes through ``Search.solve``: the body formulation and the Ipopt options are
 the search's, and with a time limit each run gets the time left as ``max_wall_time`` and the
 starts not begun in time are counted as skipped (``Search.record_of_search`` is summary.json's
-``search``). The first start of a search always runs (for at least ``MIN_WALL_TIME``), so even
-a budget too small for anything leaves an answer or the evidence of a failure.
+``search``). The first validated (analysed) start of a search always runs, for at least
+``MIN_WALL_TIME``, so even a budget too small for anything leaves an answer or the evidence of a
+failure; screening solves (guesses only) get no such grace.
 """
 
 from __future__ import annotations
@@ -95,14 +96,18 @@ class Search:
     def skip(self, step: str, starts: int = 0) -> bool:
         """True (and ``step`` and its ``starts`` noted as skipped) if the time limit has passed.
 
-        Never before the search's first start (it always runs: ``Search.solve``).
+        Never before the search's first analysed start (it always runs: ``Search.solve``).
         """
-        if not self.expired() or not self.solutions:
+        if not self.expired() or not self.answered():
             return False
         self.steps_skipped.append(step)
         self.starts_skipped += starts
         self.stop()
         return True
+
+    def answered(self) -> bool:
+        """Whether a start has been solved and analysed (validated): an answer or the evidence of a failure."""
+        return any(sol.validation.get("skipped") is None for sol in self.solutions)
 
     def stop(self) -> None:
         """Mark the search as cut short by its time limit; the first time, one progress line."""
@@ -125,11 +130,9 @@ class Search:
         ``extra``: a step's own Ipopt options (the caller's ``options`` override them).
         ``formulation``: another body formulation than the search's for this call.
         """
-        deadline = self.deadline
-        if deadline is not None and not self.solutions:  # the search's first start always runs
-            deadline = max(deadline, time.monotonic() + MIN_WALL_TIME)
+        first = MIN_WALL_TIME if analyse and not self.answered() else None  # the search's first answer always comes
         sols = solve_starts(self.ocp, intervals, passing, starts, self.verbose, {**(extra or {}), **self.options},
-                            relax, analyse, formulation or self.formulation, deadline)  # fmt: skip
+                            relax, analyse, formulation or self.formulation, self.deadline, first)  # fmt: skip
         if len(sols) < len(starts):
             self.starts_skipped += len(starts) - len(sols)
             self.stop()

@@ -128,7 +128,7 @@ def _search(ctx: Search, guess: Columns | None, starts, screen, level: str) -> S
         ctx.progress(f"cold starts on N = {ctx.intervals}: {len(starts)} per pass direction "
                      f"({', '.join(passes_to_try(ctx.ocp))})")  # fmt: skip
         best = cold_starts(ctx, starts, guess, best)
-    if curves and level != "quick" and not ctx.skip("smooth routes", len(curve_routes(ctx.ocp))):
+    if curves and level != "quick":
         best = _curve_search(ctx, best)
     return road_steps(ctx, best, curves)
 
@@ -194,6 +194,8 @@ def _curve_search(ctx: Search, best: Solution | None) -> Solution | None:
         return best
     scales = CURVE_TF_SCALES if ocp.cost.free_final_time else (1.0,)
     starts = [(k, route) for route in routes for k in scales]
+    if ctx.skip("smooth routes", len(starts)):
+        return best
     coarse = screening_intervals(ctx.intervals, True) or ctx.intervals
     passes = ["none"] if ocp.passing == "auto" or not ocp.obstacles else [ocp.passing]  # a pass asked for holds
     within = best.objective * (1 + CURVE_MARGIN) if best is not None and best.ok else None
