@@ -97,3 +97,18 @@ def test_a_batch_gives_each_scenario_its_own_budget(tmp_path):
         assert summary["search"]["time_limit"] == 2.0
         assert summary["solve_seconds"] <= 2.0 + 10.0
         assert summary["attempts"]  # the second scenario's search ran: the first one's clock is not its clock
+
+
+def test_a_proof_of_infeasibility_stands_when_the_budget_runs_out():
+    """Tf below the Reeds-Shepp bound (tests/test_diagnosis.py): the proof, not "time limit", is the diagnosis."""
+    import math
+
+    from model import OCP, Energy, Truck
+
+    ocp = OCP(vehicle=Truck(wheelbase=0.5), cost=Energy(), final_time=1.2,
+              bounds={"u1": (-1.0, 1.0), "u2": (-0.35, 0.35), "phi": (-0.6, 0.6)},
+              initial={"x": 0.0, "y": 0.0, "theta": 0.0, "phi": 0.0},
+              final={"x": 1.0, "y": 0.0, "theta": math.pi})  # fmt: skip
+    sol = ocp.solve(intervals=30, time_limit=0.05)
+    assert not sol.ok and sol.search["stopped_by_time_limit"] is True
+    assert sol.diagnosis["kind"] == "proven bound"

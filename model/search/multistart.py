@@ -100,14 +100,20 @@ def solve_ocp(
     if not best.ok and best.diagnosis is None:
         best = _continue_or_diagnose(ctx, best, continuation)
     best = _accurate(ctx, best, accuracy)
-    if ctx.stopped and not best.ok:
-        diagnosis = time_limit_diagnosis(best, ctx.attempts, ctx.record_of_search(search))
+    return _finish(ctx, best, search, start)
+
+
+def _finish(ctx: Search, best: Solution, level: str, start: float) -> Solution:
+    """The answer with the search's record: attempts, ``search``, timings (from ``start``, perf_counter); the
+    time limit's diagnosis if due."""
+    if ctx.stopped and not best.ok and (best.diagnosis or {}).get("kind") != "proven bound":  # a proof stands
+        diagnosis = time_limit_diagnosis(best, ctx.attempts, ctx.record_of_search(level))
         best.diagnosis = diagnosis | ({"before_the_limit": best.diagnosis} if best.diagnosis else {})
     with paused_gc():  # the model may hold a later start's values
         best.nlp.load_primals(best.ipopt.x)
         best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
     best.attempts = ctx.attempts
-    best.search = ctx.record_of_search(search)
+    best.search = ctx.record_of_search(level)
     best.solve_seconds = time.perf_counter() - start
     best.timings = {**best.timings, "all_starts": phase_totals(ctx.solutions)}
     return best
