@@ -112,3 +112,36 @@ def test_a_proof_of_infeasibility_stands_when_the_budget_runs_out():
     sol = ocp.solve(intervals=30, time_limit=0.05)
     assert not sol.ok and sol.search["stopped_by_time_limit"] is True
     assert sol.diagnosis["kind"] == "proven bound"
+
+
+class _Answer:
+    """A stand-in analysed solution of a given status."""
+
+    def __init__(self, status: str):
+        self.status, self.validation, self.ok = status, {"passed": status == "optimal"}, status == "optimal"
+
+
+def test_the_search_counts_what_the_budget_left_out_and_says_so_once(monkeypatch):
+    """Search.solve: the first answer always comes (with a floor on its wall time), later starts are counted."""
+    import model.search.context as context
+    from model.problem.scenario import load_scenario
+
+    calls = []
+
+    def fake_solve_starts(ocp, n, passing, starts, verbose, options, relax, analyse, formulation, deadline, first):
+        calls.append((len(starts), first))
+        return [_Answer("wall_time_limit")] if first else []  # past the deadline only a floored first start runs
+
+    monkeypatch.setattr(context, "solve_starts", fake_solve_starts)
+    lines = []
+    search = context.Search(load_scenario(EXAMPLE).ocp, 20, progress=context.Reporter(lines.append), time_limit=1e-3)
+    time.sleep(0.01)
+    assert search.expired() and not search.skip("screening")  # nothing answered yet: never skipped
+    assert len(search.solve(20, "ccw", [None, None, None])) == 1
+    assert search.solve(20, "cw", [None, None]) == []
+    assert search.skip("smooth routes", 4)
+    assert calls == [(3, context.MIN_WALL_TIME), (2, None)]
+    record = search.record_of_search("default")
+    assert record["stopped_by_time_limit"] is True and record["starts_skipped"] == 2 + 2 + 4
+    assert record["steps_skipped"] == ["smooth routes"]
+    assert sum("reached: the search stops" in line for line in lines) == 1
