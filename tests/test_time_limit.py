@@ -145,3 +145,29 @@ def test_the_search_counts_what_the_budget_left_out_and_says_so_once(monkeypatch
     assert record["stopped_by_time_limit"] is True and record["starts_skipped"] == 2 + 2 + 4
     assert record["steps_skipped"] == ["smooth routes"]
     assert sum("reached: the search stops" in line for line in lines) == 1
+
+
+def test_the_final_time_walk_stops_at_the_time_limit(monkeypatch):
+    """The homotopy's warm re-solves get the budget's options, and none is begun once it is spent."""
+    import model.search.continuation as continuation
+
+    solved = []
+
+    class FakeResolver:
+        def __init__(self, solution):
+            pass
+
+        def solve(self, final_time, options=None):
+            solved.append((final_time, options))
+            return _Answer("optimal")
+
+    class Easy:
+        ok, final_time = True, 8.0
+
+    monkeypatch.setattr(continuation, "Resolver", FakeResolver)
+    lines = []
+    assert continuation._walk_down(Easy(), 4.0, lines.append, lambda: None) is None
+    assert solved == [] and "time limit" in lines[-1]
+    found = continuation._walk_down(Easy(), 4.0, lines.append, lambda: {"max_wall_time": 7.0})
+    assert found is not None and len(solved) == continuation.STEPS
+    assert {options["max_wall_time"] for _, options in solved} == {7.0}

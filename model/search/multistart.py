@@ -17,7 +17,7 @@ from collections.abc import Callable
 from model.analysis.columns import Columns
 from model.direct.bodies import DEFAULT_FORMULATION, check_formulation
 from model.direct.solution import Solution
-from model.direct.solve import paused_gc, solve_starts
+from model.direct.solve import paused_gc, solve_starts, wall_time_options
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
 from model.search.accuracy import ROUTE as ACCURACY_ROUTE
@@ -227,9 +227,15 @@ def _continue_or_diagnose(ctx: Search, best: Solution, continuation: bool) -> So
             ctx.absorb(inner.search)
             return inner
 
+        def budget():
+            options = wall_time_options({}, ctx.deadline)
+            if options is None:
+                ctx.stop()
+            return options
+
         attempts_to_make = (
             ("slowed minimum time", lambda: slowed_minimum_time(ocp, solve, ctx.progress)),
-            ("final-time homotopy", lambda: (final_time_homotopy(ocp, solve, ctx.progress), None)),
+            ("final-time homotopy", lambda: (final_time_homotopy(ocp, solve, ctx.progress, budget), None)),
         )
         for route, attempt in attempts_to_make:
             if ctx.skip(route):
