@@ -171,3 +171,13 @@ def test_the_final_time_walk_stops_at_the_time_limit(monkeypatch):
     found = continuation._walk_down(Easy(), 4.0, lines.append, lambda: {"max_wall_time": 7.0})
     assert found is not None and len(solved) == continuation.STEPS
     assert {options["max_wall_time"] for _, options in solved} == {7.0}
+
+
+def test_the_callers_own_ipopt_wall_time_is_not_the_search_time_limit():
+    """--ipopt max_wall_time ends runs as before; without --time-limit nothing is marked as stopped by it."""
+    from model.problem.scenario import load_scenario
+
+    sol = load_scenario(EXAMPLE).ocp.solve(intervals=20, options={"max_wall_time": 1e-3}, search="quick",
+                                           continuation=False)  # fmt: skip
+    assert sol.status == "wall_time_limit"
+    assert sol.search["time_limit"] is None and sol.search["stopped_by_time_limit"] is False

@@ -110,8 +110,11 @@ class Search:
         return any(sol.validation.get("skipped") is None for sol in self.solutions)
 
     def stop(self) -> None:
-        """Mark the search as cut short by its time limit; the first time, one progress line."""
-        if not self.stopped:
+        """Mark the search as cut short by its time limit; the first time, one progress line.
+
+        Without a time limit nothing (a run ended by the caller's own Ipopt ``max_wall_time`` is no stop).
+        """
+        if not self.stopped and self.time_limit is not None:
             self.stopped = True
             self.progress(f"time limit of {self.time_limit:g} s reached: the search stops with what it has found")
 
