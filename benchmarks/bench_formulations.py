@@ -25,7 +25,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from model.direct.bodies import FORMULATION, FORMULATIONS, use_formulation
+from model.direct.bodies import DEFAULT_FORMULATION, FORMULATIONS
 from model.direct.solution import Solution
 from model.problem.scenario import parse_scenario
 
@@ -110,8 +110,7 @@ def timed_solve(case: Case, formulation: str) -> tuple[Solution, float]:
     """The default solve ``ocp.solve(intervals=N)`` of ``case`` with ``formulation`` and its seconds."""
     ocp = parse_scenario(copy.deepcopy(case.doc)).ocp
     t0 = time.perf_counter()
-    with use_formulation(formulation):
-        sol = ocp.solve(intervals=case.intervals)
+    sol = ocp.solve(intervals=case.intervals, formulation=formulation)
     return sol, time.perf_counter() - t0
 
 
@@ -210,7 +209,7 @@ def report(cases: list[Case], results: dict, repeats: int, before: dict, after: 
         "# Bodies on a road: NLP formulations compared",
         "",
         "Written by `python -m benchmarks.bench_formulations` (issue 11, item 3; docs/bodies-formulation.md).",
-        f"Default formulation: `{FORMULATION}`. Each cell is the default solve `ocp.solve(intervals=N)` "
+        f"Default formulation: `{DEFAULT_FORMULATION}`. Each cell is the default solve `ocp.solve(intervals=N)` "
         f"(multi-start, screening where N is large, exact validation); seconds are the least of {repeats} "
         "interleaved runs of the whole solve, the other columns the first run's.",
         "",

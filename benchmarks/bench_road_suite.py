@@ -82,8 +82,8 @@ def all_cases(intervals: int) -> list[Case]:
 
 
 def formulations() -> tuple[str, ...]:
-    """The default formulation (read now: it may change), the reference "discs" and "corners", once each."""
-    return tuple(dict.fromkeys((bodies.FORMULATION, REFERENCE, "corners")))
+    """The default formulation, the reference "discs" and "corners", once each."""
+    return tuple(dict.fromkeys((bodies.DEFAULT_FORMULATION, REFERENCE, "corners")))
 
 
 def solve_cell(case: Case, formulation: str) -> dict:
@@ -190,7 +190,7 @@ def comparisons(cases: list[Case], forms: tuple[str, ...], results: dict) -> lis
     for form in forms:
         if form == REFERENCE:
             continue
-        label = f"`{form}`" + (" (the default)" if form == bodies.FORMULATION else "")
+        label = f"`{form}`" + (" (the default)" if form == bodies.DEFAULT_FORMULATION else "")
         pairs = [(c.name, results[c.name, form], results[c.name, REFERENCE]) for c in cases
                  if (c.name, form) in results and (c.name, REFERENCE) in results]  # fmt: skip
         refused = [n for n, r, ref in pairs if ref["valid"] and not r["valid"]]
@@ -203,7 +203,7 @@ def comparisons(cases: list[Case], forms: tuple[str, ...], results: dict) -> lis
             + _names(worse),
             f"- {label} solves where `{REFERENCE}` is refused: {len(better)}" + _names(better),
         ]
-    if bodies.FORMULATION == REFERENCE:
+    if bodies.DEFAULT_FORMULATION == REFERENCE:
         lines.append(f"- The default formulation is `{REFERENCE}` itself: its comparisons with `{REFERENCE}` are "
                      "0 by construction (one solve serves both columns).")  # fmt: skip
     return lines
@@ -240,8 +240,8 @@ def report(cases: list[Case], forms: tuple[str, ...], results: dict, before: dic
         "",
         "Written by `python -m benchmarks.bench_road_suite` (issue 11). Each cell is the default solve "
         "`parse_scenario(doc).ocp.solve(intervals=N)` (multi-start, screening, goal-accuracy refinement, exact "
-        "validation, minimal-violation diagnosis) of one route with one body formulation "
-        f"(`use_formulation`). Default formulation: `{bodies.FORMULATION}`; reference: `{REFERENCE}`.",
+        "validation, minimal-violation diagnosis) of one route with one body formulation (`solve(..., "
+        f"formulation=...)`). Default formulation: `{bodies.DEFAULT_FORMULATION}`; reference: `{REFERENCE}`.",
         "",
         f"Roundabout: ICD {ICD:g} m, ring {RING:g} m, apron {APRON:g} m (the SU-30 may use it, the semitrailer's "
         f"trailer only), lanes {LANE:g} m, curb fillets {ENTRY_RADIUS:g} / {EXIT_RADIUS:g} m (entry / exit), "

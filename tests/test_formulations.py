@@ -11,7 +11,7 @@ import pytest
 
 import model.direct.bodies as bodies
 from model.analysis.bodies import clearances
-from model.direct.bodies import disc_count, use_formulation
+from model.direct.bodies import disc_count
 from model.problem.scenario import parse_scenario
 from tests.conftest import ROOT
 
@@ -32,8 +32,7 @@ def energy_doc(lane_width: float | None = None) -> dict:
 
 def solve(doc: dict, formulation: str):
     """The default solve at N without the goal-accuracy refinement (it would solve again on 2N: not tested here)."""
-    with use_formulation(formulation):
-        return parse_scenario(copy.deepcopy(doc)).ocp.solve(intervals=N, accuracy=None)
+    return parse_scenario(copy.deepcopy(doc)).ocp.solve(intervals=N, accuracy=None, formulation=formulation)
 
 
 @pytest.fixture(scope="module")
@@ -41,13 +40,21 @@ def corners():
     return solve(energy_doc(), "corners")
 
 
-def test_the_default_is_the_disc_cover_and_a_block_restores_it():
-    assert bodies.FORMULATION == "discs"
-    with use_formulation("corners"):
-        assert bodies.FORMULATION == "corners"
-    assert bodies.FORMULATION == "discs"
-    with pytest.raises(ValueError, match="formulation"), use_formulation("squares"):
-        pass
+def test_the_default_is_the_disc_cover_and_the_model_records_the_one_passed():
+    """No module setting: build_model builds the formulation it is given, and refuses an unknown one."""
+    from model.direct.transcription import build_model
+
+    ocp = parse_scenario(energy_doc()).ocp
+    assert bodies.DEFAULT_FORMULATION == "discs"
+    discs = build_model(ocp, 4)
+    assert discs.body_formulation == "discs" and discs.find_component("body_vehicle_0_island") is not None
+    corners = build_model(ocp, 4, formulation="corners")
+    assert corners.body_formulation == "corners" and corners.find_component("body_vehicle_0_island") is None
+    assert build_model(ocp, 4).body_formulation == "discs"  # nothing carried over from the call before
+    with pytest.raises(ValueError, match="formulation"):
+        build_model(ocp, 4, formulation="squares")
+    with pytest.raises(ValueError, match="formulation"):
+        ocp.solve(intervals=4, formulation="squares")
 
 
 def test_corners_solve_and_the_exact_rectangles_validate(corners):

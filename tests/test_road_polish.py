@@ -5,6 +5,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from model.problem.scenario import parse_scenario
 from model.search.road_polish import reverses
@@ -52,20 +53,40 @@ class _Solved:
         self.ok, self.formulation, self.diagnosis = ok, formulation, None
 
 
-def test_failed_road_tries_the_corners_before_the_minimal_violation_solve(monkeypatch):
+def _failing_search(formulation: str, calls: list):
+    """A search of the U-turn whose every solve fails except with the corners (records formulation, relax)."""
+    from model.search.context import Search
+
+    search = Search(parse_scenario(U_TURN).ocp, 20, formulation=formulation)
+
+    def fake_solve(intervals, passing, starts, extra=None, relax=False, analyse=True, formulation=None):
+        kind = formulation or search.formulation
+        calls.append((kind, relax))
+        if relax:
+            raise RuntimeError("stop: the minimal-violation solve was reached")
+        return [_Solved(kind == "corners", kind)]
+
+    search.solve = fake_solve
+    return search
+
+
+def test_failed_road_tries_the_corners_before_the_minimal_violation_solve():
     """Every discs start failed: the corners formulation is tried on the same start, and its answer is kept."""
-    import model.search.diagnosis as diagnosis
-    from model.direct import bodies
+    from model.search.road import failed_road
 
     calls = []
-
-    def fake_solve_starts(ocp, intervals, passing, starts, options=None, relax=False):
-        calls.append((bodies.FORMULATION, relax))
-        return [_Solved(bodies.FORMULATION == "corners" and not relax, bodies.FORMULATION)]
-
-    monkeypatch.setattr(diagnosis, "solve_starts", fake_solve_starts)
-    ocp = parse_scenario(U_TURN).ocp
-    got = diagnosis.failed_road(ocp, 20, _Solved(False, "discs"), start=object())
+    search = _failing_search("discs", calls)
+    got = failed_road(search, _Solved(False, "discs"), start=object())
     assert got.ok and got.formulation == "corners" and calls == [("corners", False)]
     assert got.diagnosis["via"] == "corners formulation"
-    assert bodies.FORMULATION == "discs"  # the setting is restored
+    assert search.formulation == "discs"  # the search's own formulation is untouched
+
+
+def test_a_corners_search_goes_straight_to_the_minimal_violation_solve():
+    """The search's formulation is already "corners": no second try with it, the relaxed solve is next."""
+    from model.search.road import failed_road
+
+    calls = []
+    with pytest.raises(RuntimeError, match="minimal-violation"):
+        failed_road(_failing_search("corners", calls), _Solved(False, "corners"), start=object())
+    assert calls == [("corners", True)]

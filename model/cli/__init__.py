@@ -1,8 +1,9 @@
 """The ``roundabout`` command: solve a scenario file, simulate it in closed loop, print its
 Pontryagin system, check it, or plot a results folder.
 
-Exit codes of ``roundabout solve``: 0 solved and validated; 1 the solver ran and
-failed (DIR/summary.json says how); 2 invalid input (one line on stderr, nothing
+Exit codes of ``roundabout solve``: 0 solved and validated (with ``--time-limit``, the best
+validated answer when the budget stopped the search); 1 the solver ran and failed, or no start
+validated within the time limit (DIR/summary.json says how); 2 invalid input (one line on stderr, nothing
 written); 130 interrupted (Ctrl-C; one line, nothing written). ``roundabout simulate``
 (docs/closed-loop-format.md): 0 the closed loop reached the goal (every run, with --runs);
 1 it did not, a step failed or the open-loop solve failed (the files are still written);
@@ -26,18 +27,23 @@ from model.outputs import RUN_FILES, run_folder, write_files
 EPILOG = """examples:
   roundabout solve workflows/scenarios/s2-case1.toml --out results/s2-case1
   roundabout solve my.toml --out out/ --intervals 400 --verbose
+  roundabout solve my.toml --out out/ --time-limit 60
   roundabout derive workflows/scenarios/s1.toml --latex
   roundabout simulate examples/closed-loop-truck.toml --out out/cl --controller tracking --runs 5
   roundabout plot out/ --out figure.png
 
 scenario files: see docs/scenario-format.md (TOML, SI units, radians);
                 [disturbance] and [control]: docs/closed-loop-format.md.
-exit codes: 0 solved and validated, 1 solver failed (summary.json says why),
+exit codes: 0 solved and validated (also the best answer when --time-limit stopped the search),
+            1 solver failed or no valid answer within --time-limit (summary.json says why),
             2 invalid input (one line on stderr, nothing written), 130 interrupted."""
 
 
-STARTUP: float | None = None  # seconds from process start to the CLI's main(), set by main
 CONTROLLERS = ("open-loop", "tracking", "mpc")
+# The search's budget of one solve (each scenario of a batch): about 9 x the slowest default solve
+# measured (34.5 s, benchmarks/road-suite.md; the pipeline scenarios take seconds), so a solve that
+# would succeed is not cut on a loaded machine, while a hopeless one ends within five minutes.
+DEFAULT_TIME_LIMIT = 300.0
 
 
 def parser() -> argparse.ArgumentParser:
@@ -62,6 +68,12 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument(
         "--ipopt", action="append", default=[], metavar="KEY=VALUE",
         help="an Ipopt option, e.g. mumps_pivot_order=5 or mu_strategy=adaptive (repeatable)",
+    )  # fmt: skip
+    s.add_argument(
+        "--time-limit", metavar="SECONDS", default=None,
+        help=f"the search's budget per scenario (default {DEFAULT_TIME_LIMIT:g}; 'inf': none). After it the best "
+             "validated answer so far is written (summary.json: search.stopped_by_time_limit), "
+             "or exit 1 with a diagnosis",
     )  # fmt: skip
     d = sub.add_parser("derive", help="print the Pontryagin system of a scenario's problem")
     d.add_argument("scenario", type=Path, help="scenario file (TOML)")
@@ -96,9 +108,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str] | None) -> int:
-    global STARTUP
-    STARTUP = process_seconds()
+    startup = process_seconds()
     args = parser().parse_args(argv)
+    args.startup = startup
     if args.command == "plot":
         from model.cli.plot import plot_folder
 
@@ -108,6 +120,8 @@ def _main(argv: list[str] | None) -> int:
 
     batch = args.command == "solve" and len(args.scenario) > 1
     try:
+        if args.command == "solve":
+            args.time_limit = checked_time_limit(args.time_limit)
         if batch:
             return _solve_batch(load_batch(args.scenario), args)
         if args.command == "solve":
@@ -207,6 +221,19 @@ def checked_ipopt_options(pairs: list[str]) -> dict:
     return options
 
 
+def checked_time_limit(text: str | None) -> float | None:
+    """``--time-limit SECONDS``: a number > 0 (DEFAULT_TIME_LIMIT if not given; 'inf': None, no limit)."""
+    if text is None:
+        return DEFAULT_TIME_LIMIT
+    try:
+        seconds = float(text)
+    except ValueError:
+        seconds = float("nan")
+    if not seconds > 0:
+        raise InputError("--time-limit", f"must be a number of seconds > 0 (or 'inf'), got {text!r}")
+    return None if seconds == float("inf") else seconds
+
+
 def check_simulate(args, scenario) -> None:
     """The simulate command's own inputs: the controller's name (mpc only once it exists), --runs, the sample time."""
     if args.controller not in CONTROLLERS:
@@ -242,6 +269,7 @@ def open_loop_solve(scenario, args, options: dict, progress: Progress):
         options=options,
         progress=progress,
         **({"search": args.search} if getattr(args, "search", "default") != "default" else {}),
+        **({"time_limit": args.time_limit} if getattr(args, "time_limit", None) is not None else {}),
     )
     return sol, t1 - t0
 
@@ -254,6 +282,8 @@ def solve_line(scenario, sol) -> str:
 
 
 def failure_reason(sol) -> str:
+    if (sol.diagnosis or {}).get("kind") == "time limit":
+        return sol.diagnosis["message"]
     failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
     return sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
 
@@ -302,6 +332,15 @@ def run_files(scenario) -> dict[str, bytes]:
     return {"scenario.toml": Path(scenario.path).read_bytes()} if scenario.path is not None else {}
 
 
+def time_limit_note(sol) -> str:
+    """A line for an answer the time limit cut the search short on ('' otherwise)."""
+    search = getattr(sol, "search", None) or {}
+    if not search.get("stopped_by_time_limit"):
+        return ""
+    return (f"\nnote: the time limit of {search['time_limit']:g} s stopped the search ({search['starts_skipped']} "
+            "starts skipped): this is the best validated answer found by then")  # fmt: skip
+
+
 def wrote_line(out: Path) -> str:
     """The success line's second half: where the files are."""
     names = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file() and p.name in RUN_FILES)
@@ -318,10 +357,10 @@ def _solve(scenario, args, options: dict) -> int:
     if args.verbose:
         phases = {"scenario (sympy, parse)": args.load_seconds, "solver imports": import_seconds,
                   **sol.timings.get("all_starts", {}), "write": time.perf_counter() - t2}  # fmt: skip
-        print(phase_report(phases), file=sys.stderr)
+        print(phase_report(phases, args.startup), file=sys.stderr)
     line = solve_line(scenario, sol)
     if sol.ok:
-        print(f"{line}\n{wrote_line(args.out)}")
+        print(f"{line}\n{wrote_line(args.out)}" + time_limit_note(sol))
         return 0
     print(f"{line}\nroundabout: FAILED ({failure_reason(sol)}); see {args.out / 'summary.json'}", file=sys.stderr)
     return 1
@@ -382,11 +421,11 @@ def process_seconds() -> float | None:
         return None
 
 
-def phase_report(phases: dict[str, float]) -> str:
-    """One line per phase of the process, from its start (interpreter and imports) to the write."""
+def phase_report(phases: dict[str, float], startup: float | None = None) -> str:
+    """One line per phase of the process, from its start (``startup``: interpreter and imports) to the write."""
     lines = ["phases (s):"]
-    if STARTUP is not None:
-        lines.append(f"  {'python start + cli imports':28s} {STARTUP:8.3f}")
+    if startup is not None:
+        lines.append(f"  {'python start + cli imports':28s} {startup:8.3f}")
     lines += [f"  {name.replace('_', ' '):28s} {sec:8.3f}" for name, sec in phases.items()]
     total = process_seconds()
     if total is not None:

@@ -22,8 +22,9 @@ Where the centre line meets the outer curb (the corner between a leg's two lanes
 conservative by up to a disc radius. The exact rectangles are checked against the exact
 corridor by the validation.
 
-Other formulations (``FORMULATIONS``, chosen by ``add_body_constraints(..., formulation=...)`` or
-``use_formulation``; docs/bodies-formulation.md compares them): "discs-tight", the same with more
+Other formulations (``FORMULATIONS``, chosen by ``add_body_constraints(..., formulation=...)``,
+passed down from ``build_model`` and ``solve_ocp(..., formulation=...)``;
+docs/bodies-formulation.md compares them): "discs-tight", the same with more
 discs (``TIGHT_COVER_SLACK``) and a sharper union (``TIGHT_SHARPNESS``), and "corners"
 (``_add_corner_bodies``): the rectangle's corners in the union, the rectangle clear of the island,
 the fillet discs and the route lanes' edge and centre lines outside the outer curb.
@@ -31,11 +32,9 @@ the fillet discs and the route lanes' edge and centre lines outside the outer cu
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import math
 import operator
-from collections.abc import Iterator
 
 import numpy as np
 import pyomo.environ as pyo
@@ -54,7 +53,7 @@ TIGHT_COVER_SLACK = 0.03  # "discs-tight": discs reach at most 3 % of the half-w
 CORNER_SHARPNESS = 50.0  # k of "corners": a corner's union gives away log(5) / k = 3.2 cm, a keep-out log(4 or 6) / k
 CORNER_BUFFER = 1e-3  # m: every "corners" row asks this much more, above Ipopt's constraint violation
 FORMULATIONS = ("discs", "discs-tight", "corners")
-FORMULATION = "discs"  # the default (docs/bodies-formulation.md)
+DEFAULT_FORMULATION = "discs"  # what a caller that names none gets (docs/bodies-formulation.md)
 
 
 def disc_count(length: float, width: float, slack: float = COVER_SLACK) -> int:
@@ -64,19 +63,25 @@ def disc_count(length: float, width: float, slack: float = COVER_SLACK) -> int:
     return max(1, math.ceil(length / (2 * reach)))
 
 
-def add_body_constraints(m: pyo.ConcreteModel, ocp: OCP, relax: bool = False, formulation: str | None = None) -> None:
+def check_formulation(name: str) -> str:
+    """``name`` if it is one of ``FORMULATIONS``; else ValueError naming them."""
+    if name not in FORMULATIONS:
+        raise ValueError(f"body formulation must be one of {FORMULATIONS}, got {name!r}")
+    return name
+
+
+def add_body_constraints(
+    m: pyo.ConcreteModel, ocp: OCP, relax: bool = False, formulation: str = DEFAULT_FORMULATION
+) -> None:
     """Add, for each body, the island and corridor constraints at every node.
 
     With ``relax`` each row gets a slack ``s >= 0`` (metres, on the disc's margin) and the model's
     objective becomes the sum of the slacks: the minimal-violation problem behind ``diagnosis``.
-    ``formulation``: one of ``FORMULATIONS``; None uses the module setting ``FORMULATION``
-    ("discs", the formulation of the module docstring; see ``use_formulation``).
+    ``formulation``: one of ``FORMULATIONS`` ("discs", the formulation of the module docstring).
     """
     if ocp.road is None or not ocp.bodies:
         return
-    kind = FORMULATION if formulation is None else formulation
-    if kind not in FORMULATIONS:
-        raise ValueError(f"body formulation must be one of {FORMULATIONS}, got {kind!r}")
+    kind = check_formulation(formulation)
     m.body_formulation = kind  # a re-solve of the answer (on 2N for accuracy) uses the same
     if kind == "corners":
         _add_corner_bodies(m, ocp, relax)
@@ -113,25 +118,6 @@ def _add_disc_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool, slack: float, 
             centre = _pose_point(m, ocp, poses[name], float(offset), 0.0)
             _add_disc(m, ocp, f"body_{name}_{j}", centre, float(radius), apron, relax, k)
             _register_disc(m, name, f"body_{name}_{j}")
-
-
-@contextlib.contextmanager
-def use_formulation(name: str) -> Iterator[None]:
-    """Build every model inside the block with the body formulation ``name`` (restores the setting).
-
-    Examples
-    --------
-    >>> with use_formulation("corners"):          # doctest: +SKIP
-    ...     sol = ocp.solve(intervals=100)
-    """
-    global FORMULATION
-    if name not in FORMULATIONS:
-        raise ValueError(f"body formulation must be one of {FORMULATIONS}, got {name!r}")
-    previous, FORMULATION = FORMULATION, name
-    try:
-        yield
-    finally:
-        FORMULATION = previous
 
 
 def _add_disc(

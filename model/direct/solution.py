@@ -45,6 +45,7 @@ class Solution:
     certificate: dict = field(default_factory=dict)
     diagnosis: dict | None = None
     accuracy: dict = field(default_factory=dict)
+    search: dict = field(default_factory=dict)  # how the search ended (its time limit: model.search.context)
 
     @property
     def trajectory(self) -> pd.DataFrame:
@@ -87,6 +88,7 @@ class Solution:
             **self._steering_cost(),
             **({"accuracy": self.accuracy} if self.accuracy else {}),
             "solver_message": self.solver_message,
+            **({"search": self.search} if self.search else {}),
             "attempts": self.attempts,
             "timings": self.timings,
             "certificate": self.certificate,

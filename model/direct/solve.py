@@ -20,6 +20,7 @@ import pyomo.environ as pyo
 from derivations.functions import pmp_functions
 from model.analysis.certificate import certify
 from model.analysis.validation import validate
+from model.direct.bodies import DEFAULT_FORMULATION
 from model.direct.costates import costates, obstacle_multiplier, path_multipliers
 from model.direct.moving import fill_moving, note_settling, solve_moving
 from model.direct.solution import Solution, trapezoid_energy
@@ -62,22 +63,36 @@ def solve_starts(
     options: dict | None = None,
     relax: bool = False,
     analyse: bool = True,
+    formulation: str = DEFAULT_FORMULATION,
+    deadline: float | None = None,
+    first_wall_time: float | None = None,
 ) -> list[Solution]:
     """Build the model of one pass direction once; solve it from each start in turn.
 
     ``relax``: solve the minimal-violation model instead (``build_model(..., relax=True)``).
     ``analyse=False``: skip validation and certificate (a screening solve, used only as a guess).
+    ``formulation``: the bodies' formulation on a road (``model.direct.bodies.FORMULATIONS``).
+    ``deadline``: a ``time.monotonic()`` instant; each Ipopt run gets the time left as
+    ``max_wall_time`` and the starts not begun by then are left out (the list is shorter; empty,
+    and no model built, if the deadline has passed already). ``first_wall_time``: the first start
+    runs in any case, for at least these seconds.
     """
+    if first_wall_time is None and wall_time_options({}, deadline) is None:
+        return []
     t0 = time.perf_counter()
     # Pyomo creates many small objects: with the collector on, its full collections over the
     # model cost 3x the build and seconds in loading the duals of a large road model
     kind = "minimal-violation model" if relax else "model"
     LOG.debug("building the N = %d %s (pass %s)", intervals, kind, passing)
     with paused_gc():
-        m = build_model(ocp, intervals, passing, relax)
+        m = build_model(ocp, intervals, passing, relax, formulation)
         nlp, sols, timings = None, [], {}
         opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
         for i, start in enumerate(starts, 1):
+            budget = wall_time_options(opts, deadline, first_wall_time if i == 1 else None)
+            if budget is None:
+                LOG.debug("the time limit is reached: %d of %d starts left out", len(starts) - i + 1, len(starts))
+                break
             LOG.debug("solving the N = %d %s (pass %s) from start %d of %d", intervals, kind, passing, i, len(starts))
             load_start(m, start)
             fill_moving(m, ocp)  # the moving obstacles at this start's node times
@@ -85,10 +100,23 @@ def solve_starts(
                 t1 = time.perf_counter()
                 nlp = CasadiNLP(m)
                 timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
-            res, settling = solve_moving(m, ocp, nlp, opts)  # run_ipopt, to the fixed point on Tf with moving obstacles
+            res, settling = solve_moving(m, ocp, nlp, budget)  # run_ipopt; with moving obstacles to the Tf fixed point
             sols.append(finish(ocp, m, nlp, res, passing, timings, analyse))
             note_settling(sols[-1], settling)
     return sols
+
+
+def wall_time_options(options: dict, deadline: float | None, floor: float | None = None) -> dict | None:
+    """``options`` with ``max_wall_time`` at most the seconds left until ``deadline`` (but at least ``floor``,
+    if given); None if none are left."""
+    if deadline is None:
+        return options
+    left = deadline - time.monotonic()
+    if floor is not None:
+        left = max(left, floor)
+    if left <= 0.0:
+        return None
+    return {**options, "max_wall_time": min(left, float(options.get("max_wall_time", left)))}
 
 
 def load_start(m: pyo.ConcreteModel, start: Start) -> None:
@@ -203,4 +231,5 @@ __all__ = [
     "paused_gc",
     "primal_columns",
     "solve_starts",
+    "wall_time_options",
 ]

@@ -16,7 +16,7 @@ import pyomo.environ as pyo
 from pyomo.dae import ContinuousSet, DerivativeVar
 
 import model.direct.trapezoid  # noqa: F401  (registers dae.trapezoid)
-from model.direct.bodies import add_body_constraints
+from model.direct.bodies import DEFAULT_FORMULATION, add_body_constraints
 from model.direct.expressions import sympy_to_pyomo
 from model.direct.moving import add_moving_obstacles
 from model.problem.ocp import OCP
@@ -25,11 +25,19 @@ from model.vehicles import sym
 RELAXED_TIME_WEIGHT = 1e-4  # m of summed slack per second of a free Tf in the minimal-violation model
 
 
-def build_model(ocp: OCP, intervals: int, passing: str | None = None, relax: bool = False) -> pyo.ConcreteModel:
+def build_model(
+    ocp: OCP,
+    intervals: int,
+    passing: str | None = None,
+    relax: bool = False,
+    formulation: str = DEFAULT_FORMULATION,
+) -> pyo.ConcreteModel:
     """The discretised Pyomo model of ``ocp`` on ``intervals`` uniform trapezoid steps.
 
     ``relax``: the minimal-violation model of a road problem: the body constraints get slacks and
-    the objective is their sum (see ``model.direct.bodies``).
+    the objective is their sum (see ``model.direct.bodies``). ``formulation``: the bodies' NLP
+    formulation on a road (``model.direct.bodies.FORMULATIONS``; the model records it as
+    ``m.body_formulation``).
     """
     v = ocp.vehicle
     m = pyo.ConcreteModel(name=ocp.name)
@@ -46,7 +54,7 @@ def build_model(ocp: OCP, intervals: int, passing: str | None = None, relax: boo
     _add_output_bounds(m, ocp)
     _add_path_bounds(m, ocp)
     _add_obstacles(m, ocp)
-    add_body_constraints(m, ocp, relax)
+    add_body_constraints(m, ocp, relax, formulation)
     add_moving_obstacles(m, ocp)
     if passing in ("ccw", "cw") and ocp.obstacles:
         _add_pass_direction(m, ocp, passing)

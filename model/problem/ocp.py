@@ -240,7 +240,8 @@ class OCP:
             cold starts, the best validated answer).
         **options
             Passed to the method: ``verbose`` (Ipopt log), ``options`` (Ipopt options),
-            ``guess`` (a trajectory DataFrame to start from), ``starts``, ``progress``.
+            ``guess`` (a trajectory DataFrame to start from), ``starts``, ``progress``,
+            ``formulation`` (the bodies' NLP formulation on a road), ``time_limit`` (seconds).
 
         Returns
         -------

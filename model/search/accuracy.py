@@ -44,14 +44,15 @@ def goal_drift(sol: Solution, accuracy: float = GOAL_ACCURACY) -> tuple[float, s
 
 def refine_for_accuracy(
     sol: Solution,
-    solve: Callable[[int, Solution], Solution],
+    solve: Callable[[int, Solution], Solution | None],
     accuracy: float | None = GOAL_ACCURACY,
     progress: Callable[[str], None] | None = None,
 ) -> tuple[Solution, dict]:
     """Double the grid (warm) while the goal drift exceeds its tolerance; the best accurate solution.
 
-    ``solve(n, guess)`` solves the problem on n intervals from ``guess``. Returns the solution to
-    keep and the record for the summary (``accuracy``).
+    ``solve(n, guess)`` solves the problem on n intervals from ``guess`` (None: not solved, the
+    search's time limit has passed). Returns the solution to keep and the record for the summary
+    (``accuracy``).
     """
     if accuracy is None or not sol.ok:
         return sol, {}
@@ -65,8 +66,8 @@ def refine_for_accuracy(
                 f"goal drift {ratio:.3g} x the tolerance ({state}) on N = {sol.intervals}: now N = {2 * sol.intervals}"
             )
         finer = solve(2 * sol.intervals, sol)
-        if not finer.ok:
-            record["refinement_failed"] = finer.status
+        if finer is None or not finer.ok:
+            record["refinement_failed"] = "time limit" if finer is None else finer.status
             break
         if finer.objective > sol.objective + SAME_OPTIMUM * abs(sol.objective):
             record["refinement_failed"] = f"N = {finer.intervals} found another local optimum ({finer.objective:.6g})"

@@ -70,11 +70,16 @@ def _reeds_shepp_start(timed: OCP, solve: Callable[..., Solution]) -> Solution |
 
 
 def final_time_homotopy(
-    ocp: OCP, solve: Callable[[OCP], Solution], progress: Callable[[str], None] | None = None
+    ocp: OCP,
+    solve: Callable[[OCP], Solution],
+    progress: Callable[[str], None] | None = None,
+    budget: Callable[[], dict | None] | None = None,
 ) -> Solution | None:
     """A valid solution at ``ocp.final_time`` reached from an easier one, or None.
 
-    ``solve`` solves a problem from cold starts (without continuation).
+    ``solve`` solves a problem from cold starts (without continuation). ``budget()``: the Ipopt
+    options of the next warm re-solve (``max_wall_time``, the search's time left), None once the
+    time limit has passed (the walk stops there).
     """
     if ocp.cost.free_final_time or ocp.final_time is None or ocp.road is not None:
         return None
@@ -83,21 +88,27 @@ def final_time_homotopy(
         if progress is not None:
             progress(f"continuation: Tf x{factor:g}: {easy.status}")
         if easy.ok:
-            final = _walk_down(easy, ocp.final_time, progress)
+            final = _walk_down(easy, ocp.final_time, progress, budget or dict)
             if final is not None:
                 return final
     return None
 
 
-def _walk_down(solution: Solution, target: float, progress) -> Solution | None:
-    """Warm re-solves from the solution's final time to ``target``; a failed step is halved."""
+def _walk_down(solution: Solution, target: float, progress, budget: Callable[[], dict | None]) -> Solution | None:
+    """Warm re-solves from the solution's final time to ``target``; a failed step is halved; None once
+    ``budget()`` is None (the time limit)."""
     resolver = Resolver(solution)
     current = solution.final_time
     step = (target / current) ** (1.0 / STEPS)
     halvings = 0
     while current > target * (1 + 1e-12):
         trial = max(target, current * step)
-        sol = resolver.solve(final_time=trial)
+        options = budget()
+        if options is None:
+            if progress is not None:
+                progress(f"continuation: the time limit stops the walk at Tf = {current:.6g} s")
+            return None
+        sol = resolver.solve(final_time=trial, options=options)
         if sol.ok:
             current = trial
             if current <= target * (1 + 1e-12):

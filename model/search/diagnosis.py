@@ -4,34 +4,26 @@ Proven bound: for a fixed final time, the obstacle-free Reeds-Shepp length over 
 is a lower bound on the time any admissible trajectory needs (``paths.reeds_shepp_time``); a
 final time below it is infeasible whatever the solver does.
 
-When no start gives a valid solution of a road problem with bodies, the body constraints get
-slacks and their sum is minimised (``build_model(..., relax=True)``), started from the best
-failed attempt. If that reaches zero violation a trajectory exists: the original problem is
-solved again from it. Otherwise the relaxed trajectory's exact rectangles are checked against
-the exact corridor, and the deepest encroachment names the body, the edge that must give way
-and by how many metres ("the trailer needs 1.3 m more apron"). A local solve gives an upper
-bound on the violation that is needed, not a proof that less is impossible; the message says so.
+Minimal violation (the road's last step, ``model.search.road.failed_road``): the relaxed
+trajectory's exact rectangles are checked against the exact corridor, and the deepest
+encroachment names the body, the edge that must give way and by how many metres ("the trailer
+needs 1.3 m more apron"). A local solve gives an upper bound on the violation that is needed,
+not a proof that less is impossible; the message says so.
+
+Time limit: a search its budget stopped before any start validated reports what it tried (the
+attempts' statuses, the starts and steps it skipped) and the solver's evidence on the best one.
 """
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
-import pyomo.environ as pyo
 
 from model.analysis.bodies import body_corners
-from model.direct import bodies
 from model.direct.solution import Solution
-from model.direct.solve import solve_starts
 from model.problem.ocp import OCP
 from model.scene.geometry import clearance_detail
-
-ZERO_VIOLATION = 1e-6  # m, summed slack below which the relaxed solution is a feasible trajectory
-
-
-def relaxed_solve(ocp: OCP, intervals: int, start, options: dict | None = None) -> tuple[Solution, float]:
-    """The minimal-violation solve from ``start`` and its summed slack (metres)."""
-    sol = solve_starts(ocp, intervals, "none", [start], options=options, relax=True)[0]
-    return sol, float(pyo.value(sol.model.slack_total))
 
 
 def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
@@ -61,34 +53,6 @@ def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
             "best trajectory a slack-minimising solve reached (an upper bound on what must give way)"
         ),
     }
-
-
-def failed_road(ocp: OCP, intervals: int, best: Solution, start, options: dict | None = None) -> Solution:
-    """Recover a road problem no start solved: a feasible trajectory if one is found, else a diagnosis.
-
-    First the same start with the bodies' corners in the corridor (``bodies.FORMULATION`` "corners":
-    less conservative than the discs, it passes lanes the discs cannot), then the minimal-violation
-    solve.
-    """
-    if bodies.FORMULATION != "corners":
-        with bodies.use_formulation("corners"):
-            again = solve_starts(ocp, intervals, "none", [start], options=options)[0]
-        if again.ok:
-            message = f"solved with the rectangles' corners in the corridor after the {bodies.FORMULATION} failed"
-            again.diagnosis = {"kind": "recovered", "via": "corners formulation", "message": message}
-            return again
-    relaxed, violation = relaxed_solve(ocp, intervals, start, options)
-    if violation <= ZERO_VIOLATION and relaxed.status == "optimal":
-        from model.search.multistart import start_values
-
-        again = solve_starts(ocp, intervals, "none", [start_values(ocp, intervals, "none", relaxed.columns)],
-                             options=options)[0]  # fmt: skip
-        if again.ok:
-            message = "solved from a zero-violation trajectory of the minimal-violation problem: every start failed"
-            again.diagnosis = {"kind": "recovered", "via": "minimal violation", "message": message}
-            return again
-    best.diagnosis = road_diagnosis(ocp, relaxed, violation)
-    return best
 
 
 def bound_diagnosis(ocp: OCP) -> dict | None:
@@ -131,6 +95,29 @@ def solver_diagnosis(best: Solution) -> dict:
         "message": f"no start gave a valid solution (best: {best.status}"
         + (f", checks failed: {', '.join(failed)}" if failed else "") + "); no infeasibility proof",
     }
+
+
+def time_limit_diagnosis(best: Solution, attempts: list[dict], search: dict) -> dict:
+    """No valid answer within the time limit: what was tried, what was skipped, and the solver's evidence."""
+    tried = Counter(a["status"] for a in attempts)
+    evidence = solver_diagnosis(best)
+    skipped = search.get("starts_skipped", 0)
+    return {
+        "kind": "time limit",
+        "time_limit_s": search.get("time_limit"),
+        "attempts_by_status": dict(tried),
+        "starts_skipped": skipped,
+        "steps_skipped": search.get("steps_skipped", []),
+        "best_status": evidence["status"],
+        "last_primal_infeasibility": evidence["last_primal_infeasibility"],
+        "failed_checks": evidence["failed_checks"],
+        "message": (
+            f"no valid trajectory within the time limit of {search.get('time_limit'):g} s: {sum(tried.values())} "
+            f"starts tried ({', '.join(f'{n} {k}' for k, n in tried.items())}), {skipped} skipped; best: "
+            f"{evidence['status']}" + (f", checks failed: {', '.join(evidence['failed_checks'])}"
+                                       if evidence["failed_checks"] else "") + "; a longer --time-limit may find one"
+        ),
+    }  # fmt: skip
 
 
 def finite(columns) -> bool:

@@ -10,8 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from model.direct.solution import Solution
-from model.direct.solve import solve_starts
-from model.problem.ocp import OCP
+from model.search.context import Search
 
 SCREEN_MIN = 40  # the coarsest screening grid (intervals)
 SCREEN_OPTIONS = {"tol": 1e-5, "acceptable_tol": 1e-3, "max_iter": 300}  # unsettled by then: not a candidate
@@ -37,29 +36,29 @@ def screening_intervals(intervals: int, screen: bool | int | None = None) -> int
 
 
 def screen_starts(
-    ocp: OCP,
+    search: Search,
     coarse: int,
     passes: list[str],
     make_starts: Callable[[int, str], list[tuple[str, object]]],
-    options: dict | None = None,
-) -> tuple[list[Solution], list[dict], list[Solution]]:
+) -> tuple[list[Solution], list[dict]]:
     """Solve every start of every pass on the coarse grid; the distinct optima, best first.
 
     ``make_starts(n, passing)`` gives (route label, Start) pairs. Returns the kept coarse
-    solutions (at most KEEP), one attempt record per start, and every coarse solution (for the
-    timings).
+    solutions (at most KEEP) and one attempt record per start solved (the search's time limit
+    may leave some out: ``Search.solve``).
     """
-    found, attempts, every = [], [], []
+    found, attempts = [], []
     for passing in passes:
         routes, starts = zip(*make_starts(coarse, passing), strict=True)
-        sols = solve_starts(ocp, coarse, passing, starts, options={**SCREEN_OPTIONS, **(options or {})}, analyse=False)
-        every.extend(sols)
-        for route, sol in zip(routes, sols, strict=True):
+        if search.skip(f"screening N={coarse} (pass {passing})", len(starts)):
+            continue
+        sols = search.solve(coarse, passing, starts, SCREEN_OPTIONS, analyse=False)
+        for route, sol in zip(routes, sols, strict=False):
             attempts.append({"pass": passing, "route": f"screening N={coarse}: {route}", "status": sol.status,
                              "valid": None, "objective": sol.objective})  # fmt: skip
             if sol.status in ("optimal", "acceptable"):  # a guess for the refinement either way
                 found.append(sol)
-    return _distinct(sorted(found, key=lambda s: s.objective)), attempts, every
+    return _distinct(sorted(found, key=lambda s: s.objective)), attempts
 
 
 def _distinct(sols: list[Solution]) -> list[Solution]:

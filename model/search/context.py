@@ -1,0 +1,210 @@
+"""What the steps of one search share: the problem and grid, the solver's settings, what was tried, the clock.
+
+``solve_ocp`` (``model.search.multistart``) makes one ``Search`` and hands it to each step
+(screening, cold starts, smooth routes, the road's steps, continuation, accuracy). Every Ipopt
+run of the search goes through ``Search.solve``: the body formulation and the Ipopt options are
+the search's, and with a time limit each run gets the time left as ``max_wall_time`` and the
+starts not begun in time are counted as skipped (``Search.record_of_search`` is summary.json's
+``search``). The first validated (analysed) start of a search always runs, for at least
+``MIN_WALL_TIME``, so even a budget too small for anything leaves an answer or the evidence of a
+failure; screening solves (guesses only) get no such grace.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+from model.analysis.columns import Columns
+from model.direct.bodies import DEFAULT_FORMULATION
+from model.direct.solution import Solution
+from model.direct.solve import Start, solve_starts
+from model.problem.ocp import OCP
+from model.search.starts import passes_to_try, start_values
+
+MIN_WALL_TIME = 0.1  # s: the first start of a search runs at least this long whatever the budget left
+TIMED_OUT = ("time_limit", "wall_time_limit")  # Ipopt's words for a run its time limit ended
+
+
+class Reporter:
+    """The search's progress: phase lines as given, start lines numbered as they are printed."""
+
+    def __init__(self, sink: Callable[[str], None] | None) -> None:
+        self.sink, self.count = sink, 0
+
+    def __call__(self, line: str) -> None:
+        if self.sink is not None:
+            self.sink(line)
+
+    def start(self, sol: Solution, passing: str, scale, route: str) -> None:
+        """One line for a solved start: its number, pass, route, and its outcome."""
+        self.count += 1
+        outcome = (f"objective {sol.objective:.8g}" + ("" if sol.ok else " (not validated)")
+                   if sol.status in ("optimal", "acceptable") else "no answer")  # fmt: skip
+        self(f"[{self.count}] pass {passing}, start {route} x{scale:g}: {sol.status}, {outcome}, "
+             f"{sol.iterations} iterations, {sol.timings['ipopt']:.2f} s in Ipopt")  # fmt: skip
+
+
+def reporter(progress: Callable[[str], None] | Reporter | None) -> Reporter:
+    """``progress`` as a Reporter (wrapped once: an inner search shares the outer one's numbering)."""
+    return progress if isinstance(progress, Reporter) else Reporter(progress)
+
+
+@dataclass
+class Search:
+    """One search's shared state (see the module docstring).
+
+    Parameters
+    ----------
+    ocp, intervals : the problem and N.
+    verbose : show Ipopt's iteration log.
+    options : the caller's Ipopt options (they override every step's own).
+    formulation : the bodies' NLP formulation on a road (``model.direct.bodies.FORMULATIONS``).
+    progress : the progress lines.
+    time_limit : seconds for the whole search from ``started`` (None: no limit).
+    """
+
+    ocp: OCP
+    intervals: int
+    verbose: bool = False
+    options: dict = field(default_factory=dict)
+    formulation: str = DEFAULT_FORMULATION
+    progress: Reporter = field(default_factory=lambda: Reporter(None))
+    time_limit: float | None = None
+    started: float = field(default_factory=time.monotonic)
+    attempts: list[dict] = field(default_factory=list)
+    solutions: list[Solution] = field(default_factory=list)
+    starts_skipped: int = 0
+    steps_skipped: list[str] = field(default_factory=list)
+    stopped: bool = False  # the time limit cut something short
+
+    @property
+    def deadline(self) -> float | None:
+        """The ``time.monotonic()`` instant the budget ends (None: no limit)."""
+        return None if self.time_limit is None else self.started + self.time_limit
+
+    def remaining(self) -> float | None:
+        """Seconds left (negative once over; None: no limit)."""
+        return None if self.deadline is None else self.deadline - time.monotonic()
+
+    def expired(self) -> bool:
+        """Whether the time limit has passed."""
+        left = self.remaining()
+        return left is not None and left <= 0.0
+
+    def skip(self, step: str, starts: int = 0) -> bool:
+        """True (and ``step`` and its ``starts`` noted as skipped) if the time limit has passed.
+
+        Never before the search's first analysed start (it always runs: ``Search.solve``).
+        """
+        if not self.expired() or not self.answered():
+            return False
+        self.steps_skipped.append(step)
+        self.starts_skipped += starts
+        self.stop()
+        return True
+
+    def answered(self) -> bool:
+        """Whether a start has been solved and analysed (validated): an answer or the evidence of a failure."""
+        return any(sol.validation.get("skipped") is None for sol in self.solutions)
+
+    def stop(self) -> None:
+        """Mark the search as cut short by its time limit; the first time, one progress line.
+
+        Without a time limit nothing (a run ended by the caller's own Ipopt ``max_wall_time`` is no stop).
+        """
+        if not self.stopped and self.time_limit is not None:
+            self.stopped = True
+            self.progress(f"time limit of {self.time_limit:g} s reached: the search stops with what it has found")
+
+    def solve(
+        self,
+        intervals: int,
+        passing: str,
+        starts: Sequence[Start],
+        extra: dict | None = None,
+        relax: bool = False,
+        analyse: bool = True,
+        formulation: str | None = None,
+    ) -> list[Solution]:
+        """``model.direct.solve_starts`` with the search's settings; the starts the budget left out are skipped.
+
+        ``extra``: a step's own Ipopt options (the caller's ``options`` override them).
+        ``formulation``: another body formulation than the search's for this call.
+        """
+        first = MIN_WALL_TIME if analyse and not self.answered() else None  # the search's first answer always comes
+        sols = solve_starts(self.ocp, intervals, passing, starts, self.verbose, {**(extra or {}), **self.options},
+                            relax, analyse, formulation or self.formulation, self.deadline, first)  # fmt: skip
+        if len(sols) < len(starts):
+            self.starts_skipped += len(starts) - len(sols)
+            self.stop()
+        if any(sol.status in TIMED_OUT for sol in sols):
+            self.stop()
+        self.solutions.extend(sols)
+        return sols
+
+    def record(self, sol: Solution, passing: str, scale, route: str) -> None:
+        """An attempt of the summary and a progress line for a solved start."""
+        self.attempts.append({"pass": passing, "tf_guess_scale": scale, "route": route, "status": sol.status,
+                              "valid": sol.ok, "objective": sol.objective})  # fmt: skip
+        self.progress.start(sol, passing, scale, route)
+
+    def values(
+        self, passing: str, guess: Columns | None = None, scale: float = 1.0, route: str = "arc",
+        intervals: int | None = None,
+    ) -> Start:  # fmt: skip
+        """``start_values`` on ``intervals`` (default the search's N)."""
+        return start_values(self.ocp, intervals or self.intervals, passing, guess, scale, route)
+
+    def absorb(self, inner: dict) -> None:
+        """Count what an inner search (continuation) skipped for lack of time (its ``record_of_search``)."""
+        self.starts_skipped += int(inner.get("starts_skipped", 0))
+        if inner.get("stopped_by_time_limit"):
+            self.stop()
+
+    def record_of_search(self, level: str) -> dict:
+        """summary.json's ``search``: the level, the time limit and whether it cut the search short."""
+        return {"level": level, "time_limit": self.time_limit, "stopped_by_time_limit": self.stopped,
+                "starts_skipped": self.starts_skipped, "steps_skipped": list(self.steps_skipped)}  # fmt: skip
+
+
+def better(a: Solution, b: Solution) -> bool:
+    """``a`` before ``b``: validated before not, then the lower objective."""
+    if a.ok != b.ok:
+        return a.ok
+    return a.objective is not None and (b.objective is None or a.objective < b.objective)
+
+
+SAME_OPTIMUM = 1e-6  # relative: a later step's answer replaces the one so far only if better by more
+
+
+def clearly_better(sol: Solution | None, best: Solution | None) -> bool:
+    """``sol`` replaces ``best``: better (``better``), and by more than SAME_OPTIMUM where both validate
+    (the same optimum found again leaves the earlier answer standing)."""
+    if sol is None:
+        return False
+    if best is None:
+        return True
+    if not better(sol, best):
+        return False
+    return not (best.ok and sol.objective > best.objective * (1 - SAME_OPTIMUM))
+
+
+def cold_starts(
+    search: Search, starts: Sequence[tuple[float, str]], guess: Columns | None, best: Solution | None
+) -> Solution | None:
+    """Every start of every pass direction at N; the best so far (``best`` may be None)."""
+    for passing in passes_to_try(search.ocp):
+        if search.skip(f"cold starts (pass {passing})", len(starts)):
+            continue
+        values = [search.values(passing, guess, scale, route) for scale, route in starts]
+        for (scale, route), sol in zip(starts, search.solve(search.intervals, passing, values), strict=False):
+            search.record(sol, passing, scale, route)
+            if best is None or better(sol, best):
+                best = sol
+    return best
+
+
+__all__ = ["MIN_WALL_TIME", "SAME_OPTIMUM", "Reporter", "Search", "better", "clearly_better", "cold_starts",
+           "reporter"]  # fmt: skip

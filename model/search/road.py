@@ -1,0 +1,104 @@
+"""The road's own steps of the search, after the cold starts and the smooth routes: one call from ``solve_ocp``.
+
+1. **Fallback starts.** On a road the route is fixed and the default starts are one path's Tf
+   scales; where none validates (free final time), ``ROAD_FALLBACK_STARTS`` are tried.
+2. **Second opinion.** The route runs forwards from the entry lane to the exit lane. Where the
+   discs' cold starts end in an answer that reverses (an SU-30 U-turn: reversing away from the
+   roundabout, waiting, driving round, reversing into the goal: 49-54 s where a forward U-turn
+   takes 15.8 s), the arc start is solved with the rectangles' corners in the corridor
+   (formulation "corners"), and the search's formulation again from that answer; the better
+   validated answer is kept.
+3. **Failed road.** When no start validates a road problem with bodies: the same start with the
+   corners (less conservative than the discs, it passes lanes the discs cannot); then the body
+   constraints get slacks and their sum is minimised (``build_model(..., relax=True)``), started
+   from the best failed attempt. If that reaches zero violation a trajectory exists: the problem
+   is solved again from it. Otherwise ``model.search.diagnosis.road_diagnosis`` names the body,
+   the edge and the metres that must give way.
+
+Each step is skipped once the search's time limit has passed (``Search.skip``).
+"""
+
+from __future__ import annotations
+
+import pyomo.environ as pyo
+
+from model.direct.solution import Solution
+from model.direct.solve import Start
+from model.search.context import Search, clearly_better, cold_starts
+from model.search.diagnosis import finite, road_diagnosis
+from model.search.road_polish import reverses
+
+ROAD_FALLBACK_STARTS = ((2.0, "arc"),)  # tried where the first fails
+ZERO_VIOLATION = 1e-6  # m, summed slack below which the relaxed solution is a feasible trajectory
+CORNERS = "corners"
+
+
+def road_steps(search: Search, best: Solution, fallback: bool) -> Solution:
+    """The three steps of the module docstring, in order, on ``best`` (the answer so far).
+
+    ``fallback``: the default starts were searched (not a given guess or given starts). A road
+    problem that still fails leaves with a ``diagnosis`` (the search ends there).
+    """
+    ocp = search.ocp
+    if ocp.road is None:
+        return best
+    fallback = fallback and ocp.cost.free_final_time
+    if not best.ok and fallback and not search.skip("road fallback starts", len(ROAD_FALLBACK_STARTS)):
+        search.progress("no start validated: the road's fallback starts")
+        best = cold_starts(search, ROAD_FALLBACK_STARTS, None, best)
+    if not ocp.bodies:
+        return best
+    if best.ok and reverses(best) and search.formulation != CORNERS and not search.skip("second opinion", 2):
+        search.progress("the answer reverses: a second opinion from the arc start with the rectangles' corners")
+        best = second_opinion(search, best)
+    if not best.ok and not search.skip("failed road: corners, minimal violation", 2):
+        guess_from = best.columns if finite(best.columns) else None
+        search.progress("no start validated: the corners formulation, then a minimal-violation diagnosis")
+        best = failed_road(search, best, search.values("none", guess_from))
+        route = (best.diagnosis or {}).get("via", "minimal violation")
+        search.attempts.append({"pass": "none", "route": route, "status": best.status, "valid": best.ok,
+                                "objective": best.objective})  # fmt: skip
+    return best
+
+
+def second_opinion(search: Search, best: Solution) -> Solution:
+    """The corners answer from the arc start, and the search's formulation from it; the best of the three."""
+    for sol in _corners_then_own(search):
+        search.record(sol, "none", 1.0, f"second opinion ({sol.model.body_formulation})")
+        if clearly_better(sol, best):
+            best = sol
+    return best
+
+
+def _corners_then_own(search: Search) -> list[Solution]:
+    """The corners answer from the arc start and the search formulation's from it (each only if reached)."""
+    corners = search.solve(search.intervals, "none", [search.values("none")], formulation=CORNERS)
+    if not corners or not corners[0].ok:
+        return corners
+    own = search.solve(search.intervals, "none", [search.values("none", corners[0].columns)])
+    return corners + own
+
+
+def failed_road(search: Search, best: Solution, start: Start) -> Solution:
+    """Recover a road problem no start solved: a feasible trajectory if one is found, else a diagnosis."""
+    if search.formulation != CORNERS:
+        again = search.solve(search.intervals, "none", [start], formulation=CORNERS)
+        if again and again[0].ok:
+            message = f"solved with the rectangles' corners in the corridor after the {search.formulation} failed"
+            again[0].diagnosis = {"kind": "recovered", "via": "corners formulation", "message": message}
+            return again[0]
+    relaxed = search.solve(search.intervals, "none", [start], relax=True)
+    if not relaxed:  # the time limit passed: the diagnosis is the time limit's (solve_ocp)
+        return best
+    violation = float(pyo.value(relaxed[0].model.slack_total))
+    if violation <= ZERO_VIOLATION and relaxed[0].status == "optimal":
+        again = search.solve(search.intervals, "none", [search.values("none", relaxed[0].columns)])
+        if again and again[0].ok:
+            message = "solved from a zero-violation trajectory of the minimal-violation problem: every start failed"
+            again[0].diagnosis = {"kind": "recovered", "via": "minimal violation", "message": message}
+            return again[0]
+    best.diagnosis = road_diagnosis(search.ocp, relaxed[0], violation)
+    return best
+
+
+__all__ = ["ROAD_FALLBACK_STARTS", "ZERO_VIOLATION", "failed_road", "road_steps", "second_opinion"]
