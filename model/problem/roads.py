@@ -6,6 +6,7 @@ from typing import Any
 
 from model.errors import InputError
 from model.problem.tables import array_of_tables, no_unknown, number
+from model.scene.lanelet_map import MapRoute
 from model.scene.road import Road
 from model.scene.roundabout import Leg, Roundabout, Route
 
@@ -66,8 +67,10 @@ def _legs(items: Any) -> list[Leg]:
 
 
 
-def road_boundary_values(road: Road, initial: dict[str, float], final: dict[str, float], states) -> tuple[dict, dict]:
-    """[initial] and [final] of a routed scenario: the route's poses plus phi / theta1 where given."""
+def road_boundary_values(road: Road | MapRoute, initial: dict[str, float], final: dict[str, float],
+                         states) -> tuple[dict, dict]:  # fmt: skip
+    """[initial] and [final] of a routed scenario (a roundabout's or a map's): the route's poses plus
+    phi / theta1 where given."""
     for where, values in (("initial", initial), ("final", final)):
         for key in values:
             if key not in FREE_AT_START:

@@ -15,6 +15,7 @@ from typing import Any
 from model.errors import InputError
 from model.problem.closed_loop import ControlSettings, Disturbance, parse_closed_loop
 from model.problem.costs import Energy, Time
+from model.problem.maps import check_poses, parse_map
 from model.problem.ocp import OCP, PASSES
 from model.problem.roads import parse_road, road_boundary_values
 from model.problem.tables import (
@@ -34,7 +35,7 @@ from model.vehicles import VEHICLES, Body, Vehicle, preset
 
 TOP_KEYS = {
     "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
-    "disturbance", "control",
+    "disturbance", "control", "map",
 }  # fmt: skip
 PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass", "weights", "steering_weight"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
@@ -92,13 +93,18 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         raise InputError("problem.intervals", f"must be a whole number >= 1, got {intervals!r}")
     final_time = number(problem, "final_time", "problem.") if "final_time" in problem else None
     disturbance, control = parse_closed_loop(data, vehicle)
-    road = parse_road(data)
-    initial = numbers(table_of(data, "initial") if "initial" in data or road is None else {}, "initial.")
+    map_route = parse_map(data, path.parent if path is not None else None)
+    road = parse_road(data) if map_route is None else None
+    routed = road is not None or map_route is not None
+    initial = numbers(table_of(data, "initial") if "initial" in data or not routed else {}, "initial.")
     final = numbers(table_of(data, "final") if "final" in data else {}, "final.")
     if road is not None:
         for body in bodies.values():
             check_lane_width(road.roundabout, body.width)
         initial, final = road_boundary_values(road, initial, final, vehicle.states)
+    if map_route is not None:
+        initial, final = road_boundary_values(map_route, initial, final, vehicle.states)
+        check_poses(map_route, vehicle, bodies, initial, final)
     ocp = OCP(
         vehicle=vehicle,
         cost=_cost(objective, problem, vehicle),
@@ -110,6 +116,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         passing=passing,
         bodies=bodies,
         road=road,
+        map_route=map_route,
         name=string(data, "name", default_name),
         title=string(data, "title", ""),
     )

@@ -1,0 +1,275 @@
+"""Real roundabouts from CommonRoad lanelet maps (docs/map-format.md): reading, routes, corridors, poses, bad input.
+
+The real maps are the rounD roundabouts of the installed commonroad-dataset-converter data
+(DEU_Kackertstrasse-1, DEU_Neuweiler-1, DEU_Thiergarten-1); the hand-written ones are in
+tests/data/maps/ (two parallel lanes and a sidewalk; files that are not maps). Routes and
+corridors are checked against networkx on the same lanelet graph, computed here independently.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pytest
+import shapely
+
+from model.errors import InputError
+from model.problem.scenario import load_scenario
+from model.scene.lanelet_map import MapRoute, dataset_file, dataset_names, read_map
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")  # commonroad-io's protobuf modules
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests" / "data" / "maps"
+EXAMPLE = ROOT / "examples" / "map-kackertstrasse-truck.toml"
+ROUND = ["rounD/DEU_Kackertstrasse-1", "rounD/DEU_Neuweiler-1", "rounD/DEU_Thiergarten-1"]
+# (map, from_lanelet, to_lanelet): through the ring where the map has one (Neuweiler's ring is open)
+REAL_ROUTES = [(ROUND[0], 82, 102), (ROUND[1], 119, 107), (ROUND[2], 21, 108), (ROUND[2], 106, 23)]
+
+CAR = """
+[vehicle]
+model = "truck"
+wheelbase = 3.0
+
+[vehicle.body]
+length = 5.0
+width = 2.0
+rear_overhang = 1.0
+
+[bounds]
+u1 = [0.0, 5.0]
+u2 = [-0.5, 0.5]
+phi = [-0.6, 0.6]
+
+[problem]
+objective = "time"
+intervals = 50
+"""
+
+
+def cli(*args) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "model.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=ROOT)  # fmt: skip
+
+
+def scenario_file(tmp_path: Path, text: str, name: str = "s.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def two_lanes(tmp_path: Path, route: str, extra: str = "") -> Path:
+    """A scenario on tests/data/maps/two-lanes.xml (copied beside it: map.file is relative to the scenario)."""
+    (tmp_path / "two-lanes.xml").write_bytes((DATA / "two-lanes.xml").read_bytes())
+    return scenario_file(tmp_path, CAR + f'\n[map]\nfile = "two-lanes.xml"\n\n[route]\n{route}\n{extra}')
+
+
+def graph(route: MapRoute, lane_changes: bool) -> nx.DiGraph:
+    """The drivable lanelets and their successors (and same-direction neighbours), weighted by the
+    centre-line length of the lanelet entered."""
+    m, g = route.map, nx.DiGraph()
+    for lanelet in m.network.lanelets:
+        i = lanelet.lanelet_id
+        nexts = list(lanelet.successor)
+        if lane_changes:
+            sides = ((lanelet.adj_left, lanelet.adj_left_same_direction),
+                     (lanelet.adj_right, lanelet.adj_right_same_direction))  # fmt: skip
+            nexts += [a for a, same in sides if a and same]
+        for j in nexts:
+            if m.drivable(i) and m.drivable(j):
+                cv = m.lanelet(j).center_vertices
+                g.add_edge(i, j, weight=float(np.sum(np.linalg.norm(np.diff(cv, axis=0), axis=1))))
+    return g
+
+
+# --------------------------------------------------------------------------- the real maps
+
+
+def test_the_rounD_maps_are_installed_and_listed():
+    names = dataset_names()
+    for name in ROUND:
+        assert name in names and dataset_file(name).is_file()
+    assert "INTERACTION/DEU_Roundabout-1" in names
+
+
+@pytest.mark.parametrize("name", ROUND)
+def test_every_rounD_map_reads_with_drivable_lanelets(name):
+    m = read_map(dataset_file(name))
+    assert len(m.ids) >= 80
+    kinds = {m.kind(i) for i in m.ids if not m.drivable(i)}
+    assert any("sidewalk" in k or "border" in k for k in kinds)  # they are there, and kept out
+    for i in m.ids:
+        if m.drivable(i):
+            assert m.polygon(i).is_valid and m.polygon(i).area > 0
+
+
+@pytest.mark.parametrize(("name", "start", "goal"), REAL_ROUTES)
+def test_real_route_is_the_shortest_successor_chain(name, start, goal):
+    route = MapRoute(read_map(dataset_file(name)), start, goal)
+    g = graph(route, lane_changes=False)
+    path = route.lanelets
+    assert path[0] == start and path[-1] == goal
+    assert all(g.has_edge(a, b) for a, b in zip(path, path[1:], strict=False))
+    best = nx.shortest_path_length(g, start, goal, weight="weight")
+    mine = sum(g[a][b]["weight"] for a, b in zip(path, path[1:], strict=False))
+    assert mine == pytest.approx(best, rel=1e-12)
+    # the centre line is the lanelets' centre lines end to end (joined across the maps' mm gaps)
+    lengths, lines = route.map.lengths, [route.map.lanelet(i).center_vertices for i in path]
+    gaps = [float(np.linalg.norm(b[0] - a[-1])) for a, b in zip(lines, lines[1:], strict=False)]
+    assert max(gaps) < 0.05
+    assert route.line.length == pytest.approx(sum(lengths[i] for i in path) + sum(gaps), abs=1e-6)
+    first, last = route.map.lanelet(start).center_vertices, route.map.lanelet(goal).center_vertices
+    assert np.allclose(route.line.points[0], first[0]) and np.allclose(route.line.points[-1], last[-1])
+
+
+@pytest.mark.parametrize(("name", "start", "goal"), REAL_ROUTES)
+def test_real_corridor_is_every_lanelet_on_a_legal_path(name, start, goal):
+    route = MapRoute(read_map(dataset_file(name)), start, goal)
+    g = graph(route, lane_changes=False)
+    legal = (nx.descendants(g, start) | {start}) & (nx.ancestors(g, goal) | {goal})
+    assert route.corridor_lanelets == sorted(legal)
+    rings = [c for c in nx.strongly_connected_components(g) if len(c) > 1]
+    for ring in rings:  # a closed circulating ring the route passes through is in the corridor whole
+        if ring & set(route.lanelets):
+            assert ring <= set(route.corridor_lanelets)
+    corridor = route.lanes
+    assert corridor.is_valid
+    parts = [route.map.polygon(i) for i in route.corridor_lanelets]
+    assert corridor.area == pytest.approx(shapely.union_all(parts).area, rel=1e-3)
+    assert corridor.buffer(1e-6).covers(shapely.LineString(route.line.points))
+
+
+def test_kackertstrasse_ring_and_apron():
+    route = MapRoute(read_map(dataset_file(ROUND[0])), 82, 102, apron_lanelets=(50,), apron_use="trailer")
+    assert {45, 46, 48, 51, 53, 54, 55, 57} <= set(route.corridor_lanelets)  # the whole ring
+    assert 50 not in route.corridor_lanelets  # the apron (a border lanelet) only where apron_use allows
+    assert route.corridor("trailer").area > route.corridor("vehicle").area + 10
+    assert route.corridor("vehicle").equals(route.lanes)
+
+
+def test_start_and_goal_poses_lie_on_the_centre_lines():
+    m = read_map(dataset_file(ROUND[0]))
+    route = MapRoute(m, 82, 102, start_offset=12.0, goal_offset=-8.0)
+    x, y, heading = route.start()
+    assert route.line.project(np.array([x, y])) == pytest.approx(12.0, abs=1e-6)
+    goal_line = shapely.LineString(m.lanelet(102).center_vertices)
+    gx, gy, _ = route.goal()
+    assert goal_line.distance(shapely.Point(gx, gy)) < 1e-9
+    assert goal_line.line_locate_point(shapely.Point(gx, gy)) == pytest.approx(m.lengths[102] - 8.0, abs=1e-6)
+    ahead = route.line.point(14.0) - route.line.point(10.0)
+    assert abs(np.arctan2(ahead[1], ahead[0]) - heading) < 0.05
+
+
+def test_the_example_checks_and_prints_the_route():
+    out = cli("check", EXAMPLE)
+    assert out.returncode == 0, out.stderr
+    assert "route lanelets: 82 75 74 47 45 48 51 53 54 56 101 102" in out.stdout
+    assert "corridor: 15 lanelets" in out.stdout and "area " in out.stdout and "route length: " in out.stdout
+
+
+def test_solving_a_map_is_refused_until_it_is_implemented(tmp_path):
+    out = cli("solve", EXAMPLE, "--out", tmp_path / "o")
+    assert out.returncode == 2 and "not implemented yet" in out.stderr
+    assert not (tmp_path / "o").exists()
+    with pytest.raises(InputError, match="not implemented"):
+        load_scenario(EXAMPLE).ocp.solve(intervals=10)
+
+
+def test_checking_a_map_loads_no_solver():
+    code = (
+        "import sys; from model.cli import main; main(['check', 'examples/map-kackertstrasse-truck.toml']);"
+        "print(sorted(m for m in ('pyomo', 'casadi', 'pandas', 'matplotlib', 'scipy') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+# --------------------------------------------------------------------------- the hand-written map
+
+
+def test_lane_changes_only_where_allowed(tmp_path):
+    m = read_map(DATA / "two-lanes.xml")
+    with pytest.raises(InputError, match="route.to_lanelet: no path from lanelet 1 to lanelet 4"):
+        MapRoute(m, 1, 4)
+    route = MapRoute(m, 1, 4, lane_changes=True)
+    assert route.steps == [(1, "start"), (3, "lane change"), (4, "successor")]
+    assert route.corridor_lanelets == [1, 2, 3, 4]  # not the sidewalk 5 beside lanelet 1
+    assert route.lanes.area == pytest.approx(4 * 20 * 3.5)
+    assert route.line.points.tolist() == [[0, 1.75], [5, 1.75], [15, 5.25], [20, 5.25], [30, 5.25], [40, 5.25]]
+    straight = MapRoute(m, 1, 2, lane_changes=True)  # a successor chain exists: no lane change taken
+    assert straight.lanelets == [1, 2] and straight.corridor_lanelets == [1, 2, 3, 4]
+    assert MapRoute(m, 1, 2).corridor_lanelets == [1, 2]
+
+
+def test_a_scenario_on_the_hand_written_map(tmp_path):
+    path = two_lanes(tmp_path, "from_lanelet = 1\nto_lanelet = 2\nstart_offset = 5.0\ngoal_offset = -5.0")
+    ocp = load_scenario(path).ocp
+    assert ocp.road is None and ocp.map_route.lanelets == [1, 2]
+    assert ocp.initial == {"x": 5.0, "y": 1.75, "theta": 0.0, "phi": 0.0}
+    assert ocp.final == {"x": 35.0, "y": 1.75, "theta": 0.0}
+
+
+BAD = {  # route table -> the key named in the one line (every one exits 2, writing nothing)
+    "from_lanelet = 9\nto_lanelet = 2": "route.from_lanelet",
+    "from_lanelet = 1\nto_lanelet = 5": "route.to_lanelet",  # a sidewalk
+    "from_lanelet = 2\nto_lanelet = 1": "route.to_lanelet",  # no path
+    "from_lanelet = 1\nto_lanelet = 2\nstart_offset = 50.0": "route.start_offset",
+    "from_lanelet = 1\nto_lanelet = 2\ngoal_offset = -21.0": "route.goal_offset",
+    "from_lanelet = 1\nto_lanelet = 2\nstart_offset = 0.0": "route.start_offset",  # the body sticks out behind
+    "from_lanelet = 1\nto_lanelet = 2\nstart_offset = 5.0\ngoal_offset = 19.0": "route.goal_offset",  # in front
+    "from_lanelet = 1\nto_lanelet = 2\nstart_offset = 5.0\nenter = 0": "route.enter",
+    "from_lanelet = 1\nto_lanelet = 2\nstart_offset = 5.0\nlane_changes = 1": "route.lane_changes",
+    "from_lanelet = 1\nto_lanelet = 2\nstart_offset = 5.0\napron_lanelets = [7]": "route.apron_lanelets",
+    "from_lanelet = 1\nto_lanelet = 2\nstart_offset = 5.0\napron_use = 'some'": "route.apron_use",
+    "from_lanelet = 1.0\nto_lanelet = 2": "route.from_lanelet",
+    "to_lanelet = 2": "route.from_lanelet",
+}
+
+
+@pytest.mark.parametrize("route", BAD, ids=list(BAD.values()))
+def test_bad_routes_exit_2_with_one_line(tmp_path, route):
+    out = cli("solve", two_lanes(tmp_path, route), "--out", tmp_path / "o")
+    assert out.returncode == 2, out.stdout + out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"roundabout: invalid input: {BAD[route]}: "), lines
+    assert not (tmp_path / "o").exists()
+
+
+MAP_BAD = {
+    'file = "missing.xml"': ("map.file", "no such file"),
+    f'file = "{DATA / "not-xml.xml"}"': ("map.file", "not a CommonRoad XML file"),
+    f'file = "{DATA / "not-commonroad.xml"}"': ("map.file", "not a CommonRoad XML file"),
+    f'file = "{DATA / "no-lanelets.xml"}"': ("map.file", "no lanelets"),
+    'dataset = "rounD/DEU_Kackerstrasse-1"': ("map.dataset", "did you mean 'rounD/DEU_Kackertstrasse-1'"),
+    'dataset = "rounD/DEU_Kackertstrasse-1"\nfile = "x.xml"': ("map", "exactly one of map.file"),
+    'url = "x"': ("map.url", "unknown key"),
+}
+
+
+@pytest.mark.parametrize("table", MAP_BAD, ids=[k for k, _ in MAP_BAD.values()])
+def test_bad_maps_exit_2_with_one_line(tmp_path, table):
+    path = scenario_file(tmp_path, CAR + f"\n[map]\n{table}\n\n[route]\nfrom_lanelet = 1\nto_lanelet = 2\n")
+    out = cli("check", path)
+    key, words = MAP_BAD[table]
+    lines = out.stderr.strip().splitlines()
+    assert out.returncode == 2 and len(lines) == 1, out.stderr
+    assert lines[0].startswith(f"roundabout: invalid input: {key}: ") and words in lines[0], lines[0]
+
+
+def test_a_map_with_another_scene_or_the_other_route_format(tmp_path):
+    route = "\n[route]\nfrom_lanelet = 1\nto_lanelet = 2\nstart_offset = 5.0\n"
+    disc = "\n[[obstacles]]\ncenter = [0.0, 50.0]\nradius = 1.0\n"
+    ring = "\n[roundabout]\ncenter = [0.0, 0.0]\ninscribed_diameter = 40.0\ncirculatory_width = 6.0\n"
+    for extra, key in ((disc, "map"), (ring, "map")):
+        path = two_lanes(tmp_path, route.split("[route]\n")[1], extra)
+        with pytest.raises(InputError) as err:
+            load_scenario(path)
+        assert err.value.key == key
+    both = scenario_file(tmp_path, CAR + ring + "\n[route]\nenter = 0\nexit = 1\nfrom_lanelet = 3\n")
+    with pytest.raises(InputError) as err:
+        load_scenario(both)
+    assert err.value.key == "route.from_lanelet"
