@@ -273,3 +273,53 @@ def test_a_map_with_another_scene_or_the_other_route_format(tmp_path):
     with pytest.raises(InputError) as err:
         load_scenario(both)
     assert err.value.key == "route.from_lanelet"
+
+
+def test_the_goal_heading_is_the_start_heading_plus_the_route_turn():
+    m = read_map(dataset_file(ROUND[2]))
+    u_turn = MapRoute(m, 21, 23)  # round the ring and back out of the same leg
+    assert u_turn.turn() == pytest.approx(np.pi, abs=0.1)
+    assert u_turn.goal()[2] - u_turn.start()[2] == pytest.approx(u_turn.turn(), abs=0.05)
+    right = MapRoute(m, 106, 23)  # the bypass: a right turn
+    assert right.goal()[2] - right.start()[2] == pytest.approx(right.turn(), abs=0.05) and right.turn() < -1.5
+
+
+# --------------------------------------------------------------------------- the curvilinear frame (item 2 prototype)
+
+
+def test_lateral_extents_of_a_straight_lane_and_a_ring():
+    from model.scene.curvilinear import conservative, frame, lateral_extents
+
+    lane = shapely.box(0.0, -1.5, 50.0, 2.5)  # the line runs along y = 0: 2.5 m to the left, 1.5 m to the right
+    fr = frame(np.array([[0.0, 0.0], [50.0, 0.0]]), step=0.5, sigma=2.0)
+    left, right = lateral_extents(lane, fr)
+    inner = (fr.s > 1) & (fr.s < 49)
+    assert np.allclose(left[inner], 2.5) and np.allclose(right[inner], 1.5)
+    ring = shapely.Point(0, 0).buffer(20.0, 256).difference(shapely.Point(0, 0).buffer(14.0, 256))
+    angles = np.linspace(0, 1.5 * np.pi, 200)
+    fr = frame(17.0 * np.column_stack([np.cos(angles), np.sin(angles)]), step=0.25, sigma=1.0)  # ccw: island left
+    left, right = lateral_extents(ring, fr)
+    inner = (fr.s > 3) & (fr.s < fr.s[-1] - 3)
+    assert np.allclose(left[inner] + right[inner], 6.0, atol=0.01)  # the smoothed circle lies 3 cm inside R = 17
+    assert np.allclose(left[inner], 3.0, atol=0.05) and np.allclose(right[inner], 3.0, atol=0.05)
+    k = int(np.argmin(np.abs(fr.s - 20.0)))
+    bump = np.full(len(fr.s), 3.0)
+    bump[k] = 0.5  # one narrow sample: within 2 m of it the conservative extent is 0.5, beyond it 3
+    low = conservative(fr, bump, window=2.0)
+    near, far = np.abs(fr.s - fr.s[k]) <= 2.0, np.abs(fr.s - fr.s[k]) > 2.0
+    assert np.all(low[near] == 0.5) and np.all(low[far] == 3.0)
+
+
+@pytest.mark.parametrize("example", ["map-kackertstrasse-truck.toml", "map-kackertstrasse-semitrailer.toml"])
+def test_the_strip_prototype_keeps_the_exact_rectangles_in_the_real_corridor(example):
+    """docs/map-corridor.md: the fixed-projection strips, re-projected until they settle, on N = 40."""
+    from model.direct.map_corridor import solve_map
+
+    ocp = load_scenario(ROOT / "examples" / example).ocp
+    result = solve_map(ocp, intervals=40, iterations=6)
+    last = result.iterates[-1]
+    assert last.solution.status == "optimal" and last.solution.validation["passed"]
+    assert last.moved < 0.05 and len(result.iterates) <= 4
+    assert last.exact_clearance >= 0.0  # the rectangles, not the discs, in the shapely corridor
+    route_length = ocp.map_route.goal_s - ocp.map_route.start_offset
+    assert 0.8 * route_length / 6.944444444444445 < last.solution.final_time < 1.2 * route_length / 6.0

@@ -370,10 +370,21 @@ class MapRoute:
         return float(x), float(y), float(self.line.heading(self.start_offset))
 
     def goal(self) -> tuple[float, float, float]:
-        """(x, y, heading) of the goal: on ``to_lanelet``'s centre line at the goal offset, heading along it."""
+        """(x, y, heading) of the goal: on ``to_lanelet``'s centre line at the goal offset, heading along it.
+
+        The heading is not wrapped: it is the start's heading plus the turn of the route's centre
+        line from the start to the goal (its value says how far the vehicle turns, as for roundabouts).
+        """
         own = CentreLine(np.asarray(self.map.lanelet(self.to_lanelet).center_vertices, float))
         x, y = own.point(self.goal_along)
-        return float(x), float(y), float(own.heading(self.goal_along))
+        along = self.start()[2] + self.turn()
+        heading = float(own.heading(self.goal_along))
+        return float(x), float(y), heading + 2 * math.pi * round((along - heading) / (2 * math.pi))
+
+    def turn(self) -> float:
+        """How far the route's centre line turns from the start to the goal, rad (> 0 left)."""
+        s = np.linspace(self.start_offset, self.goal_s, max(int((self.goal_s - self.start_offset) / 0.5), 2))
+        return float(np.diff(np.unwrap(self.line.heading(s))).sum())
 
     # -- the corridor ---------------------------------------------------------
     @cached_property

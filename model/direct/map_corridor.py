@@ -1,0 +1,183 @@
+"""Prototype (issue 21 item 2): bodies in any corridor through the curvilinear frame of the route.
+
+Not wired into the solve path (``OCP.solve`` still refuses map scenarios); docs/map-corridor.md
+says what was tried and measured. The formulation, for every body's cover disc j at node k:
+
+- the frame: the route's centre line resampled and smoothed (``model.scene.curvilinear.frame``);
+- the corridor's lateral extents w_left(s), w_right(s) along the frame's normals, each the least
+  value within ``window`` metres along the line (``conservative``);
+- the disc centre's arclength s_kj is the nearest-point projection of a previous trajectory
+  (first the centre-line guess), held fixed in the NLP; with c, n the frame's point and normal there,
+  the row ``-w_right(s_kj) + r <= n . (p_kj - c) <= w_left(s_kj) - r`` is linear in the centre;
+- solve, project the answer's disc centres again, rebuild and re-solve from the answer until the
+  projections move less than ``tol`` metres (sequential convex-style updates of the strips).
+
+Each answer is validated as every answer is (dynamics, bounds, boundary values), and its bodies
+as exact rectangles in the shapely corridor at the nodes (``exact_clearance``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyomo.environ as pyo
+
+from model.direct.bodies import _pose_point, disc_count
+from model.direct.solution import Solution
+from model.direct.solve import Start, finish, load_start, paused_gc
+from model.direct.transcription import build_model
+from model.nlp.casadi_nlp import CasadiNLP
+from model.nlp.ipopt import run_ipopt
+from model.problem.ocp import OCP
+from model.scene.curvilinear import Frame, conservative, frame, lateral_extents
+from model.scene.geometry import clearance
+
+MARGIN = 0.5  # m added to each disc's radius for the window of ``conservative``
+
+
+@dataclass
+class Strips:
+    """The frame, and per body its cover (offsets, radius) and conservative extents on the frame's samples."""
+
+    frame: Frame
+    covers: dict[str, tuple[np.ndarray, float]]
+    left: dict[str, np.ndarray]
+    right: dict[str, np.ndarray]
+
+
+@dataclass
+class Iterate:
+    """One solve of the sequence: its answer and how far the projections moved after it."""
+
+    solution: Solution
+    moved: float
+    exact_clearance: float
+    seconds: float
+
+
+@dataclass
+class Result:
+    iterates: list[Iterate] = field(default_factory=list)
+
+    @property
+    def solution(self) -> Solution:
+        return self.iterates[-1].solution
+
+
+def strips(ocp: OCP, step: float = 0.25, sigma: float = 2.0, margin: float = MARGIN) -> Strips:
+    """The frame of ``ocp.map_route`` and each body's conservative lateral extents in its corridor."""
+    route = ocp.map_route
+    fr = frame(route.line.points, step=step, sigma=sigma)
+    covers, left, right = {}, {}, {}
+    for name, body in ocp.bodies.items():
+        offsets, radius = body.cover(disc_count(body.length, body.width))
+        covers[name] = (np.asarray(offsets, float), float(radius))
+        wl, wr = lateral_extents(route.corridor(name), fr)
+        left[name] = conservative(fr, wl, radius + margin)
+        right[name] = conservative(fr, wr, radius + margin)
+    return Strips(fr, covers, left, right)
+
+
+def disc_centres(ocp: OCP, columns: dict[str, np.ndarray], covers) -> dict[str, np.ndarray]:
+    """Centres (nodes, discs, 2) of each body's cover discs along a trajectory."""
+    v, poses, out = ocp.vehicle, ocp.vehicle.body_poses(), {}
+    for name, (offsets, _) in covers.items():
+        x, y, h = v.state_function(list(poses[name]))(columns)
+        out[name] = np.stack([x[:, None] + offsets * np.cos(h)[:, None], y[:, None] + offsets * np.sin(h)[:, None]], -1)
+    return out
+
+
+def projections(ocp: OCP, columns: dict[str, np.ndarray], st: Strips) -> dict[str, np.ndarray]:
+    """Arclength (nodes, discs) of each disc centre's nearest point on the frame."""
+    return {name: st.frame.project(c) for name, c in disc_centres(ocp, columns, st.covers).items()}
+
+
+def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: dict[str, np.ndarray]) -> None:
+    """For every body, disc and node: the disc centre in the strip at its fixed arclength (linear rows)."""
+    poses = ocp.vehicle.body_poses()
+    for name, (offsets, radius) in st.covers.items():
+        s = s_fixed[name]
+        c, _, n = st.frame.at(s)
+        hi = np.interp(s, st.frame.s, st.left[name]) - radius
+        lo = radius - np.interp(s, st.frame.s, st.right[name])
+        for j, offset in enumerate(offsets):
+            centre = _pose_point(m, ocp, poses[name], float(offset), 0.0)
+            rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j])
+            m.add_component(f"strip_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
+
+
+def _strip_rule(m: pyo.ConcreteModel, centre, c: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+    """The rule ``lo_k <= n_k . (centre(t_k) - c_k) <= hi_k`` over the nodes t_k."""
+    index = {t: k for k, t in enumerate(m.nodes)}
+
+    def rule(_m, t):
+        k = index[t]
+        x, y = centre(t)
+        return (float(lo[k]), n[k, 0] * (x - c[k, 0]) + n[k, 1] * (y - c[k, 1]), float(hi[k]))
+
+    return rule
+
+
+def centre_line_start(ocp: OCP, intervals: int, st: Strips, speed_fraction: float = 0.5) -> Start:
+    """The reference point driven along the frame from the start to the goal at constant speed."""
+    route, v = ocp.map_route, ocp.vehicle
+    s0, s1 = float(st.frame.project(np.array(route.start()[:2]))), float(st.frame.project(np.array(route.goal()[:2])))
+    speed = speed_fraction * ocp.bounds["u1"][1]
+    tf = ocp.final_time or (s1 - s0) / speed
+    s = np.linspace(s0, s1, intervals + 1)
+    p, t, _ = st.frame.at(s)
+    theta = np.unwrap(np.arctan2(t[:, 1], t[:, 0]))
+    theta += ocp.initial["theta"] - theta[0]
+    kappa = np.gradient(theta, s)
+    values = {"x": p[:, 0], "y": p[:, 1], "theta": theta, "u1": np.full(intervals + 1, (s1 - s0) / tf)}
+    if "phi" in v.states:
+        d = v.parameters().get("d") or v.parameters().get("wheelbase")
+        phi = np.clip(np.arctan(d * kappa), *ocp.bounds.get("phi", (-1.0, 1.0)))
+        values["phi"] = phi
+        values["u2"] = np.gradient(phi, np.linspace(0, tf, intervals + 1))
+    if "theta1" in v.states:
+        values["theta1"] = theta.copy()
+    values = {k: a for k, a in values.items() if k in v.states + v.controls}
+    return Start(values=values, final_time=tf)
+
+
+def exact_clearance(ocp: OCP, columns: dict[str, np.ndarray]) -> float:
+    """The least signed clearance (m) of the exact body rectangles in their corridors over the nodes."""
+    v, poses, worst = ocp.vehicle, ocp.vehicle.body_poses(), np.inf
+    for name, body in ocp.bodies.items():
+        x, y, h = v.state_function(list(poses[name]))(columns)
+        region = ocp.map_route.corridor(name)
+        corners = body.corners(x, y, h)
+        worst = min(worst, min(clearance(region, c) for c in corners))
+    return float(worst)
+
+
+def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0.05, options: dict | None = None,
+              st: Strips | None = None) -> Result:  # fmt: skip
+    """The sequence of strip solves from the centre-line start (see the module docstring)."""
+    st = st or strips(ocp)
+    start = centre_line_start(ocp, intervals, st)
+    s_fixed = projections(ocp, start.values, st)
+    result = Result()
+    for _ in range(iterations):
+        t0 = time.perf_counter()
+        with paused_gc():
+            m = build_model(ocp, intervals)
+            add_strip_constraints(m, ocp, st, s_fixed)
+            load_start(m, start)
+            nlp = CasadiNLP(m)
+            res = run_ipopt(nlp, options, x0=nlp.init_primals())
+            sol = finish(ocp, m, nlp, res, "ccw", {}, analyse=True)
+        cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
+        s_new = projections(ocp, cols, st)
+        moved = max(float(np.max(np.abs(s_new[b] - s_fixed[b]))) for b in s_new)
+        result.iterates.append(Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0))
+        if sol.status not in ("optimal", "acceptable", "validation_failed"):
+            break
+        start = Start(values=cols, final_time=sol.final_time)
+        s_fixed = s_new
+        if moved < tol:
+            break
+    return result
