@@ -24,7 +24,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyomo.environ as pyo
 
-from model.direct.bodies import _pose_point, disc_count
+from model.analysis.bodies import substeps
+from model.direct.bodies import COVER_SLACK, _pose_point, disc_count
 from model.direct.solution import Solution
 from model.direct.solve import Start, finish, load_start, paused_gc
 from model.direct.transcription import build_model
@@ -55,6 +56,7 @@ class Iterate:
     moved: float
     exact_clearance: float
     seconds: float
+    narrow_rows: int = 0
 
 
 @dataclass
@@ -66,13 +68,19 @@ class Result:
         return self.iterates[-1].solution
 
 
-def strips(ocp: OCP, step: float = 0.25, sigma: float = 2.0, margin: float = MARGIN) -> Strips:
-    """The frame of ``ocp.map_route`` and each body's conservative lateral extents in its corridor."""
+def strips(
+    ocp: OCP, step: float = 0.25, sigma: float = 2.0, margin: float = MARGIN, slack: float = COVER_SLACK
+) -> Strips:
+    """The frame of ``ocp.map_route`` and each body's conservative lateral extents in its corridor.
+
+    ``slack``: each body's cover discs reach at most this fraction of its half-width beyond its
+    sides (``disc_count``); ``margin``: m beyond the disc radius of the window of ``conservative``.
+    """
     route = ocp.map_route
     fr = frame(route.line.points, step=step, sigma=sigma)
     covers, left, right = {}, {}, {}
     for name, body in ocp.bodies.items():
-        offsets, radius = body.cover(disc_count(body.length, body.width))
+        offsets, radius = body.cover(disc_count(body.length, body.width, slack))
         covers[name] = (np.asarray(offsets, float), float(radius))
         wl, wr = lateral_extents(route.corridor(name), fr)
         left[name] = conservative(fr, wl, radius + margin)
@@ -94,18 +102,30 @@ def projections(ocp: OCP, columns: dict[str, np.ndarray], st: Strips) -> dict[st
     return {name: st.frame.project(c) for name, c in disc_centres(ocp, columns, st.covers).items()}
 
 
-def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: dict[str, np.ndarray]) -> None:
-    """For every body, disc and node: the disc centre in the strip at its fixed arclength (linear rows)."""
+def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: dict[str, np.ndarray],
+                          trust: float | None = None) -> None:  # fmt: skip
+    """For every body, disc and node: the disc centre in the strip at its fixed arclength (linear rows).
+
+    ``trust`` (m): also keep each disc centre within that distance of its fixed arclength along the
+    frame's tangent there, a trust region in which the strip stands for the corridor.
+    """
     poses = ocp.vehicle.body_poses()
     for name, (offsets, radius) in st.covers.items():
         s = s_fixed[name]
-        c, _, n = st.frame.at(s)
+        c, tangent, n = st.frame.at(s)
         hi = np.interp(s, st.frame.s, st.left[name]) - radius
         lo = radius - np.interp(s, st.frame.s, st.right[name])
+        narrow = lo > hi  # the strip is narrower than the disc there: its centre line, and the validation judges
+        lo[narrow] = hi[narrow] = (lo[narrow] + hi[narrow]) / 2
+        m.narrow_rows = getattr(m, "narrow_rows", 0) + int(narrow.sum())
         for j, offset in enumerate(offsets):
             centre = _pose_point(m, ocp, poses[name], float(offset), 0.0)
             rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j])
             m.add_component(f"strip_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
+            if trust is not None:
+                bound = np.full(len(s), float(trust))
+                rule = _strip_rule(m, centre, c[:, j], tangent[:, j], -bound, bound)
+                m.add_component(f"trust_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
 
 
 def _strip_rule(m: pyo.ConcreteModel, centre, c: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray):
@@ -143,20 +163,22 @@ def centre_line_start(ocp: OCP, intervals: int, st: Strips, speed_fraction: floa
     return Start(values=values, final_time=tf)
 
 
-def exact_clearance(ocp: OCP, columns: dict[str, np.ndarray]) -> float:
-    """The least signed clearance (m) of the exact body rectangles in their corridors over the nodes."""
+def exact_clearance(ocp: OCP, columns: dict[str, np.ndarray], dense: bool = False) -> float:
+    """The least signed clearance (m) of the exact body rectangles in their corridors over the nodes
+    (``dense``: at the sub-steps between them, the states interpolated linearly as the validation does)."""
     v, poses, worst = ocp.vehicle, ocp.vehicle.body_poses(), np.inf
+    states = substeps(columns, v.states) if dense else columns
     for name, body in ocp.bodies.items():
-        x, y, h = v.state_function(list(poses[name]))(columns)
+        x, y, h = v.state_function(list(poses[name]))(states)
         region = ocp.map_route.corridor(name)
-        corners = body.corners(x, y, h)
-        worst = min(worst, min(clearance(region, c) for c in corners))
+        worst = min(worst, min(clearance(region, c) for c in body.corners(x, y, h)))
     return float(worst)
 
 
 def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0.05, options: dict | None = None,
-              st: Strips | None = None) -> Result:  # fmt: skip
-    """The sequence of strip solves from the centre-line start (see the module docstring)."""
+              st: Strips | None = None, trust: float | None = None) -> Result:  # fmt: skip
+    """The sequence of strip solves from the centre-line start (see the module docstring); ``trust``
+    as in ``add_strip_constraints``."""
     st = st or strips(ocp)
     start = centre_line_start(ocp, intervals, st)
     s_fixed = projections(ocp, start.values, st)
@@ -165,7 +187,7 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
         t0 = time.perf_counter()
         with paused_gc():
             m = build_model(ocp, intervals)
-            add_strip_constraints(m, ocp, st, s_fixed)
+            add_strip_constraints(m, ocp, st, s_fixed, trust)
             load_start(m, start)
             nlp = CasadiNLP(m)
             res = run_ipopt(nlp, options, x0=nlp.init_primals())
@@ -173,7 +195,9 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
         cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
         s_new = projections(ocp, cols, st)
         moved = max(float(np.max(np.abs(s_new[b] - s_fixed[b]))) for b in s_new)
-        result.iterates.append(Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0))
+        result.iterates.append(
+            Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0, getattr(m, "narrow_rows", 0))
+        )
         if sol.status not in ("optimal", "acceptable", "validation_failed"):
             break
         start = Start(values=cols, final_time=sol.final_time)

@@ -18,6 +18,7 @@ import shapely
 from numpy.typing import NDArray
 
 REACH = 40.0  # m: how far a normal is followed to find the corridor's edge
+NUDGE = 0.02  # m: a sample on the corridor's edge is measured from this far along the line into it
 
 
 @dataclass(frozen=True)
@@ -86,19 +87,24 @@ def _gaussian(xy: NDArray[np.float64], width: float) -> NDArray[np.float64]:
 def lateral_extents(corridor, fr: Frame, reach: float = REACH) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Distances (m) along each sample's left and right normal to the corridor's edge.
 
-    Zero where the frame's point is not inside the corridor.
+    A sample on the corridor's edge (the route's two ends) is measured from the point ``NUDGE``
+    metres along the line into the corridor; a sample outside it has extents 0.
     """
     edge = corridor.boundary
-    inside = shapely.contains_xy(corridor, fr.points[:, 0], fr.points[:, 1])
-    out = []
+    origins = fr.points.copy()
+    for sign in (1.0, -1.0):  # the ends lie on the corridor's edge: step along the line into it
+        out = ~shapely.contains_xy(corridor, origins[:, 0], origins[:, 1])
+        moved = origins + sign * NUDGE * fr.tangents
+        fix = out & shapely.contains_xy(corridor, moved[:, 0], moved[:, 1])
+        origins[fix] = moved[fix]
+    inside = shapely.contains_xy(corridor, origins[:, 0], origins[:, 1])
+    result = []
     for sign in (1.0, -1.0):
-        ends = fr.points + sign * reach * fr.normals
-        rays = shapely.linestrings(np.stack([fr.points, ends], axis=1))
-        hits = shapely.intersection(rays, edge)
-        origins = shapely.points(fr.points)
-        dist = np.where(shapely.is_empty(hits), reach, shapely.distance(origins, hits))
-        out.append(np.where(inside, dist, 0.0))
-    return out[0], out[1]
+        ends = origins + sign * reach * fr.normals
+        hits = shapely.intersection(shapely.linestrings(np.stack([origins, ends], axis=1)), edge)
+        dist = np.where(shapely.is_empty(hits), reach, shapely.distance(shapely.points(origins), hits))
+        result.append(np.where(inside, dist, 0.0))
+    return result[0], result[1]
 
 
 def conservative(fr: Frame, extent: NDArray[np.float64], window: float) -> NDArray[np.float64]:
