@@ -59,9 +59,10 @@ def main() -> int:
     ap.add_argument("--only", default="", help="run only the routes whose label contains this text")
     ap.add_argument("--trust", type=float, default=None, help="m: a trust region along the frame (default none)")
     ap.add_argument("--iterations", type=int, default=8, help="at most this many strip solves")
+    ap.add_argument("--method", choices=("disc", "ray"), default="disc", help="how the strips are measured")
     args = ap.parse_args()
     print(f"N = {args.intervals}, window = disc radius + {args.margin} m, sigma = {args.sigma} m, "
-          f"cover slack {args.slack}, trust region {args.trust} m\n")  # fmt: skip
+          f"cover slack {args.slack}, trust region {args.trust} m, strips {args.method}\n")  # fmt: skip
     print("| route | vehicle | solve | status | Tf (s) | iterations | moved (m) | clearance nodes (m) | "
           "dense (m) | time (s) |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|---|")
@@ -76,7 +77,7 @@ def main() -> int:
                 print(f"| {label} | {name} | - | refused: {err} | | | | | | |")
                 continue
             t0 = time.perf_counter()
-            st = strips(ocp, sigma=args.sigma, margin=args.margin, slack=args.slack)
+            st = strips(ocp, sigma=args.sigma, margin=args.margin, slack=args.slack, method=args.method)
             result = solve_map(ocp, args.intervals, iterations=args.iterations, st=st, trust=args.trust)
             for i, it in enumerate(result.iterates):
                 sol = it.solution

@@ -323,3 +323,22 @@ def test_the_strip_prototype_keeps_the_exact_rectangles_in_the_real_corridor(exa
     assert last.exact_clearance >= 0.0  # the rectangles, not the discs, in the shapely corridor
     route_length = ocp.map_route.goal_s - ocp.map_route.start_offset
     assert 0.8 * route_length / 6.944444444444445 < last.solution.final_time < 1.2 * route_length / 6.0
+
+
+def test_disc_extents_keep_a_disc_inside_the_corridor():
+    from model.scene.curvilinear import disc_extents, frame
+
+    lane = shapely.box(0.0, -1.5, 50.0, 2.5)
+    fr = frame(np.array([[0.0, 0.0], [50.0, 0.0]]), step=0.5, sigma=2.0)
+    left, right = disc_extents(lane, fr, radius=1.0)
+    inner = (fr.s > 1.5) & (fr.s < 48.5)
+    assert np.allclose(left[inner], 1.5) and np.allclose(right[inner], 0.5)
+    assert np.all(left[fr.s < 0.9] == -1.0)  # at the lane's start a disc of 1 m does not fit
+    # a notch in the left edge: beside it the disc may move less, though the normal there misses the notch
+    notched = lane.difference(shapely.box(24.0, 1.8, 26.0, 3.0))
+    left, _ = disc_extents(notched, fr, radius=1.0)
+    beside = np.abs(fr.s - 23.5) < 0.01
+    assert np.all(left[beside] < 1.5) and np.all(left[beside] > 0.0)
+    for k in np.flatnonzero(inner):  # every allowed centre keeps its disc in the corridor
+        centre = shapely.Point(*(fr.points[k] + left[k] * fr.normals[k]))
+        assert notched.buffer(1e-9).covers(centre.buffer(1.0 - 1e-6, 64))

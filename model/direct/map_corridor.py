@@ -32,7 +32,7 @@ from model.direct.transcription import build_model
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import run_ipopt
 from model.problem.ocp import OCP
-from model.scene.curvilinear import Frame, conservative, frame, lateral_extents
+from model.scene.curvilinear import Frame, conservative, disc_extents, frame, lateral_extents
 from model.scene.geometry import clearance
 
 MARGIN = 0.5  # m added to each disc's radius for the window of ``conservative``
@@ -40,12 +40,13 @@ MARGIN = 0.5  # m added to each disc's radius for the window of ``conservative``
 
 @dataclass
 class Strips:
-    """The frame, and per body its cover (offsets, radius) and conservative extents on the frame's samples."""
+    """The frame, and per body its cover (offsets, radius) and the allowed lateral offsets of its disc
+    centres at the frame's samples (``lower`` <= offset <= ``upper``, m, > 0 left)."""
 
     frame: Frame
     covers: dict[str, tuple[np.ndarray, float]]
-    left: dict[str, np.ndarray]
-    right: dict[str, np.ndarray]
+    lower: dict[str, np.ndarray]
+    upper: dict[str, np.ndarray]
 
 
 @dataclass
@@ -69,23 +70,34 @@ class Result:
 
 
 def strips(
-    ocp: OCP, step: float = 0.25, sigma: float = 2.0, margin: float = MARGIN, slack: float = COVER_SLACK
-) -> Strips:
-    """The frame of ``ocp.map_route`` and each body's conservative lateral extents in its corridor.
+    ocp: OCP, step: float = 0.25, sigma: float = 2.0, margin: float = MARGIN, slack: float = COVER_SLACK,
+    method: str = "disc",
+) -> Strips:  # fmt: skip
+    """The frame of ``ocp.map_route`` and each body's allowed lateral offsets in its corridor.
 
-    ``slack``: each body's cover discs reach at most this fraction of its half-width beyond its
-    sides (``disc_count``); ``margin``: m beyond the disc radius of the window of ``conservative``.
+    ``method``: "disc" (``disc_extents``: a disc centred anywhere on the normal between the frame and
+    the bound lies in the corridor) or "ray" (``lateral_extents`` less the radius, the least within
+    the radius + ``margin`` m along the line). ``slack``: each body's cover discs reach at most this
+    fraction of its half-width beyond its sides (``disc_count``).
     """
     route = ocp.map_route
     fr = frame(route.line.points, step=step, sigma=sigma)
-    covers, left, right = {}, {}, {}
+    covers, lower, upper = {}, {}, {}
     for name, body in ocp.bodies.items():
         offsets, radius = body.cover(disc_count(body.length, body.width, slack))
         covers[name] = (np.asarray(offsets, float), float(radius))
-        wl, wr = lateral_extents(route.corridor(name), fr)
-        left[name] = conservative(fr, wl, radius + margin)
-        right[name] = conservative(fr, wr, radius + margin)
-    return Strips(fr, covers, left, right)
+        if method == "disc":
+            left, right = disc_extents(route.corridor(name), fr, float(radius))
+            upper[name], lower[name] = left, -right
+            bad = (left < 0) | (right < 0)
+            upper[name][bad], lower[name][bad] = 0.0, 1.0  # lower > upper: the disc does not fit there
+        elif method == "ray":
+            wl, wr = lateral_extents(route.corridor(name), fr)
+            upper[name] = conservative(fr, wl, radius + margin) - radius
+            lower[name] = radius - conservative(fr, wr, radius + margin)
+        else:
+            raise ValueError(f"method must be 'disc' or 'ray', got {method!r}")
+    return Strips(fr, covers, lower, upper)
 
 
 def disc_centres(ocp: OCP, columns: dict[str, np.ndarray], covers) -> dict[str, np.ndarray]:
@@ -110,11 +122,11 @@ def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: d
     frame's tangent there, a trust region in which the strip stands for the corridor.
     """
     poses = ocp.vehicle.body_poses()
-    for name, (offsets, radius) in st.covers.items():
+    for name, (offsets, _) in st.covers.items():
         s = s_fixed[name]
         c, tangent, n = st.frame.at(s)
-        hi = np.interp(s, st.frame.s, st.left[name]) - radius
-        lo = radius - np.interp(s, st.frame.s, st.right[name])
+        hi = np.interp(s, st.frame.s, st.upper[name])
+        lo = np.interp(s, st.frame.s, st.lower[name])
         narrow = lo > hi  # the strip is narrower than the disc there: its centre line, and the validation judges
         lo[narrow] = hi[narrow] = (lo[narrow] + hi[narrow]) / 2
         m.narrow_rows = getattr(m, "narrow_rows", 0) + int(narrow.sum())

@@ -115,3 +115,32 @@ def conservative(fr: Frame, extent: NDArray[np.float64], window: float) -> NDArr
     for i, (a, b) in enumerate(zip(lo, hi, strict=True)):
         out[i] = extent[a:b].min()
     return out
+
+
+def disc_extents(corridor, fr: Frame, radius: float, step: float = 0.05,
+                 reach: float = 8.0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    """How far (m) a disc of ``radius`` may move from each sample along its left and right normal.
+
+    The largest d (a multiple of ``step``, at most ``reach``) such that the disc centred at every point
+    between the sample and d along the normal lies inside the corridor (its centre inside, its distance
+    to the corridor's edge at least ``radius``); -1 where the disc does not fit at the sample itself.
+    Unlike ``lateral_extents`` this is exact for a disc whose centre lies on the normal.
+    """
+    rings = [corridor] if corridor.geom_type == "Polygon" else list(corridor.geoms)
+    pieces = []
+    for poly in rings:
+        for ring in (poly.exterior, *poly.interiors):
+            xy = np.asarray(ring.coords)
+            pieces.append(np.stack([xy[:-1], xy[1:]], axis=1))
+    tree = shapely.STRtree(shapely.linestrings(np.concatenate(pieces)))
+    d = np.arange(0.0, reach + step / 2, step)
+    out = []
+    for sign in (1.0, -1.0):
+        pts = fr.points[:, None, :] + sign * d[None, :, None] * fr.normals[:, None, :]
+        flat = pts.reshape(-1, 2)
+        _, dist = tree.query_nearest(shapely.points(flat), return_distance=True, all_matches=False)
+        ok = (dist >= radius) & shapely.contains_xy(corridor, flat[:, 0], flat[:, 1])
+        ok = ok.reshape(pts.shape[:2])
+        first_bad = np.where(ok.all(axis=1), len(d), np.argmin(ok, axis=1))
+        out.append(np.where(first_bad > 0, d[np.maximum(first_bad - 1, 0)], -1.0))
+    return out[0], out[1]
