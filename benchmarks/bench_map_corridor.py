@@ -55,7 +55,7 @@ def main() -> int:
     ap.add_argument("--intervals", type=int, default=60)
     ap.add_argument("--margin", type=float, default=0.5, help="m beyond the disc radius of the conservative window")
     ap.add_argument("--sigma", type=float, default=2.0, help="m, the Gaussian smoothing of the centre line")
-    ap.add_argument("--slack", type=float, default=0.1, help="the cover discs reach this fraction of the half-width")
+    ap.add_argument("--slack", type=float, default=0.03, help="the cover discs reach this fraction of the half-width")
     ap.add_argument("--only", default="", help="run only the routes whose label contains this text")
     ap.add_argument("--trust", type=float, default=None, help="m: a trust region along the frame (default none)")
     ap.add_argument("--iterations", type=int, default=8, help="at most this many strip solves")
