@@ -342,3 +342,30 @@ def test_disc_extents_keep_a_disc_inside_the_corridor():
     for k in np.flatnonzero(inner):  # every allowed centre keeps its disc in the corridor
         centre = shapely.Point(*(fr.points[k] + left[k] * fr.normals[k]))
         assert notched.buffer(1e-9).covers(centre.buffer(1.0 - 1e-6, 64))
+
+
+def test_lanelet_polygons_agree_with_the_drivability_checkers_road_boundary():
+    """Our lanelet polygons (left bound + reversed right bound, united) against an independent reading:
+    commonroad-drivability-checker's road-boundary obstacle of the same map. A rectangle inside the
+    union (clearance > 0) must not hit the boundary, one that reaches over the union's edge must."""
+    import commonroad_dc.pycrcc as pycrcc
+    from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
+
+    from model.scene.geometry import clearance
+    from model.scene.lanelet_map import union
+
+    m = read_map(DATA / "two-lanes.xml")
+    road = union(m.polygon(i) for i in m.ids)  # the two lanes and the sidewalk: 40 m x 9 m
+    _, boundary = create_road_boundary_obstacle(m.scenario, method="aligned_triangulation", axis=2)
+    checked = 0
+    for cx in (4.0, 10.0, 20.0, 30.0, 36.0):
+        for cy in np.arange(-3.0, 8.01, 0.25):
+            for heading in (0.0, 0.3):
+                box = shapely.affinity.rotate(shapely.box(cx - 2, cy - 1, cx + 2, cy + 1), heading, use_radians=True)
+                gap = clearance(road, np.asarray(box.exterior.coords)[:4])
+                if abs(gap) < 1e-6:
+                    continue  # touching: either answer is right
+                hit = boundary.collide(pycrcc.RectOBB(2.0, 1.0, heading, cx, cy))
+                assert hit == (gap < 0), (cx, cy, heading, gap)
+                checked += 1
+    assert checked > 350, checked
