@@ -260,6 +260,13 @@ def test_bad_maps_exit_2_with_one_line(tmp_path, table):
     assert lines[0].startswith(f"roundabout: invalid input: {key}: ") and words in lines[0], lines[0]
 
 
+def test_a_map_without_a_route(tmp_path):
+    path = scenario_file(tmp_path, CAR + '\n[map]\ndataset = "rounD/DEU_Neuweiler-1"\n')
+    with pytest.raises(InputError) as err:
+        load_scenario(path)
+    assert err.value.key == "route"
+
+
 def test_a_map_with_another_scene_or_the_other_route_format(tmp_path):
     route = "\n[route]\nfrom_lanelet = 1\nto_lanelet = 2\nstart_offset = 5.0\n"
     disc = "\n[[obstacles]]\ncenter = [0.0, 50.0]\nradius = 1.0\n"

@@ -78,7 +78,8 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     """Build a Scenario from the TOML document's dictionary."""
     check_document(data)
     no_unknown(data, TOP_KEYS, "")
-    required = ("vehicle", "bounds", "problem") if "route" in data else ("vehicle", "bounds", "initial", "problem")
+    has_route = "route" in data or "map" in data  # the route sets the start: no [initial] needed
+    required = ("vehicle", "bounds", "problem") if has_route else ("vehicle", "bounds", "initial", "problem")
     for key in required:
         if key not in data:
             raise InputError(key, "missing required table")
