@@ -376,3 +376,20 @@ def test_lanelet_polygons_agree_with_the_drivability_checkers_road_boundary():
                 assert hit == (gap < 0), (cx, cy, heading, gap)
                 checked += 1
     assert checked > 350, checked
+
+
+def test_the_relaxed_strips_measure_how_far_a_disc_must_leave_them(tmp_path):
+    """Strips moved 0.5 m to the left of the whole route: the fixed start and goal put every cover
+    disc 0.5 m right of its strip there (the nodes next to them a little less: the truck cannot
+    step sideways), and in between the truck drives within the strips."""
+    from model.direct.map_corridor import solve_map, strips
+
+    path = two_lanes(tmp_path, "from_lanelet = 1\nto_lanelet = 2\nstart_offset = 5.0\ngoal_offset = -5.0")
+    ocp = load_scenario(path).ocp
+    st = strips(ocp)
+    st.lower["vehicle"][:], st.upper["vehicle"][:] = 0.5, 1.0
+    discs = len(st.covers["vehicle"][0])
+    last = solve_map(ocp, intervals=20, iterations=3, st=st, relax=True).iterates[-1]
+    total, largest = last.violation
+    assert largest == pytest.approx(0.5, abs=1e-4)
+    assert 2 * discs * 0.5 - 1e-4 <= total <= 3 * discs * 0.5

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pyomo.environ as pyo
+import shapely
 
 from model.analysis.bodies import substeps
 from model.direct.bodies import TIGHT_COVER_SLACK, _pose_point, disc_count
@@ -36,6 +37,8 @@ from model.scene.curvilinear import Frame, conservative, disc_extents, frame, la
 from model.scene.geometry import clearance
 
 MARGIN = 0.5  # m added to each disc's radius for the window of ``conservative``
+OPEN_END = 15.0  # m: how far the strips' corridor continues beyond the route's end edges (``open_ends``)
+CRACK = 1e-3  # m: the caps overlap the corridor by this much
 
 
 @dataclass
@@ -58,6 +61,7 @@ class Iterate:
     exact_clearance: float
     seconds: float
     narrow_rows: int = 0
+    violation: tuple[float, float] | None = None  # relaxed: (sum, largest) of the strip slacks, m
 
 
 @dataclass
@@ -88,7 +92,7 @@ def strips(
         offsets, radius = body.cover(disc_count(body.length, body.width, slack))
         covers[name] = (np.asarray(offsets, float), float(radius))
         if method == "disc":
-            left, right = disc_extents(route.corridor(name), fr, float(radius))
+            left, right = disc_extents(open_ends(route, route.corridor(name)), fr, float(radius))
             upper[name], lower[name] = left, -right
             bad = (left < 0) | (right < 0)
             upper[name][bad], lower[name][bad] = 0.0, 1.0  # lower > upper: the disc does not fit there
@@ -99,6 +103,23 @@ def strips(
         else:
             raise ValueError(f"method must be 'disc' or 'ray', got {method!r}")
     return Strips(fr, covers, lower, upper)
+
+
+def open_ends(route, corridor, reach: float = OPEN_END):
+    """The corridor continued ``reach`` metres beyond the route's two end edges (from_lanelet's start,
+    to_lanelet's end), so that those edges, across the route, do not narrow the strips of the discs
+    near the start and goal (a cover disc reaches beyond its rectangle's ends; the rectangles
+    themselves are checked against the corridor as it is)."""
+    caps = []
+    for lanelet_id, first in ((route.from_lanelet, True), (route.to_lanelet, False)):
+        lanelet = route.map.lanelet(lanelet_id)
+        i = 0 if first else -1
+        a, b = np.asarray(lanelet.left_vertices[i], float), np.asarray(lanelet.right_vertices[i], float)
+        cv = np.asarray(lanelet.center_vertices, float)
+        out = cv[0] - cv[1] if first else cv[-1] - cv[-2]
+        out = reach * out / np.linalg.norm(out)
+        caps.append(shapely.Polygon([a, b, b + out, a + out]).buffer(CRACK, join_style="mitre"))
+    return shapely.union_all([corridor, *caps])
 
 
 def disc_centres(ocp: OCP, columns: dict[str, np.ndarray], covers) -> dict[str, np.ndarray]:
@@ -116,11 +137,12 @@ def projections(ocp: OCP, columns: dict[str, np.ndarray], st: Strips) -> dict[st
 
 
 def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: dict[str, np.ndarray],
-                          trust: float | None = None) -> None:  # fmt: skip
+                          trust: float | None = None, relax: bool = False) -> None:  # fmt: skip
     """For every body, disc and node: the disc centre in the strip at its fixed arclength (linear rows).
 
     ``trust`` (m): also keep each disc centre within that distance of its fixed arclength along the
     frame's tangent there, a trust region in which the strip stands for the corridor.
+    ``relax``: each strip row gets a slack (m, >= 0, on both sides), collected in ``m.strip_slacks``.
     """
     poses = ocp.vehicle.body_poses()
     for name, (offsets, _) in st.covers.items():
@@ -133,7 +155,13 @@ def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: d
         m.narrow_rows = getattr(m, "narrow_rows", 0) + int(narrow.sum())
         for j, offset in enumerate(offsets):
             centre = _pose_point(m, ocp, poses[name], float(offset), 0.0)
-            rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j])
+            slack = None
+            if relax:  # two slacks: the disc centre may leave the strip to the left or to the right
+                slack = tuple(pyo.Var(m.nodes, bounds=(0.0, None), initialize=0.0) for _ in range(2))
+                m.add_component(f"slack_left_{name}_{j}", slack[0])
+                m.add_component(f"slack_right_{name}_{j}", slack[1])
+                m.strip_slacks = [*getattr(m, "strip_slacks", []), *slack]
+            rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j], slack)
             m.add_component(f"strip_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
             if trust is not None:
                 bound = np.full(len(s), float(trust))
@@ -141,14 +169,19 @@ def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: d
                 m.add_component(f"trust_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
 
 
-def _strip_rule(m: pyo.ConcreteModel, centre, c: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray):
-    """The rule ``lo_k <= n_k . (centre(t_k) - c_k) <= hi_k`` over the nodes t_k."""
+def _strip_rule(m: pyo.ConcreteModel, centre, c: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                slack=None):  # fmt: skip
+    """The rule ``lo_k <= n_k . (centre(t_k) - c_k) <= hi_k`` over the nodes t_k (with the pair of
+    slacks ``slack``: ``- left[t] + right[t]`` added to the middle term)."""
     index = {t: k for k, t in enumerate(m.nodes)}
 
     def rule(_m, t):
         k = index[t]
         x, y = centre(t)
-        return (float(lo[k]), n[k, 0] * (x - c[k, 0]) + n[k, 1] * (y - c[k, 1]), float(hi[k]))
+        lateral = n[k, 0] * (x - c[k, 0]) + n[k, 1] * (y - c[k, 1])
+        if slack is not None:
+            lateral = lateral - slack[0][t] + slack[1][t]
+        return (float(lo[k]), lateral, float(hi[k]))
 
     return rule
 
@@ -188,10 +221,25 @@ def exact_clearance(ocp: OCP, columns: dict[str, np.ndarray], dense: bool = Fals
     return float(worst)
 
 
+def _minimal_violation(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    """Replace the objective by the strips' summed slack (plus 1e-4 m per second of a free Tf)."""
+    m.objective.deactivate()
+    total = pyo.quicksum(v[t] for v in m.strip_slacks for t in m.nodes)
+    time_price = 1e-4 * m.tf if ocp.cost.free_final_time else 0.0
+    m.violation = pyo.Objective(expr=total + time_price, sense=pyo.minimize)
+
+
+def _violation(m: pyo.ConcreteModel) -> tuple[float, float]:
+    values = [pyo.value(v[t]) for v in m.strip_slacks for t in m.nodes]
+    return float(sum(values)), float(max(values))
+
+
 def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0.05, options: dict | None = None,
-              st: Strips | None = None, trust: float | None = None) -> Result:  # fmt: skip
+              st: Strips | None = None, trust: float | None = None, relax: bool = False) -> Result:  # fmt: skip
     """The sequence of strip solves from the centre-line start (see the module docstring); ``trust``
-    as in ``add_strip_constraints``."""
+    as in ``add_strip_constraints``. ``relax``: the minimal-violation sequence instead (the strip
+    rows widened by slacks, their sum minimised plus 1e-4 m per second of Tf, as the roads'
+    ``diagnosis``); ``Iterate.violation`` is the sum and the largest slack."""
     st = st or strips(ocp)
     start = centre_line_start(ocp, intervals, st)
     s_fixed = projections(ocp, start.values, st)
@@ -200,7 +248,9 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
         t0 = time.perf_counter()
         with paused_gc():
             m = build_model(ocp, intervals)
-            add_strip_constraints(m, ocp, st, s_fixed, trust)
+            add_strip_constraints(m, ocp, st, s_fixed, trust, relax)
+            if relax:
+                _minimal_violation(m, ocp)
             load_start(m, start)
             nlp = CasadiNLP(m)
             res = run_ipopt(nlp, options, x0=nlp.init_primals())
@@ -208,9 +258,9 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
         cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
         s_new = projections(ocp, cols, st)
         moved = max(float(np.max(np.abs(s_new[b] - s_fixed[b]))) for b in s_new)
-        result.iterates.append(
-            Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0, getattr(m, "narrow_rows", 0))
-        )
+        violation = _violation(m) if relax else None
+        result.iterates.append(Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0,
+                                       getattr(m, "narrow_rows", 0), violation))  # fmt: skip
         if sol.status not in ("optimal", "acceptable", "validation_failed"):
             break
         start = Start(values=cols, final_time=sol.final_time)
