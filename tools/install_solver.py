@@ -14,6 +14,13 @@ indexing, ~70 ns per nonzero; typing the two arrays makes those loops C loops (N
 ~0.25 s of a 2.6 s solve). If the lines are not found (another cyipopt version), the
 sdist is built as it is.
 
+The same step installs the real roundabout maps (docs/map-format.md): the CommonRoad lanelet
+files that the BSD-licensed ``commonroad-dataset-converter`` ships under ``crdata/datasets/``.
+Only its data is read; its own requirements (numpy < 2 among them) would break this environment,
+so it is installed with ``--no-deps`` (``MAP_DATA``). pip then reports those requirements as
+unmet whenever it installs something else ("pip's dependency resolver does not currently take
+into account ..."); that report is expected and harmless here (nothing imports the package).
+
 Usage: python tools/install_solver.py [--wheels]   (idempotent; fast when up to date)
 """
 
@@ -29,6 +36,7 @@ from pathlib import Path
 
 CASADI = "casadi>=3.6,<4"
 CYIPOPT = "cyipopt>=1.5"
+MAP_DATA = ("commonroad-dataset-converter", "2025.1.0")  # its crdata/datasets/*/maps/*.xml only
 PC_TEMPLATE = """prefix={prefix}
 libdir=${{prefix}}
 includedir=${{prefix}}/include/coin-or
@@ -132,10 +140,21 @@ def build_against_casadi(prefix: Path) -> bool:
         )
 
 
+def install_map_data() -> None:
+    """``MAP_DATA`` without its dependencies, unless that version is installed already."""
+    name, version = MAP_DATA
+    if probe(f"import importlib.metadata as m; print(m.version({name!r}))") == version:
+        print(f"install_solver: map data {name} {version} already installed")
+        return
+    if pip("install", "-q", "--no-deps", f"{name}=={version}") != 0:
+        sys.exit(f"install_solver: could not install the map data {name}=={version}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--wheels", action="store_true", help="use cyipopt-wheels (bundled Ipopt 3.14.11) instead")
     args = ap.parse_args()
+    install_map_data()
     prefix = casadi_dir()
     have = current_ipopt()
     if not args.wheels and have and str(prefix) in have and patched():

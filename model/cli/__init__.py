@@ -133,11 +133,15 @@ def _main(argv: list[str] | None) -> int:
         check_grid(getattr(args, "intervals", None), scenario)
         if args.command == "simulate":
             check_simulate(args, scenario)
+        if args.command != "check":
+            scenario.ocp.check_solvable()
         options = checked_ipopt_options(getattr(args, "ipopt", []))
     except InputError as err:
         print(f"roundabout: invalid input: {err}", file=sys.stderr)
         return 2
     if args.command == "check":
+        if scenario.ocp.map_route is not None:
+            print(map_lines(scenario.ocp.map_route))
         print(f"{args.scenario}: ok")
         return 0
     if args.command == "derive":
@@ -149,6 +153,23 @@ def _main(argv: list[str] | None) -> int:
 
 # Measured peak memory of a solve (truck, 4 states + 2 controls): about 165 MB plus 70 kB per interval.
 BASE_BYTES, BYTES_PER_INTERVAL_AND_VARIABLE = 165e6, 70e3 / 6
+
+
+def map_lines(route) -> str:
+    """What ``check`` says of a route through a lanelet map: its lanelets, length, corridor and poses."""
+    x0, y0, a0 = route.start()
+    x1, y1, a1 = route.goal()
+    return "\n".join([
+        f"map: {route.map.path} ({len(route.map.ids)} lanelets)",
+        f"route lanelets: {' '.join(map(str, route.lanelets))}",
+        f"route length: {route.goal_s - route.start_offset:.2f} m from the start to the goal "
+        f"(centre line {route.line.length:.2f} m)",
+        f"corridor: {len(route.corridor_lanelets)} lanelets ({' '.join(map(str, route.corridor_lanelets))}), "
+        f"area {route.lanes.area:.1f} m^2" + (f"; with the apron lanelets {route.with_apron.area:.1f} m^2"
+                                               if route.apron_lanelets else ""),
+        f"start: x {x0:.3f} m, y {y0:.3f} m, heading {a0:.4f} rad; goal: x {x1:.3f} m, y {y1:.3f} m, "
+        f"heading {a1:.4f} rad",
+    ])  # fmt: skip
 
 
 def check_output_folder(out: Path) -> None:
@@ -296,6 +317,10 @@ def load_batch(paths: list[Path]) -> list:
     for path in paths:
         try:
             scenario = load_scenario(path)
+        except InputError as err:
+            raise InputError(str(path), str(err)) from None
+        try:
+            scenario.ocp.check_solvable()
         except InputError as err:
             raise InputError(str(path), str(err)) from None
         if scenario.ocp.name in names:

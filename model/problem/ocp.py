@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 from model.errors import InputError
 from model.problem.costs import Cost, Energy
 from model.problem.methods import DEFAULT_PMP, DEFAULT_SOLVE, Method, load_method
+from model.scene.lanelet_map import MapRoute
 from model.scene.moving import MovingVehicle
 from model.scene.obstacles import Circle
 from model.scene.road import Road
@@ -53,6 +54,9 @@ class OCP:
     road : Road, optional
         A roundabout and a route through it (instead of ``obstacles``): every body stays in the
         route's corridor.
+    map_route : MapRoute, optional
+        A route through a CommonRoad lanelet map (docs/map-format.md; instead of ``obstacles`` and
+        ``road``). Solving it is not implemented yet: ``solve`` and ``pmp`` raise InputError.
     name, title : str
         Used in results files.
 
@@ -81,6 +85,7 @@ class OCP:
     passing: str = "auto"
     bodies: dict[str, Body] = field(default_factory=dict)
     road: Road | None = None
+    map_route: MapRoute | None = None
     name: str = "problem"
     title: str = ""
     moving_obstacles: tuple[MovingVehicle, ...] = ()
@@ -253,8 +258,16 @@ class OCP:
         >>> sol = ocp.solve(intervals=100)                       # doctest: +SKIP
         >>> sol.ok, sol.objective, sol.trajectory[["t", "x", "y"]]  # doctest: +SKIP
         """
+        self.check_solvable()
         return load_method(method or DEFAULT_SOLVE)(self, intervals=intervals, **options)
 
     def pmp(self, **options: Any) -> PMPSystem:
         """The Pontryagin system derived symbolically from this definition (``derivations.pmp.derive``)."""
+        self.check_solvable()
         return load_method(DEFAULT_PMP)(self, **options)
+
+    def check_solvable(self) -> None:
+        """Raise InputError (key ``map``) for what no method handles yet: a route through a lanelet map."""
+        if self.map_route is not None:
+            raise InputError("map", "solving map scenarios is not implemented yet (docs/map-corridor.md); "
+                             "roundabout check reads the map and its route")  # fmt: skip

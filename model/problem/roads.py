@@ -6,6 +6,7 @@ from typing import Any
 
 from model.errors import InputError
 from model.problem.tables import array_of_tables, no_unknown, number
+from model.scene.lanelet_map import MapRoute
 from model.scene.road import Road
 from model.scene.roundabout import Leg, Roundabout, Route
 from model.vehicles import Vehicle
@@ -67,10 +68,11 @@ def _legs(items: Any) -> list[Leg]:
 
 
 def road_boundary_values(
-    road: Road, initial: dict[str, float], final: dict[str, float], vehicle: Vehicle
+    road: Road | MapRoute, initial: dict[str, float], final: dict[str, float], vehicle: Vehicle
 ) -> tuple[dict, dict]:
-    """[initial] and [final] of a routed scenario: the route's poses (the vehicle's position and heading,
-    steering 0, the trailers in line at the start) plus the steering and trailer headings where given."""
+    """[initial] and [final] of a routed scenario (a roundabout's or a map's): the route's poses (the
+    vehicle's position and heading, steering 0, the trailers in line at the start) plus the steering
+    and trailer headings where given."""
     r = vehicle.roles
     free = tuple(s for s in (r.steering, *r.trailers) if s is not None)  # the only states a route leaves free
     for where, values in (("initial", initial), ("final", final)):

@@ -15,6 +15,7 @@ from typing import Any
 from model.errors import InputError
 from model.problem.closed_loop import ControlSettings, Disturbance, parse_closed_loop
 from model.problem.costs import Energy, Time
+from model.problem.maps import check_poses, parse_map
 from model.problem.ocp import OCP, PASSES
 from model.problem.roads import parse_road, road_boundary_values
 from model.problem.tables import (
@@ -35,7 +36,7 @@ from model.vehicles import VEHICLES, Body, Vehicle, preset
 
 TOP_KEYS = {
     "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
-    "disturbance", "control", "moving_obstacles",
+    "disturbance", "control", "moving_obstacles", "map",
 }  # fmt: skip
 PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass", "weights", "steering_weight"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
@@ -79,7 +80,8 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     """Build a Scenario from the TOML document's dictionary."""
     check_document(data)
     no_unknown(data, TOP_KEYS, "")
-    required = ("vehicle", "bounds", "problem") if "route" in data else ("vehicle", "bounds", "initial", "problem")
+    has_route = "route" in data or "map" in data  # the route sets the start: no [initial] needed
+    required = ("vehicle", "bounds", "problem") if has_route else ("vehicle", "bounds", "initial", "problem")
     for key in required:
         if key not in data:
             raise InputError(key, "missing required table")
@@ -94,13 +96,18 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         raise InputError("problem.intervals", f"must be a whole number >= 1, got {intervals!r}")
     final_time = number(problem, "final_time", "problem.") if "final_time" in problem else None
     disturbance, control = parse_closed_loop(data, vehicle)
-    road = parse_road(data)
-    initial = numbers(table_of(data, "initial") if "initial" in data or road is None else {}, "initial.")
+    map_route = parse_map(data, path.parent if path is not None else None)
+    road = parse_road(data) if map_route is None else None
+    routed = road is not None or map_route is not None
+    initial = numbers(table_of(data, "initial") if "initial" in data or not routed else {}, "initial.")
     final = numbers(table_of(data, "final") if "final" in data else {}, "final.")
     if road is not None:
         for body in bodies.values():
             check_lane_width(road.roundabout, body.width)
         initial, final = road_boundary_values(road, initial, final, vehicle)
+    if map_route is not None:
+        initial, final = road_boundary_values(map_route, initial, final, vehicle)
+        check_poses(map_route, vehicle, bodies, initial, final)
     ocp = OCP(
         vehicle=vehicle,
         cost=_cost(objective, problem, vehicle),
@@ -112,6 +119,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         passing=passing,
         bodies=bodies,
         road=road,
+        map_route=map_route,
         name=string(data, "name", default_name),
         title=string(data, "title", ""),
         moving_obstacles=_moving_obstacles(data.get("moving_obstacles", [])),

@@ -1,0 +1,271 @@
+"""Prototype (issue 21 item 2): bodies in any corridor through the curvilinear frame of the route.
+
+Not wired into the solve path (``OCP.solve`` still refuses map scenarios); docs/map-corridor.md
+says what was tried and measured. The formulation, for every body's cover disc j at node k:
+
+- the frame: the route's centre line resampled and smoothed (``model.scene.curvilinear.frame``);
+- the corridor's lateral extents w_left(s), w_right(s) along the frame's normals, each the least
+  value within ``window`` metres along the line (``conservative``);
+- the disc centre's arclength s_kj is the nearest-point projection of a previous trajectory
+  (first the centre-line guess), held fixed in the NLP; with c, n the frame's point and normal there,
+  the row ``-w_right(s_kj) + r <= n . (p_kj - c) <= w_left(s_kj) - r`` is linear in the centre;
+- solve, project the answer's disc centres again, rebuild and re-solve from the answer until the
+  projections move less than ``tol`` metres (sequential convex-style updates of the strips).
+
+Each answer is validated as every answer is (dynamics, bounds, boundary values), and its bodies
+as exact rectangles in the shapely corridor at the nodes (``exact_clearance``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyomo.environ as pyo
+import shapely
+
+from model.analysis.bodies import substeps
+from model.direct.bodies import TIGHT_COVER_SLACK, _pose_point, disc_count
+from model.direct.solution import Solution
+from model.direct.solve import Start, finish, load_start, paused_gc
+from model.direct.transcription import build_model
+from model.nlp.casadi_nlp import CasadiNLP
+from model.nlp.ipopt import run_ipopt
+from model.problem.ocp import OCP
+from model.scene.curvilinear import Frame, conservative, disc_extents, frame, lateral_extents
+from model.scene.geometry import clearance
+
+MARGIN = 0.5  # m added to each disc's radius for the window of ``conservative``
+OPEN_END = 15.0  # m: how far the strips' corridor continues beyond the route's end edges (``open_ends``)
+CRACK = 1e-3  # m: the caps overlap the corridor by this much
+
+
+@dataclass
+class Strips:
+    """The frame, and per body its cover (offsets, radius) and the allowed lateral offsets of its disc
+    centres at the frame's samples (``lower`` <= offset <= ``upper``, m, > 0 left)."""
+
+    frame: Frame
+    covers: dict[str, tuple[np.ndarray, float]]
+    lower: dict[str, np.ndarray]
+    upper: dict[str, np.ndarray]
+
+
+@dataclass
+class Iterate:
+    """One solve of the sequence: its answer and how far the projections moved after it."""
+
+    solution: Solution
+    moved: float
+    exact_clearance: float
+    seconds: float
+    narrow_rows: int = 0
+    violation: tuple[float, float] | None = None  # relaxed: (sum, largest) of the strip slacks, m
+
+
+@dataclass
+class Result:
+    iterates: list[Iterate] = field(default_factory=list)
+
+    @property
+    def solution(self) -> Solution:
+        return self.iterates[-1].solution
+
+
+def strips(
+    ocp: OCP, step: float = 0.25, sigma: float = 2.0, margin: float = MARGIN, slack: float = TIGHT_COVER_SLACK,
+    method: str = "disc",
+) -> Strips:  # fmt: skip
+    """The frame of ``ocp.map_route`` and each body's allowed lateral offsets in its corridor.
+
+    ``method``: "disc" (``disc_extents``: a disc centred anywhere on the normal between the frame and
+    the bound lies in the corridor) or "ray" (``lateral_extents`` less the radius, the least within
+    the radius + ``margin`` m along the line). ``slack``: each body's cover discs reach at most this
+    fraction of its half-width beyond its sides (``disc_count``; 3 %: with the roads' 10 % the SU-30
+    did not converge on Thiergarten's 3 m lanes, docs/map-corridor.md).
+    """
+    route = ocp.map_route
+    fr = frame(route.line.points, step=step, sigma=sigma)
+    covers, lower, upper = {}, {}, {}
+    for name, body in ocp.bodies.items():
+        offsets, radius = body.cover(disc_count(body.length, body.width, slack))
+        covers[name] = (np.asarray(offsets, float), float(radius))
+        if method == "disc":
+            left, right = disc_extents(open_ends(route, route.corridor(name)), fr, float(radius))
+            upper[name], lower[name] = left, -right
+            bad = (left < 0) | (right < 0)
+            upper[name][bad], lower[name][bad] = 0.0, 1.0  # lower > upper: the disc does not fit there
+        elif method == "ray":
+            wl, wr = lateral_extents(route.corridor(name), fr)
+            upper[name] = conservative(fr, wl, radius + margin) - radius
+            lower[name] = radius - conservative(fr, wr, radius + margin)
+        else:
+            raise ValueError(f"method must be 'disc' or 'ray', got {method!r}")
+    return Strips(fr, covers, lower, upper)
+
+
+def open_ends(route, corridor, reach: float = OPEN_END):
+    """The corridor continued ``reach`` metres beyond the route's two end edges (from_lanelet's start,
+    to_lanelet's end), so that those edges, across the route, do not narrow the strips of the discs
+    near the start and goal (a cover disc reaches beyond its rectangle's ends; the rectangles
+    themselves are checked against the corridor as it is)."""
+    caps = []
+    for lanelet_id, first in ((route.from_lanelet, True), (route.to_lanelet, False)):
+        lanelet = route.map.lanelet(lanelet_id)
+        i = 0 if first else -1
+        a, b = np.asarray(lanelet.left_vertices[i], float), np.asarray(lanelet.right_vertices[i], float)
+        cv = np.asarray(lanelet.center_vertices, float)
+        out = cv[0] - cv[1] if first else cv[-1] - cv[-2]
+        out = reach * out / np.linalg.norm(out)
+        caps.append(shapely.Polygon([a, b, b + out, a + out]).buffer(CRACK, join_style="mitre"))
+    return shapely.union_all([corridor, *caps])
+
+
+def disc_centres(ocp: OCP, columns: dict[str, np.ndarray], covers) -> dict[str, np.ndarray]:
+    """Centres (nodes, discs, 2) of each body's cover discs along a trajectory."""
+    v, poses, out = ocp.vehicle, ocp.vehicle.body_poses(), {}
+    for name, (offsets, _) in covers.items():
+        x, y, h = v.state_function(list(poses[name]))(columns)
+        out[name] = np.stack([x[:, None] + offsets * np.cos(h)[:, None], y[:, None] + offsets * np.sin(h)[:, None]], -1)
+    return out
+
+
+def projections(ocp: OCP, columns: dict[str, np.ndarray], st: Strips) -> dict[str, np.ndarray]:
+    """Arclength (nodes, discs) of each disc centre's nearest point on the frame."""
+    return {name: st.frame.project(c) for name, c in disc_centres(ocp, columns, st.covers).items()}
+
+
+def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: dict[str, np.ndarray],
+                          trust: float | None = None, relax: bool = False) -> None:  # fmt: skip
+    """For every body, disc and node: the disc centre in the strip at its fixed arclength (linear rows).
+
+    ``trust`` (m): also keep each disc centre within that distance of its fixed arclength along the
+    frame's tangent there, a trust region in which the strip stands for the corridor.
+    ``relax``: each strip row gets a slack (m, >= 0, on both sides), collected in ``m.strip_slacks``.
+    """
+    poses = ocp.vehicle.body_poses()
+    for name, (offsets, _) in st.covers.items():
+        s = s_fixed[name]
+        c, tangent, n = st.frame.at(s)
+        hi = np.interp(s, st.frame.s, st.upper[name])
+        lo = np.interp(s, st.frame.s, st.lower[name])
+        narrow = lo > hi  # the strip is narrower than the disc there: its centre line, and the validation judges
+        lo[narrow] = hi[narrow] = (lo[narrow] + hi[narrow]) / 2
+        m.narrow_rows = getattr(m, "narrow_rows", 0) + int(narrow.sum())
+        for j, offset in enumerate(offsets):
+            centre = _pose_point(m, ocp, poses[name], float(offset), 0.0)
+            slack = None
+            if relax:  # two slacks: the disc centre may leave the strip to the left or to the right
+                slack = tuple(pyo.Var(m.nodes, bounds=(0.0, None), initialize=0.0) for _ in range(2))
+                m.add_component(f"slack_left_{name}_{j}", slack[0])
+                m.add_component(f"slack_right_{name}_{j}", slack[1])
+                m.strip_slacks = [*getattr(m, "strip_slacks", []), *slack]
+            rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j], slack)
+            m.add_component(f"strip_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
+            if trust is not None:
+                bound = np.full(len(s), float(trust))
+                rule = _strip_rule(m, centre, c[:, j], tangent[:, j], -bound, bound)
+                m.add_component(f"trust_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
+
+
+def _strip_rule(m: pyo.ConcreteModel, centre, c: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                slack=None):  # fmt: skip
+    """The rule ``lo_k <= n_k . (centre(t_k) - c_k) <= hi_k`` over the nodes t_k (with the pair of
+    slacks ``slack``: ``- left[t] + right[t]`` added to the middle term)."""
+    index = {t: k for k, t in enumerate(m.nodes)}
+
+    def rule(_m, t):
+        k = index[t]
+        x, y = centre(t)
+        lateral = n[k, 0] * (x - c[k, 0]) + n[k, 1] * (y - c[k, 1])
+        if slack is not None:
+            lateral = lateral - slack[0][t] + slack[1][t]
+        return (float(lo[k]), lateral, float(hi[k]))
+
+    return rule
+
+
+def centre_line_start(ocp: OCP, intervals: int, st: Strips, speed_fraction: float = 0.5) -> Start:
+    """The reference point driven along the frame from the start to the goal at constant speed."""
+    route, v = ocp.map_route, ocp.vehicle
+    r = v.roles
+    s0, s1 = float(st.frame.project(np.array(route.start()[:2]))), float(st.frame.project(np.array(route.goal()[:2])))
+    speed = speed_fraction * ocp.bounds[r.speed][1]
+    tf = ocp.final_time or (s1 - s0) / speed
+    s = np.linspace(s0, s1, intervals + 1)
+    p, t, _ = st.frame.at(s)
+    theta = np.unwrap(np.arctan2(t[:, 1], t[:, 0]))
+    theta += ocp.initial[r.heading] - theta[0]
+    kappa = np.gradient(theta, s)
+    values = {r.x: p[:, 0], r.y: p[:, 1], r.heading: theta, r.speed: np.full(intervals + 1, (s1 - s0) / tf)}
+    if r.steering is not None:
+        d = v.parameter_values().get("wheelbase", 1.0)
+        phi = np.clip(np.arctan(d * kappa), *ocp.bounds.get(r.steering, (-1.0, 1.0)))
+        values[r.steering] = phi
+        values[r.steering_rate] = np.gradient(phi, np.linspace(0, tf, intervals + 1))
+    for trailer in r.trailers:
+        values[trailer] = theta.copy()
+    values = {k: a for k, a in values.items() if k in v.states + v.controls}
+    return Start(values=values, final_time=tf)
+
+
+def exact_clearance(ocp: OCP, columns: dict[str, np.ndarray], dense: bool = False) -> float:
+    """The least signed clearance (m) of the exact body rectangles in their corridors over the nodes
+    (``dense``: at the sub-steps between them, the states interpolated linearly as the validation does)."""
+    v, poses, worst = ocp.vehicle, ocp.vehicle.body_poses(), np.inf
+    states = substeps(columns, v.states) if dense else columns
+    for name, body in ocp.bodies.items():
+        x, y, h = v.state_function(list(poses[name]))(states)
+        region = ocp.map_route.corridor(name)
+        worst = min(worst, min(clearance(region, c) for c in body.corners(x, y, h)))
+    return float(worst)
+
+
+def _minimal_violation(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    """Replace the objective by the strips' summed slack (plus 1e-4 m per second of a free Tf)."""
+    m.objective.deactivate()
+    total = pyo.quicksum(v[t] for v in m.strip_slacks for t in m.nodes)
+    time_price = 1e-4 * m.tf if ocp.cost.free_final_time else 0.0
+    m.violation = pyo.Objective(expr=total + time_price, sense=pyo.minimize)
+
+
+def _violation(m: pyo.ConcreteModel) -> tuple[float, float]:
+    values = [pyo.value(v[t]) for v in m.strip_slacks for t in m.nodes]
+    return float(sum(values)), float(max(values))
+
+
+def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0.05, options: dict | None = None,
+              st: Strips | None = None, trust: float | None = None, relax: bool = False) -> Result:  # fmt: skip
+    """The sequence of strip solves from the centre-line start (see the module docstring); ``trust``
+    as in ``add_strip_constraints``. ``relax``: the minimal-violation sequence instead (the strip
+    rows widened by slacks, their sum minimised plus 1e-4 m per second of Tf, as the roads'
+    ``diagnosis``); ``Iterate.violation`` is the sum and the largest slack."""
+    st = st or strips(ocp)
+    start = centre_line_start(ocp, intervals, st)
+    s_fixed = projections(ocp, start.values, st)
+    result = Result()
+    for _ in range(iterations):
+        t0 = time.perf_counter()
+        with paused_gc():
+            m = build_model(ocp, intervals)
+            add_strip_constraints(m, ocp, st, s_fixed, trust, relax)
+            if relax:
+                _minimal_violation(m, ocp)
+            load_start(m, start)
+            nlp = CasadiNLP(m)
+            res = run_ipopt(nlp, options, x0=nlp.init_primals())
+            sol = finish(ocp, m, nlp, res, "ccw", {}, analyse=True)
+        cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
+        s_new = projections(ocp, cols, st)
+        moved = max(float(np.max(np.abs(s_new[b] - s_fixed[b]))) for b in s_new)
+        violation = _violation(m) if relax else None
+        result.iterates.append(Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0,
+                                       getattr(m, "narrow_rows", 0), violation))  # fmt: skip
+        if sol.status not in ("optimal", "acceptable", "validation_failed"):
+            break
+        start = Start(values=cols, final_time=sol.final_time)
+        s_fixed = s_new
+        if moved < tol:
+            break
+    return result
