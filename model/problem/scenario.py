@@ -28,6 +28,7 @@ from model.problem.tables import (
     string,
     table_of,
 )
+from model.problem.traffic import TrafficSettings, parse_traffic
 from model.scene.moving import MovingVehicle
 from model.scene.obstacles import Circle
 from model.scene.roundabout import check_lane_width
@@ -35,7 +36,7 @@ from model.vehicles import VEHICLES, Body, Vehicle, preset
 
 TOP_KEYS = {
     "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
-    "disturbance", "control", "moving_obstacles",
+    "disturbance", "control", "moving_obstacles", "traffic",
 }  # fmt: skip
 PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass", "weights", "steering_weight"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
@@ -53,6 +54,7 @@ class Scenario:
     path: Path | None = None
     disturbance: Disturbance = field(default_factory=Disturbance)
     control: ControlSettings = field(default_factory=ControlSettings)
+    traffic: TrafficSettings | None = None
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -95,6 +97,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     final_time = number(problem, "final_time", "problem.") if "final_time" in problem else None
     disturbance, control = parse_closed_loop(data, vehicle)
     road = parse_road(data)
+    traffic = parse_traffic(data, road)
     initial = numbers(table_of(data, "initial") if "initial" in data or road is None else {}, "initial.")
     final = numbers(table_of(data, "final") if "final" in data else {}, "final.")
     if road is not None:
@@ -116,7 +119,10 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         title=string(data, "title", ""),
         moving_obstacles=_moving_obstacles(data.get("moving_obstacles", [])),
     )
-    return Scenario(ocp=ocp, intervals=intervals, scheme=scheme, path=path, disturbance=disturbance, control=control)
+    return Scenario(
+        ocp=ocp, intervals=intervals, scheme=scheme, path=path,
+        disturbance=disturbance, control=control, traffic=traffic,
+    )  # fmt: skip
 
 
 def _cost(objective: str, problem: dict[str, Any], vehicle: Vehicle):
