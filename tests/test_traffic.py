@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import tomllib
 from pathlib import Path
 
@@ -147,7 +148,6 @@ def test_a_sumo_driver_run_writes_the_contract(sumo_run):
 
 def test_the_replay_loop_reproduces_traffic_csv(sumo_run):
     """The contract's loop, written here independently of model.traffic, on DIR/sumo and trajectory.csv."""
-    import math
 
     import traci
 
@@ -179,3 +179,58 @@ def test_the_replay_loop_reproduces_traffic_csv(sumo_run):
         assert (t, vid) == (float(r["t"]), r["id"])
         h, half = float(r["heading"]), float(r["length"]) / 2
         assert math.hypot(fx - half * math.cos(h) - float(r["x"]), fy - half * math.sin(h) - float(r["y"])) < 1e-6
+
+
+def test_sumo_not_installed_exits_2_naming_the_package(tmp_path, capsys, monkeypatch):
+    import importlib
+
+    real = importlib.import_module
+
+    def without_sumo(name, *args):
+        if name == "sumo":
+            raise ImportError(name)
+        return real(name, *args)
+
+    monkeypatch.setattr(importlib, "import_module", without_sumo)
+    assert main(["traffic", str(EXAMPLE), "--out", str(tmp_path / "out"), "--driver", "sumo"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "eclipse-sumo" in err[0] and "pip install" in err[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_runs_write_runs_csv_and_the_means(tmp_path):
+    data = (
+        EXAMPLE.read_text().replace("time_limit = 60.0", "time_limit = 30.0").replace("warmup = 20.0", "warmup = 10.0")
+    )
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(data)
+    out = tmp_path / "out"
+    code = main(["traffic", str(scenario), "--out", str(out), "--driver", "sumo", "--runs", "2"])
+    summary = json.loads((out / "summary.json").read_text())
+    runs = list(csv.DictReader((out / "runs.csv").open()))
+    assert [int(r["seed"]) for r in runs] == [0, 1]
+    assert summary["runs"] == 2 and code == (0 if summary["ok"] else 1)
+    assert summary["min_distance"] == pytest.approx(min(float(r["min_distance"]) for r in runs))
+    loss = [float(r["others_time_loss"]) for r in runs]
+    assert summary["others_time_loss"] == pytest.approx(np.mean(loss))
+    assert (out / "run-1" / "sumo" / "run.sumocfg").read_text().count('<seed value="1"/>') == 1
+
+
+def test_encounter_counts_an_overlap_and_measures_the_exact_distance():
+    """A car 3 m beside the truck's side, then overlapping its front corner: distance and collision, exactly."""
+    from model.traffic.cosim import Pass
+    from model.traffic.run import encounter, other_corners
+
+    scenario = parse_scenario(document())
+    cols = {"t": np.array([20.0, 20.1]), "x": np.zeros(2), "y": np.zeros(2), "theta": np.zeros(2), "phi": np.zeros(2)}
+    # truck body: x in [-1.5, 6.5], y in [-1.25, 1.25]; car 4 x 2 centred at (2, 1.25 + 3 + 1): gap 3 m
+    beside = (20.0, "car", "passenger", 2.0, 5.25, 0.0, 5.0, 4.0, 2.0)
+    corner = (20.1, "car", "passenger", 7.0, 1.5, math.pi / 2, 5.0, 4.0, 2.0)
+    scored = Pass(rows=[beside, corner], braking={20.0: {"car": 6.0}, 20.1: {"car": 1.0}})
+    got = encounter(scenario, cols, scored)
+    assert got["collisions"] == 1
+    assert got["min_distance"] < 0.0
+    assert got["max_braking_caused"] == 6.0
+    only_beside = encounter(scenario, cols, Pass(rows=[beside], braking={}))
+    assert only_beside["min_distance"] == pytest.approx(3.0)
+    assert shapely.Polygon(other_corners(corner)).area == pytest.approx(8.0)

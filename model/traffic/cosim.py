@@ -16,7 +16,10 @@ The free-flow time is pass 1 on a routes file without flows.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
+import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -87,7 +90,8 @@ def _start(sumo: Sumo, folder: Path, routes: str) -> object:
     cmd = [sumo.sumo, "-c", str(folder / "run.sumocfg")]
     if routes != "routes.rou.xml":
         cmd += ["--route-files", str(folder / routes)]
-    traci.start(cmd)
+    with contextlib.redirect_stdout(io.StringIO()):  # traci prints " Retrying in 1 seconds" while SUMO starts
+        traci.start(cmd, stdout=subprocess.DEVNULL)
     return traci
 
 

@@ -99,6 +99,9 @@ def summarise(scenario, driver, seed, sumo, driven, free, cols, scored, alone) -
     out |= {"entry_wait": entry_wait(scenario, cols) if cols else None}
     if cols:
         out |= encounter(scenario, cols, scored)
+        # the same measure on the run without the truck (same seed, the truck's poses as the places):
+        # the braking the traffic does anyway (e.g. to its normal deceleration before the give-way line)
+        out["max_braking_without_truck"] = encounter(scenario, cols, alone)["max_braking_caused"]
         road = road_measures(ocp, {s: cols[s] for s in ocp.vehicle.states})
         out["min_clearance"] = road["min_clearance"]
         out["exit_taken"] = road["exit_taken"]
