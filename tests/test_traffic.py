@@ -124,6 +124,18 @@ def sumo_run(tmp_path_factory):
     return code, out
 
 
+@pytest.fixture(scope="module")
+def autopilot_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("traffic") / "autopilot"
+    code = main(["traffic", str(EXAMPLE), "--out", str(out), "--driver", "autopilot"])
+    return code, out
+
+
+@pytest.fixture(params=["sumo", "autopilot"])
+def any_run(request):
+    return request.getfixturevalue(f"{request.param}_run")
+
+
 def test_a_sumo_driver_run_writes_the_contract(sumo_run):
     code, out = sumo_run
     summary = json.loads((out / "summary.json").read_text())
@@ -234,3 +246,45 @@ def test_encounter_counts_an_overlap_and_measures_the_exact_distance():
     only_beside = encounter(scenario, cols, Pass(rows=[beside], braking={}))
     assert only_beside["min_distance"] == pytest.approx(3.0)
     assert shapely.Polygon(other_corners(corner)).area == pytest.approx(8.0)
+
+
+def test_the_autopilot_gives_way_keeps_its_distance_and_arrives(autopilot_run):
+    code, out = autopilot_run
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["driver"] == "autopilot" and summary["plan_valid"]
+    assert summary["arrived"] and summary["collisions"] == 0 and code == 0
+    assert summary["min_distance"] >= 1.0  # safety_distance of the example, exact rectangles
+    assert summary["min_clearance"] >= 0.0  # the plan's path: every body in its corridor
+    assert summary["travel_time"] >= summary["free_flow_time"] - 1e-9
+    assert summary["free_flow_time"] == pytest.approx(summary["plan_final_time"], abs=0.25)
+    assert 0 < summary["realtime_factor"] == pytest.approx(summary["solve_seconds_max"] / 0.1)
+    traj = list(csv.DictReader((out / "trajectory.csv").open()))
+    speeds = np.array([float(r["u1"]) for r in traj])
+    assert speeds.min() >= 0.0 and speeds.max() <= 8.0 + 1e-9  # the plan's speeds, scaled by the rate in [0, 1]
+
+
+def test_the_autopilot_stands_before_the_line_when_a_car_circulates(tmp_path):
+    """A car on the ring just upstream of the entry: the truck, at the line, must not enter (stand or stop)."""
+    from model.problem.scenario import load_scenario
+    from model.traffic.autopilot import Autopilot, Plan, predict
+
+    scenario = load_scenario(EXAMPLE)
+    ra = scenario.ocp.road.roundabout
+    # a straight plan along the entry lane into the ring: x from -50 to -10 at y = -2, heading +x
+    t = np.linspace(0.0, 5.0, 51)
+    cols = {"x": -50.0 + 8.0 * t, "y": np.full_like(t, -2.0), "theta": np.zeros_like(t), "phi": np.zeros_like(t),
+            "u1": np.full_like(t, 8.0), "u2": np.zeros_like(t)}  # fmt: skip
+    pilot = Autopilot(scenario, Plan(t, cols), front=6.5)
+    assert math.hypot(-50.0 + 8.0 * pilot.give_way + 6.5, -2.0) == pytest.approx(ra.outer_radius + 1.0, abs=0.05)
+    pilot.s = pilot.give_way - 0.05
+    pilot.rate = 0.2
+    r = 17.0  # ring centre line; a car at 7 m/s counter-clockwise, 30 degrees before the entry (180 deg)
+    a = math.radians(150.0)
+    car = (0.0, "car", "passenger", r * math.cos(a), r * math.sin(a), a + math.pi / 2, 7.0, 4.5, 1.8)
+    previous = a + math.pi / 2 - 7.0 / r * 0.1
+    name, _ = pilot.decide([predict(car, previous, 0.1)], 0.1)
+    assert name in ("stop at the line", "stand")
+    assert pilot.s <= pilot.give_way
+    free = Autopilot(scenario, Plan(t, cols), front=6.5)
+    free.s, free.rate = pilot.give_way - 0.05, 0.2
+    assert free.decide([], 0.1)[0] == "rate 1"

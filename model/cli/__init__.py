@@ -243,8 +243,6 @@ def check_traffic(args, scenario):
         raise InputError("traffic", "missing: roundabout traffic needs a [traffic] table")
     if args.driver not in DRIVERS:
         raise InputError("--driver", f"must be one of {list(DRIVERS)}, got {args.driver!r}")
-    if args.driver == "autopilot":
-        raise InputError("--driver", "the autopilot driver is not available yet; use --driver sumo")
     if args.runs < 1:
         raise InputError("--runs", f"must be >= 1, got {args.runs}")
     return find_sumo()

@@ -44,6 +44,9 @@ class Pass:
     braking: dict[float, dict[str, float]] = field(default_factory=dict)  # t -> id -> deceleration
     arrived: bool = False
     end: float = 0.0
+    states: dict[float, dict[str, float]] = field(default_factory=dict)  # autopilot: t -> states and controls
+    decisions: list[str] = field(default_factory=list)
+    decision_seconds: list[float] = field(default_factory=list)
 
 
 def truck_geometry(scenario: Scenario) -> dict:
@@ -151,6 +154,62 @@ def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, s
     return out
 
 
+def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: str = "routes.rou.xml") -> Pass:
+    """The autopilot's pass: each step, predict the others, choose the progress, move ``truck`` there.
+
+    The loop is the contract's replay loop with the poses made online, so replaying ``DIR/sumo``
+    with ``trajectory.csv`` gives this pass's ``traffic.csv``. ``Pass.states`` holds the rows.
+    """
+    from model.traffic.autopilot import Autopilot, predict
+
+    traffic, v = scenario.traffic, scenario.ocp.vehicle
+    geo = truck_geometry(scenario)
+    pilot = Autopilot(scenario, plan, geo["front"])
+    traci = _start(sumo, folder, routes)
+    out, t_end = Pass(), traffic.warmup + traffic.time_limit
+    headings: dict[str, float] = {}
+    last: list[tuple] = []
+    try:
+        while traci.simulation.getTime() < t_end - 1e-9:
+            t_next = round(traci.simulation.getTime() + traffic.step, TIME_DIGITS)
+            if t_next >= traffic.warmup - 1e-9 and "truck" in traci.vehicle.getIDList():
+                if out.states:
+                    others = [predict(r, headings.get(r[1]), traffic.step) for r in last]
+                    name, _ = pilot.decide(others, traffic.step)
+                    out.decisions.append(name)
+                row = pilot.state()
+                th = row[v.roles.heading]
+                x, y = row[v.roles.x] + geo["front"] * math.cos(th), row[v.roles.y] + geo["front"] * math.sin(th)
+                a = 90.0 - math.degrees(th)
+                traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)
+                out.truck[t_next] = (x, y, a, row[v.roles.speed])
+                out.states[t_next] = row
+            previous = {r[1]: r[5] for r in last}
+            traci.simulationStep()
+            t = round(traci.simulation.getTime(), TIME_DIGITS)
+            n = len(out.rows)
+            _record(traci, t, out)
+            last, headings = out.rows[n:], previous
+            if out.states and pilot.s >= plan.duration - 1e-12:
+                out.arrived = True
+                break
+    finally:
+        traci.close()
+    out.end = max(out.truck) if out.truck else t_end
+    out.decision_seconds = pilot.decision_seconds
+    return out
+
+
+def states_of(scenario: Scenario, driven: Pass) -> dict[str, np.ndarray]:
+    """The autopilot pass's rows as trajectory columns (t, states, controls)."""
+    v = scenario.ocp.vehicle
+    times = sorted(driven.states)
+    cols = {"t": np.array(times)}
+    for n in [*v.states, *v.controls]:
+        cols[n] = np.array([driven.states[t][n] for t in times])
+    return cols
+
+
 def _record(traci, t: float, out: Pass) -> None:
     """Every vehicle but ``truck`` after a step: rectangle centre, heading (rad, ccw from +x), speed, size."""
     v = traci.vehicle
@@ -253,5 +312,7 @@ def _trailers(vehicle, cols: dict[str, np.ndarray]) -> None:
             cols[s][k + 1] = x[j] + h * step[trailers.index(s)]
 
 
-__all__ = ["BRAKING_RADIUS", "Pass", "drive", "passed_goal", "reconstruct", "replay", "truck_geometry",
-           "write_sumo_files"]  # fmt: skip
+__all__ = [
+    "BRAKING_RADIUS", "Pass", "autopilot_drive", "drive", "passed_goal", "reconstruct", "replay", "states_of",
+    "truck_geometry", "write_sumo_files",
+]  # fmt: skip

@@ -17,13 +17,16 @@ import numpy as np
 
 from model.analysis.bodies import body_corners, rectangle_gaps, road_measures
 from model.problem.scenario import Scenario
+from model.traffic.autopilot import plan_of
 from model.traffic.cosim import (
     BRAKING_RADIUS,
     STILL_SPEED,
     Pass,
+    autopilot_drive,
     drive,
     reconstruct,
     replay,
+    states_of,
     truck_geometry,
     write_sumo_files,
 )
@@ -67,23 +70,39 @@ def encounter(scenario: Scenario, cols: dict[str, np.ndarray], scored: Pass) -> 
     }
 
 
-def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int) -> tuple[dict, dict, list]:
-    """One run into ``folder/sumo``: (summary, trajectory columns, traffic rows)."""
-    if driver != "sumo":
-        raise NotImplementedError("the autopilot driver is not built yet")
+def solve_plan(scenario: Scenario) -> tuple[object, float]:
+    """The autopilot's plan: the scenario's optimum by the default method (quick search), and its seconds."""
+    from model.problem.methods import DEFAULT_SOLVE, load_method
+
+    t0 = time.perf_counter()
+    sol = scenario.ocp.solve(intervals=scenario.intervals, method=load_method(DEFAULT_SOLVE), search="quick")
+    return sol, time.perf_counter() - t0
+
+
+def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int, plan=None) -> tuple[dict, dict, list]:
+    """One run into ``folder/sumo``: (summary, trajectory columns, traffic rows); ``plan`` for the autopilot."""
     traffic = scenario.traffic
     sumo_dir = folder / "sumo"
     write_sumo_files(scenario, sumo_dir, sumo, seed)
     wall = time.perf_counter()
-    driven = drive(scenario, sumo, sumo_dir)
-    free = drive(scenario, sumo, sumo_dir, "routes_free_flow.rou.xml")
-    cols = reconstruct(scenario, driven) if driven.truck else {}
-    poses = {t: p[:3] for t, p in driven.truck.items()}
-    t_last = driven.end
-    scored = replay(sumo, sumo_dir, poses, t_last, traffic.step)
-    alone = replay(sumo, sumo_dir, {}, t_last, traffic.step, "routes_without_truck.rou.xml")
+    if driver == "sumo":
+        driven = drive(scenario, sumo, sumo_dir)
+        free = drive(scenario, sumo, sumo_dir, "routes_free_flow.rou.xml")
+        cols = reconstruct(scenario, driven) if driven.truck else {}
+        poses = {t: p[:3] for t, p in driven.truck.items()}
+        scored = replay(sumo, sumo_dir, poses, driven.end, traffic.step)
+    else:
+        driven = autopilot_drive(scenario, sumo, sumo_dir, plan)
+        free = autopilot_drive(scenario, sumo, sumo_dir, plan, "routes_free_flow.rou.xml")
+        cols = states_of(scenario, driven) if driven.states else {}
+        scored = driven
+    alone = replay(sumo, sumo_dir, {}, driven.end, traffic.step, "routes_without_truck.rou.xml")
     wall = time.perf_counter() - wall
     summary = summarise(scenario, driver, seed, sumo, driven, free, cols, scored, alone)
+    if driver == "autopilot":
+        worst = max(driven.decision_seconds, default=0.0)
+        summary |= {"solve_seconds_max": worst, "realtime_factor": worst / traffic.step}
+        summary["decisions"] = {name: driven.decisions.count(name) for name in sorted(set(driven.decisions))}
     summary["wall_seconds"] = wall
     return summary, cols, scored.rows
 
@@ -169,16 +188,29 @@ def aggregate(runs: list[dict]) -> dict:
     for key in ("max_braking_caused", "solve_seconds_max", "realtime_factor"):
         out[key] = max(vals(key)) if vals(key) else None
     out["ok"] = all(r["ok"] for r in runs)
+    for key in ("plan_status", "plan_seconds", "plan_final_time", "plan_valid"):
+        if key in runs[0]:
+            out[key] = runs[0][key]
     return out
 
 
 def run_traffic(scenario: Scenario, sumo: Sumo, stage: Path, driver: str, runs: int) -> dict:
     """K runs (seeds seed, seed + 1, ...) into ``stage``; the last run's files at the top, each in run-k/ too."""
-    results = []
+    results, plan, extra = [], None, {}
+    if driver == "autopilot":
+        sol, seconds = solve_plan(scenario)
+        extra = {"plan_status": sol.status, "plan_seconds": seconds,
+                 "plan_final_time": float(sol.trajectory["t"].iloc[-1]), "plan_valid": bool(sol.ok)}  # fmt: skip
+        if not sol.ok:
+            summary = {"driver": driver, "arrived": False, "ok": False, "reason": "the plan's solve failed", **extra}
+            (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+            return summary
+        plan = plan_of(sol, scenario.ocp.vehicle)
     for k in range(runs):
         seed = scenario.traffic.seed + k
         folder = stage if runs == 1 else stage / f"run-{k}"
-        summary, cols, rows = one_run(scenario, sumo, folder, driver, seed)
+        summary, cols, rows = one_run(scenario, sumo, folder, driver, seed, plan)
+        summary |= extra
         (folder / "trajectory.csv").write_text(trajectory_text(scenario, cols))
         (folder / "traffic.csv").write_text(csv_text(list(TRAFFIC_COLUMNS), rows))
         (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
