@@ -28,10 +28,11 @@ EPILOG = """examples:
   roundabout solve my.toml --out out/ --intervals 400 --verbose
   roundabout derive workflows/scenarios/s1.toml --latex
   roundabout simulate examples/closed-loop-truck.toml --out out/cl --controller tracking --runs 5
+  roundabout traffic examples/traffic-roundabout.toml --out out/traffic --driver autopilot
   roundabout plot out/ --out figure.png
 
 scenario files: see docs/scenario-format.md (TOML, SI units, radians);
-                [disturbance] and [control]: docs/closed-loop-format.md.
+                [disturbance] and [control]: docs/closed-loop-format.md; [traffic]: docs/traffic-format.md.
 exit codes: 0 solved and validated, 1 solver failed (summary.json says why),
             2 invalid input (one line on stderr, nothing written), 130 interrupted."""
 
