@@ -288,3 +288,30 @@ def test_the_autopilot_stands_before_the_line_when_a_car_circulates(tmp_path):
     free = Autopilot(scenario, Plan(t, cols), front=6.5)
     free.s, free.rate = pilot.give_way - 0.05, 0.2
     assert free.decide([], 0.1)[0] == "rate 1"
+
+
+def test_export_sumo_writes_a_config_that_sumo_runs(tmp_path):
+    import subprocess
+
+    from model.traffic.sumo import find_sumo
+
+    out = tmp_path / "export"
+    assert main(["export-sumo", str(EXAMPLE), "--out", str(out)]) == 0
+    for name in ("net.net.xml", "routes.rou.xml", "run.sumocfg"):
+        assert (out / name).exists()
+    done = subprocess.run([find_sumo().sumo, "-c", str(out / "run.sumocfg"), "--end", "30"], capture_output=True)
+    assert done.returncode == 0, done.stderr
+    net = sumolib.net.readNet(str(out / "net.net.xml"))
+    x0, y0, _, _ = net.getBoundary()
+    assert x0 < -50.0 and y0 < -50.0  # the scenario's coordinates, not shifted to the origin
+
+
+def test_left_hand_traffic_a_sumo_run_arrives_by_its_exit(tmp_path):
+    scenario = tmp_path / "left.toml"
+    scenario.write_text(EXAMPLE.read_text().replace('traffic = "right"', 'traffic = "left"'))
+    out = tmp_path / "out"
+    main(["traffic", str(scenario), "--out", str(out), "--driver", "sumo"])
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["arrived"] and summary["exit_taken"] == 2
+    traj = list(csv.DictReader((out / "trajectory.csv").open()))
+    assert float(traj[0]["y"]) == pytest.approx(2.0)  # left-hand: the entry lane of the leg at 180 deg is at y > 0

@@ -83,6 +83,9 @@ def parser() -> argparse.ArgumentParser:
     f.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
     f.add_argument("--driver", default="autopilot", metavar="NAME", help="autopilot|sumo (default autopilot)")
     f.add_argument("--runs", type=int, default=1, metavar="K", help="K runs with seeds seed, seed + 1, ... (runs.csv)")
+    x = sub.add_parser("export-sumo", help="write the scenario's SUMO network, routes and run.sumocfg into DIR")
+    x.add_argument("scenario", type=Path, help="scenario file (TOML) with [traffic] (docs/traffic-format.md)")
+    x.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (opens in sumo-gui)")
     c = sub.add_parser("check", help="validate a scenario file only, as solve would (exit 0 or 2)")
     c.add_argument("scenario", type=Path, help="scenario file (TOML)")
     g = sub.add_parser("plot", help="draw a results folder of solve or simulate as a PNG (or PDF, SVG)")
@@ -120,9 +123,9 @@ def _main(argv: list[str] | None) -> int:
             args.scenario = args.scenario[0]
         scenario = load_scenario(args.scenario)
         args.load_seconds = time.perf_counter() - t0
-        if args.command in ("solve", "simulate", "traffic"):
+        if args.command in ("solve", "simulate", "traffic", "export-sumo"):
             check_output_folder(args.out)
-        if args.command == "traffic":
+        if args.command in ("traffic", "export-sumo"):
             sumo = check_traffic(args, scenario)
         check_grid(getattr(args, "intervals", None), scenario)
         if args.command == "simulate":
@@ -140,6 +143,8 @@ def _main(argv: list[str] | None) -> int:
         return _simulate(scenario, args)
     if args.command == "traffic":
         return _traffic(scenario, args, sumo)
+    if args.command == "export-sumo":
+        return _export_sumo(scenario, args, sumo)
     return _solve(scenario, args, options)
 
 
@@ -242,11 +247,22 @@ def check_traffic(args, scenario):
 
     if scenario.traffic is None:
         raise InputError("traffic", "missing: roundabout traffic needs a [traffic] table")
+    if args.command == "export-sumo":
+        return find_sumo()
     if args.driver not in DRIVERS:
         raise InputError("--driver", f"must be one of {list(DRIVERS)}, got {args.driver!r}")
     if args.runs < 1:
         raise InputError("--runs", f"must be >= 1, got {args.runs}")
     return find_sumo()
+
+
+def _export_sumo(scenario, args, sumo) -> int:
+    from model.traffic.cosim import write_sumo_files
+
+    with run_folder(args.out) as stage:
+        write_sumo_files(scenario, stage, sumo, scenario.traffic.seed)
+    print(f"wrote {args.out}: net.net.xml, routes.rou.xml, run.sumocfg (sumo-gui -c {args.out / 'run.sumocfg'})")
+    return 0
 
 
 def _traffic(scenario, args, sumo) -> int:
