@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.analysis.bodies import body_corners, rectangle_gaps
+from model.analysis.bodies import rectangle_gaps
 from model.problem.scenario import Scenario
 from model.scene.moving import MovingVehicle
 
@@ -73,9 +73,14 @@ class Autopilot:
     rate: float = 1.0
     decision_seconds: list[float] = field(default_factory=list)
     give_way: float = field(init=False)
+    body_poses: dict = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.give_way = self._give_way_time()
+        # each body's pose as a numpy function of the states, made once (lambdify is slow; a decision is not)
+        v = self.scenario.ocp.vehicle
+        poses = v.body_poses()
+        self.body_poses = {name: v.state_function(list(poses[name])) for name in self.scenario.ocp.bodies}
 
     def _give_way_time(self) -> float:
         """Plan time at which the front bumper first comes within Ro + GIVE_WAY_MARGIN of the centre."""
@@ -131,7 +136,7 @@ class Autopilot:
             return math.inf
         ocp = self.scenario.ocp
         states = self.plan.at(s)
-        bodies = body_corners(ocp, {n: states[n] for n in ocp.vehicle.states})
+        bodies = {name: body.corners(*self.body_poses[name](states)) for name, body in ocp.bodies.items()}
         theirs = np.concatenate([o.corners(tau) for o in others])  # (len(others) * len(tau), 4, 2)
         least = math.inf
         for corners in bodies.values():
