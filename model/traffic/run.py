@@ -32,7 +32,7 @@ from model.traffic.cosim import (
 )
 from model.traffic.sumo import Sumo
 
-TRAFFIC_COLUMNS = ("t", "id", "type", "x", "y", "heading", "speed", "length", "width")
+TRAFFIC_COLUMNS = ("t", "id", "type", "x", "y", "heading", "speed", "length", "width")  # names: contract columns
 DRIVERS = ("autopilot", "sumo")
 
 
