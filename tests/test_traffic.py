@@ -309,7 +309,9 @@ def test_export_sumo_writes_a_config_that_sumo_runs(tmp_path):
 
 def test_left_hand_traffic_a_sumo_run_arrives_by_its_exit(tmp_path):
     scenario = tmp_path / "left.toml"
-    scenario.write_text(EXAMPLE.read_text().replace('traffic = "right"', 'traffic = "left"'))
+    text = EXAMPLE.read_text().replace('traffic = "right"', 'traffic = "left"')
+    text = text.replace("warmup = 20.0", "warmup = 10.0").replace("time_limit = 60.0", "time_limit = 30.0")
+    scenario.write_text(text)
     out = tmp_path / "out"
     main(["traffic", str(scenario), "--out", str(out), "--driver", "sumo"])
     summary = json.loads((out / "summary.json").read_text())
