@@ -32,7 +32,7 @@ EPILOG = """examples:
   roundabout plot out/ --out figure.png
 
 scenario files: see docs/scenario-format.md (TOML, SI units, radians);
-                [disturbance] and [control]: docs/closed-loop-format.md; [traffic]: docs/traffic-format.md.
+                [disturbance] and [control]: docs/closed-loop-format.md.
 exit codes: 0 solved and validated, 1 solver failed (summary.json says why),
             2 invalid input (one line on stderr, nothing written), 130 interrupted."""
 
