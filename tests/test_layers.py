@@ -27,7 +27,8 @@ LAYERS["model.studies"] = {*LAYERS["model.search"], "model.search", "model.indir
 LAYERS["model.plotting"] = {*LAYERS["model.analysis"], "model.analysis", "model.outputs"}
 LAYERS["derivations.paper"] = {*LAYERS["derivations"], "derivations"}
 LAYERS["model.simulation"] = {*LAYERS["model.search"], "model.search"}
-LAYERS["model.cli"] = {*LAYERS["model.simulation"], "model.simulation", "model.plotting", "model.outputs"}
+LAYERS["model.traffic"] = {*LAYERS["model.simulation"], "model.simulation", "model.outputs"}
+LAYERS["model.cli"] = {*LAYERS["model.traffic"], "model.traffic", "model.plotting", "model.outputs"}
 LAYERS["model"] = set(LAYERS)  # the package's lazy public API may name any layer
 
 

@@ -30,6 +30,7 @@ EPILOG = """examples:
   roundabout solve my.toml --out out/ --time-limit 60
   roundabout derive workflows/scenarios/s1.toml --latex
   roundabout simulate examples/closed-loop-truck.toml --out out/cl --controller tracking --runs 5
+  roundabout traffic examples/traffic-roundabout.toml --out out/traffic --driver autopilot
   roundabout plot out/ --out figure.png
 
 scenario files: see docs/scenario-format.md (TOML, SI units, radians);
@@ -89,6 +90,14 @@ def parser() -> argparse.ArgumentParser:
     m.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals of the open-loop solve")
     m.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log of the open-loop solve")
     m.add_argument("--quiet", action="store_true", help="print no progress on stderr (results and errors only)")
+    f = sub.add_parser("traffic", help="drive the truck through SUMO traffic; DIR/summary.json, traffic.csv")
+    f.add_argument("scenario", type=Path, help="scenario file (TOML) with [traffic] (docs/traffic-format.md)")
+    f.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    f.add_argument("--driver", default="autopilot", metavar="NAME", help="autopilot|sumo (default autopilot)")
+    f.add_argument("--runs", type=int, default=1, metavar="K", help="K runs with seeds seed, seed + 1, ... (runs.csv)")
+    x = sub.add_parser("export-sumo", help="write the scenario's SUMO network, routes and run.sumocfg into DIR")
+    x.add_argument("scenario", type=Path, help="scenario file (TOML) with [traffic] (docs/traffic-format.md)")
+    x.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (opens in sumo-gui)")
     c = sub.add_parser("check", help="validate a scenario file only, as solve would (exit 0 or 2)")
     c.add_argument("scenario", type=Path, help="scenario file (TOML)")
     g = sub.add_parser("plot", help="draw a results folder of solve or simulate as a PNG (or PDF, SVG)")
@@ -128,8 +137,10 @@ def _main(argv: list[str] | None) -> int:
             args.scenario = args.scenario[0]
         scenario = load_scenario(args.scenario)
         args.load_seconds = time.perf_counter() - t0
-        if args.command in ("solve", "simulate"):
+        if args.command in ("solve", "simulate", "traffic", "export-sumo"):
             check_output_folder(args.out)
+        if args.command in ("traffic", "export-sumo"):
+            sumo = check_traffic(args, scenario)
         check_grid(getattr(args, "intervals", None), scenario)
         if args.command == "simulate":
             check_simulate(args, scenario)
@@ -148,6 +159,10 @@ def _main(argv: list[str] | None) -> int:
         return _derive(scenario, args.latex)
     if args.command == "simulate":
         return _simulate(scenario, args)
+    if args.command == "traffic":
+        return _traffic(scenario, args, sumo)
+    if args.command == "export-sumo":
+        return _export_sumo(scenario, args, sumo)
     return _solve(scenario, args, options)
 
 
@@ -271,6 +286,43 @@ def check_simulate(args, scenario) -> None:
             if err.name != "model.simulation.mpc":
                 raise
             raise InputError("--controller", "mpc controller not available yet") from None
+
+
+def check_traffic(args, scenario):
+    """The traffic command's inputs: a [traffic] table, the driver, --runs, SUMO installed; returns SUMO."""
+    from model.traffic.run import DRIVERS
+    from model.traffic.sumo import find_sumo
+
+    if scenario.traffic is None:
+        raise InputError("traffic", "missing: roundabout traffic needs a [traffic] table")
+    if args.command == "export-sumo":
+        return find_sumo()
+    if args.driver not in DRIVERS:
+        raise InputError("--driver", f"must be one of {list(DRIVERS)}, got {args.driver!r}")
+    if args.runs < 1:
+        raise InputError("--runs", f"must be >= 1, got {args.runs}")
+    return find_sumo()
+
+
+def _export_sumo(scenario, args, sumo) -> int:
+    from model.traffic.cosim import write_sumo_files
+
+    with run_folder(args.out) as stage:
+        write_sumo_files(scenario, stage, sumo, scenario.traffic.seed)
+    print(f"wrote {args.out}: net.net.xml, routes.rou.xml, run.sumocfg (sumo-gui -c {args.out / 'run.sumocfg'})")
+    return 0
+
+
+def _traffic(scenario, args, sumo) -> int:
+    from model.traffic.run import run_traffic
+
+    with run_folder(args.out) as stage:
+        summary = run_traffic(scenario, sumo, stage, args.driver, args.runs)
+    print(
+        f"traffic {args.driver}: arrived={summary['arrived']} collisions={summary['collisions']} "
+        f"min_distance={_fmt(summary['min_distance'])} delay={_fmt(summary['delay'])}; wrote {args.out}"
+    )
+    return 0 if summary["ok"] else 1
 
 
 def open_loop_solve(scenario, args, options: dict, progress: Progress):

@@ -29,6 +29,7 @@ from model.problem.tables import (
     string,
     table_of,
 )
+from model.problem.traffic import TrafficSettings, parse_traffic
 from model.scene.moving import MovingVehicle
 from model.scene.obstacles import Circle
 from model.scene.roundabout import check_lane_width
@@ -36,7 +37,7 @@ from model.vehicles import VEHICLES, Body, Vehicle, preset
 
 TOP_KEYS = {
     "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
-    "disturbance", "control", "moving_obstacles", "map",
+    "disturbance", "control", "moving_obstacles", "map", "traffic",
 }  # fmt: skip
 PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass", "weights", "steering_weight"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
@@ -54,6 +55,7 @@ class Scenario:
     path: Path | None = None
     disturbance: Disturbance = field(default_factory=Disturbance)
     control: ControlSettings = field(default_factory=ControlSettings)
+    traffic: TrafficSettings | None = None
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -98,6 +100,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     disturbance, control = parse_closed_loop(data, vehicle)
     map_route = parse_map(data, path.parent if path is not None else None)
     road = parse_road(data) if map_route is None else None
+    traffic = parse_traffic(data, road)
     routed = road is not None or map_route is not None
     initial = numbers(table_of(data, "initial") if "initial" in data or not routed else {}, "initial.")
     final = numbers(table_of(data, "final") if "final" in data else {}, "final.")
@@ -124,7 +127,10 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         title=string(data, "title", ""),
         moving_obstacles=_moving_obstacles(data.get("moving_obstacles", [])),
     )
-    return Scenario(ocp=ocp, intervals=intervals, scheme=scheme, path=path, disturbance=disturbance, control=control)
+    return Scenario(
+        ocp=ocp, intervals=intervals, scheme=scheme, path=path,
+        disturbance=disturbance, control=control, traffic=traffic,
+    )  # fmt: skip
 
 
 def _cost(objective: str, problem: dict[str, Any], vehicle: Vehicle):

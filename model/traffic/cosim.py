@@ -1,0 +1,318 @@
+"""The co-simulation loop of ``roundabout traffic`` (docs/traffic-format.md), with the ``sumo`` driver.
+
+A run has three SUMO passes, each a fresh ``traci.start`` of ``DIR/sumo/run.sumocfg``'s settings:
+
+1. *drive*: SUMO's own driver model drives the vehicle ``truck`` (the truck's overall length and
+   widest body) on the route's edges; its front-bumper pose is read after every step from
+   t = warmup until the truck's rear axle passes the goal (or the time limit). The model's states
+   are reconstructed from these poses (``reconstruct``).
+2. *replay*: the contract's replay loop moves ``truck`` with ``moveToXY`` to the recorded poses
+   and writes ``traffic.csv``; the metrics (exact rectangles, braking, time loss) come from this
+   pass, so anyone replaying ``DIR/sumo`` with ``trajectory.csv`` sees exactly the traffic scored.
+3. *without truck*: the same seed, no truck, to the same end time: ``others_time_loss_without_truck``.
+
+The free-flow time is pass 1 on a routes file without flows.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import subprocess
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from model.problem.scenario import Scenario
+from model.traffic.network import config_xml, routes_xml, write_network
+from model.traffic.sumo import Sumo
+
+BRAKING_RADIUS = 50.0  # m: other vehicles this close to a truck body count for max_braking_caused
+STILL_SPEED = 0.1  # m/s: below this the truck stands still (entry_wait)
+TIME_DIGITS = 6
+
+
+@dataclass
+class Pass:
+    """What one SUMO pass recorded: the truck's front poses and speeds, the others' rows, their time loss."""
+
+    truck: dict[float, tuple[float, float, float, float]] = field(default_factory=dict)  # t -> X, Y, A, speed
+    rows: list[tuple] = field(default_factory=list)
+    time_loss: dict[str, float] = field(default_factory=dict)
+    braking: dict[float, dict[str, float]] = field(default_factory=dict)  # t -> id -> deceleration
+    arrived: bool = False
+    end: float = 0.0
+    states: dict[float, dict[str, float]] = field(default_factory=dict)  # autopilot: t -> states and controls
+    decisions: list[str] = field(default_factory=list)
+    decision_seconds: list[float] = field(default_factory=list)
+
+
+def truck_geometry(scenario: Scenario) -> dict:
+    """The SUMO vehicle ``truck``: vClass, overall length of the straight vehicle, widest body, front offset.
+
+    ``front`` is the distance from the reference point (rear axle) to the first body's front bumper.
+    """
+    ocp = scenario.ocp
+    v = ocp.vehicle
+    poses = v.body_poses()
+    straight = {s: np.zeros(1) for s in v.states}
+    ends = []
+    for name, body in ocp.bodies.items():
+        x, y, _ = v.state_function(list(poses[name]))(straight)
+        ends += [float(x[0]) - body.rear_overhang, float(x[0]) + body.length - body.rear_overhang]
+    first = ocp.bodies["vehicle"]
+    return {
+        "vclass": "trailer" if v.roles.trailers else "truck",
+        "length": max(ends) - min(ends),
+        "width": max(b.width for b in ocp.bodies.values()),
+        "front": first.length - first.rear_overhang,
+    }
+
+
+def write_sumo_files(scenario: Scenario, folder: Path, sumo: Sumo, seed: int) -> None:
+    """Net, routes with and without the truck and without others, and the run's config in ``folder``."""
+    road, traffic = scenario.ocp.road, scenario.traffic
+    write_network(road.roundabout, folder, sumo.netconvert)
+    truck = truck_geometry(scenario) | {"enter": road.route.enter, "exit": road.route.exit}
+    leg = road.roundabout.legs[road.route.enter]
+    truck["depart_pos"] = max(truck["length"], leg.length - road.route.start_distance + truck["front"])
+    files = {
+        "routes.rou.xml": routes_xml(road.roundabout, traffic, truck),
+        "routes_without_truck.rou.xml": routes_xml(road.roundabout, traffic, None),
+        "routes_free_flow.rou.xml": routes_xml(road.roundabout, traffic, truck, with_others=False),
+    }
+    for name, text in files.items():
+        (folder / name).write_text(text)
+    (folder / "run.sumocfg").write_text(config_xml(traffic, seed))
+
+
+def _start(sumo: Sumo, folder: Path, routes: str) -> object:
+    traci = sumo.traci
+    cmd = [sumo.sumo, "-c", str(folder / "run.sumocfg")]
+    if routes != "routes.rou.xml":
+        cmd += ["--route-files", str(folder / routes)]
+    with contextlib.redirect_stdout(io.StringIO()):  # traci prints " Retrying in 1 seconds" while SUMO starts
+        traci.start(cmd, stdout=subprocess.DEVNULL)
+    return traci
+
+
+def passed_goal(scenario: Scenario, front: tuple[float, float, float]) -> bool:
+    """Whether the truck's rear axle, ``front`` being its front-bumper (X, Y, SUMO angle), is past the goal."""
+    road = scenario.ocp.road
+    geo = truck_geometry(scenario)
+    theta = math.radians(90.0 - front[2])
+    x, y = front[0] - geo["front"] * math.cos(theta), front[1] - geo["front"] * math.sin(theta)
+    gx, gy, gtheta = road.goal()
+    return (x - gx) * math.cos(gtheta) + (y - gy) * math.sin(gtheta) >= 0.0
+
+
+def drive(scenario: Scenario, sumo: Sumo, folder: Path, routes: str = "routes.rou.xml") -> Pass:
+    """Pass 1: SUMO drives the truck; its front poses from t = warmup to the goal or the time limit."""
+    traffic = scenario.traffic
+    traci = _start(sumo, folder, routes)
+    out, t_end = Pass(), traffic.warmup + traffic.time_limit
+    try:
+        while traci.simulation.getTime() < t_end - 1e-9:
+            traci.simulationStep()
+            t = round(traci.simulation.getTime(), TIME_DIGITS)
+            ids = traci.vehicle.getIDList()
+            if "truck" not in ids:
+                if out.truck:  # it left the network: arrived at its route's end
+                    out.arrived = True
+                    break
+                continue
+            if t < traffic.warmup - 1e-9:
+                continue
+            (x, y), a = traci.vehicle.getPosition("truck"), traci.vehicle.getAngle("truck")
+            out.truck[t] = (x, y, a, traci.vehicle.getSpeed("truck"))
+            if passed_goal(scenario, (x, y, a)):
+                out.arrived = True
+                break
+    finally:
+        traci.close()
+    out.end = max(out.truck) if out.truck else t_end
+    return out
+
+
+def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, step: float,
+           routes: str = "routes.rou.xml") -> Pass:  # fmt: skip
+    """The contract's replay loop: ``truck`` moved to ``poses`` (t -> X, Y, A), every other vehicle recorded."""
+    traci = _start(sumo, folder, routes)
+    out = Pass(end=t_last)
+    try:
+        while traci.simulation.getTime() < t_last - 1e-9:
+            t_next = round(traci.simulation.getTime() + step, TIME_DIGITS)
+            if t_next in poses and "truck" in traci.vehicle.getIDList():
+                x, y, a = poses[t_next][:3]
+                traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)
+            traci.simulationStep()
+            _record(traci, round(traci.simulation.getTime(), TIME_DIGITS), out)
+    finally:
+        traci.close()
+    return out
+
+
+def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: str = "routes.rou.xml") -> Pass:
+    """The autopilot's pass: each step, predict the others, choose the progress, move ``truck`` there.
+
+    The loop is the contract's replay loop with the poses made online, so replaying ``DIR/sumo``
+    with ``trajectory.csv`` gives this pass's ``traffic.csv``. ``Pass.states`` holds the rows.
+    """
+    from model.traffic.autopilot import Autopilot, predict
+
+    traffic, v = scenario.traffic, scenario.ocp.vehicle
+    geo = truck_geometry(scenario)
+    pilot = Autopilot(scenario, plan, geo["front"])
+    traci = _start(sumo, folder, routes)
+    out, t_end = Pass(), traffic.warmup + traffic.time_limit
+    headings: dict[str, float] = {}
+    last: list[tuple] = []
+    try:
+        while traci.simulation.getTime() < t_end - 1e-9:
+            t_next = round(traci.simulation.getTime() + traffic.step, TIME_DIGITS)
+            if t_next >= traffic.warmup - 1e-9 and "truck" in traci.vehicle.getIDList():
+                if out.states:
+                    others = [predict(r, headings.get(r[1]), traffic.step) for r in last]
+                    name, _ = pilot.decide(others, traffic.step)
+                    out.decisions.append(name)
+                row = pilot.state()
+                th = row[v.roles.heading]
+                x, y = row[v.roles.x] + geo["front"] * math.cos(th), row[v.roles.y] + geo["front"] * math.sin(th)
+                a = 90.0 - math.degrees(th)
+                traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)
+                out.truck[t_next] = (x, y, a, row[v.roles.speed])
+                out.states[t_next] = row
+            previous = {r[1]: r[5] for r in last}
+            traci.simulationStep()
+            t = round(traci.simulation.getTime(), TIME_DIGITS)
+            n = len(out.rows)
+            _record(traci, t, out)
+            last, headings = out.rows[n:], previous
+            if out.states and pilot.s >= plan.duration - 1e-12:
+                out.arrived = True
+                break
+    finally:
+        traci.close()
+    out.end = max(out.truck) if out.truck else t_end
+    out.decision_seconds = pilot.decision_seconds
+    return out
+
+
+def states_of(scenario: Scenario, driven: Pass) -> dict[str, np.ndarray]:
+    """The autopilot pass's rows as trajectory columns (t, states, controls)."""
+    v = scenario.ocp.vehicle
+    times = sorted(driven.states)
+    cols = {"t": np.array(times)}
+    for n in [*v.states, *v.controls]:
+        cols[n] = np.array([driven.states[t][n] for t in times])
+    return cols
+
+
+def _record(traci, t: float, out: Pass) -> None:
+    """Every vehicle but ``truck`` after a step: rectangle centre, heading (rad, ccw from +x), speed, size."""
+    v = traci.vehicle
+    decel = {}
+    for vid in v.getIDList():
+        if vid == "truck":
+            continue
+        (x, y), a, length = v.getPosition(vid), v.getAngle(vid), v.getLength(vid)
+        heading = math.radians(90.0 - a)
+        cx, cy = x - 0.5 * length * math.cos(heading), y - 0.5 * length * math.sin(heading)
+        heading = math.atan2(math.sin(heading), math.cos(heading))
+        out.rows.append((t, vid, v.getTypeID(vid), cx, cy, heading, v.getSpeed(vid), length, v.getWidth(vid)))
+        out.time_loss[vid] = v.getTimeLoss(vid)
+        decel[vid] = -v.getAcceleration(vid)
+    out.braking[t] = decel
+
+
+def reconstruct(scenario: Scenario, drive_pass: Pass) -> dict[str, np.ndarray]:
+    """The model's states and controls from SUMO's front-bumper poses, as honestly as the poses allow.
+
+    Position and heading of the first body: exact (rear axle = front bumper - front offset along
+    the heading). Speed control: SUMO's speed. Steering angle: from the heading rate and the speed
+    by the model's own kinematics at phi (phi = atan(d * dtheta/dt / v) for the car-like truck),
+    by finite differences; its rate by finite differences. Each trailer's heading: the model's own
+    dynamics integrated along the reconstructed tractor (the trailer SUMO's path would drag).
+    """
+    v = scenario.ocp.vehicle
+    r = v.roles
+    times = np.array(sorted(drive_pass.truck))
+    poses = np.array([drive_pass.truck[t] for t in times])
+    geo = truck_geometry(scenario)
+    theta = np.unwrap(np.radians(90.0 - poses[:, 2]))
+    cols = {
+        "t": times,
+        r.x: poses[:, 0] - geo["front"] * np.cos(theta),
+        r.y: poses[:, 1] - geo["front"] * np.sin(theta),
+    }
+    cols[r.heading] = theta
+    speed = poses[:, 3]
+    cols[r.speed] = speed
+    rate = np.gradient(theta, times) if len(times) > 1 else np.zeros(1)
+    if r.steering is not None:
+        cols[r.steering] = _steering(v, rate, speed)
+        cols[r.steering_rate] = np.gradient(cols[r.steering], times) if len(times) > 1 else np.zeros(1)
+    elif r.turn_rate is not None:
+        cols[r.turn_rate] = rate
+    for c in v.controls:
+        cols.setdefault(c, np.zeros(len(times)))
+    _trailers(v, cols)
+    return cols
+
+
+def _steering(vehicle, rate: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    """The steering angle whose heading rate at ``speed`` is ``rate``, solved on the model's own dynamics."""
+    r = vehicle.roles
+    f = vehicle.rhs_function()
+    i_h, i_s = vehicle.states.index(r.heading), vehicle.states.index(r.steering)
+    i_u = vehicle.controls.index(r.speed)
+    grid = np.linspace(-1.2, 1.2, 2401)
+    out = np.zeros(len(rate))
+    for k, (w, u) in enumerate(zip(rate, speed, strict=True)):
+        if u < 0.05:
+            out[k] = out[k - 1] if k else 0.0
+            continue
+        x, c = np.zeros(len(vehicle.states)), np.zeros(len(vehicle.controls))
+        c[i_u] = u
+        rates = []
+        for phi in grid:
+            x[i_s] = phi
+            rates.append(f(x, c)[i_h])
+        out[k] = grid[int(np.argmin(np.abs(np.array(rates) - w)))]
+    return out
+
+
+def _trailers(vehicle, cols: dict[str, np.ndarray]) -> None:
+    """Integrate each trailer heading along the reconstructed motion (midpoint rule), starting aligned."""
+    trailers = vehicle.roles.trailers
+    if not trailers:
+        return
+    f = vehicle.rhs_function()
+    n = len(cols["t"])
+    for s in trailers:
+        cols[s] = np.zeros(n)
+        cols[s][0] = cols[vehicle.roles.heading][0]
+    idx = [vehicle.states.index(s) for s in trailers]
+
+    def at(k: int) -> tuple[np.ndarray, np.ndarray]:
+        return np.array([cols[s][k] for s in vehicle.states]), np.array([cols[c][k] for c in vehicle.controls])
+
+    for k in range(n - 1):
+        h = cols["t"][k + 1] - cols["t"][k]
+        x, u = at(k)
+        half = x.copy()
+        half[idx] += 0.5 * h * f(x, u)[idx]
+        x1, u1 = at(k + 1)
+        mid = 0.5 * (x + x1)
+        mid[idx] = half[idx]
+        step = f(mid, 0.5 * (u + u1))[idx]
+        for j, s in zip(idx, trailers, strict=True):
+            cols[s][k + 1] = x[j] + h * step[trailers.index(s)]
+
+
+__all__ = [
+    "BRAKING_RADIUS", "Pass", "autopilot_drive", "drive", "passed_goal", "reconstruct", "replay", "states_of",
+    "truck_geometry", "write_sumo_files",
+]  # fmt: skip

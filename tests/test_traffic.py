@@ -1,0 +1,320 @@
+"""roundabout traffic (docs/traffic-format.md): the keys, the SUMO network, a sumo-driver run and its replay."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import LineString
+
+from model.cli import main
+from model.errors import InputError
+from model.problem.scenario import parse_scenario
+from model.scene.roundabout import fillet_region, lane_region, ring_region
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "traffic-roundabout.toml"
+sumolib = pytest.importorskip("sumolib")
+pytest.importorskip("traci")
+
+
+def document() -> dict:
+    return tomllib.loads(EXAMPLE.read_text())
+
+
+BAD = [
+    (lambda d: d["traffic"]["flows"][0].update(leg=4), "traffic.flows[0].leg"),
+    (lambda d: d["traffic"]["flows"][0].update(vehicles_per_hour=-1.0), "traffic.flows[0].vehicles_per_hour"),
+    (lambda d: d["traffic"]["flows"][0].update(vehicles_per_hour=float("inf")), "traffic.flows[0].vehicles_per_hour"),
+    (lambda d: d["traffic"]["flows"][1].update(exits=[0.5, 0.6, 0.0, 0.0]), "traffic.flows[1].exits"),
+    (lambda d: d["traffic"]["flows"][1].update(exits=[1.2, -0.2, 0.0, 0.0]), "traffic.flows[1].exits"),
+    (lambda d: d["traffic"]["flows"][0].update(exits=[0.5, 0.5]), "traffic.flows[0].exits"),
+    (lambda d: d["traffic"]["flows"][0].update(type="tram"), "traffic.flows[0].type"),
+    (lambda d: d["traffic"].update(step=0.0), "traffic.step"),
+    (lambda d: d["traffic"].update(step=0.3), "traffic.step"),
+    (lambda d: d["traffic"].update(colour=1), "traffic.colour"),
+    (lambda d: d.pop("roundabout"), "roundabout"),
+]
+
+
+@pytest.mark.parametrize("edit,key", BAD, ids=[k for _, k in BAD])
+def test_invalid_traffic_keys_name_the_key(edit, key):
+    data = document()
+    edit(data)
+    with pytest.raises(InputError) as err:
+        parse_scenario(data)
+    assert err.value.key == key
+
+
+def test_traffic_without_roundabout_or_route_is_refused():
+    data = document()
+    data.pop("roundabout"), data.pop("route")
+    data["initial"] = {"x": 0.0, "y": 0.0, "theta": 0.0, "phi": 0.0}
+    with pytest.raises(InputError) as err:
+        parse_scenario(data)
+    assert err.value.key == "traffic"
+
+
+def test_the_example_parses():
+    t = parse_scenario(document()).traffic
+    assert (t.warmup, t.step, len(t.flows)) == (20.0, 0.1, 2)
+    assert t.flows[0].exits == (0.25, 0.5, 0.25, 0.0)
+
+
+def test_bad_input_exits_2_and_writes_nothing(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(EXAMPLE.read_text().replace("step = 0.1", "step = 0.3"))
+    assert main(["traffic", str(bad), "--out", str(tmp_path / "out"), "--driver", "sumo"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "traffic.step" in err[0]
+    assert not (tmp_path / "out").exists()
+
+
+def paved_area(roundabout):
+    parts = [ring_region(roundabout).polygon]
+    for i in range(len(roundabout.legs)):
+        for lane in ("entry", "exit"):
+            parts += [lane_region(roundabout, i, lane).polygon, fillet_region(roundabout, i, lane).polygon]
+    return shapely.union_all(parts)
+
+
+@pytest.mark.parametrize("traffic_side", ["right", "left"])
+def test_every_lane_lies_in_the_paved_area(tmp_path, traffic_side):
+    from model.traffic.network import write_network
+    from model.traffic.sumo import find_sumo
+
+    data = document()
+    data["roundabout"]["traffic"] = traffic_side
+    ra = parse_scenario(data).ocp.road.roundabout
+    net = sumolib.net.readNet(str(write_network(ra, tmp_path, find_sumo().netconvert)), withInternal=True)
+    paved = paved_area(ra)
+    lanes = [lane for e in net.getEdges(withInternal=True) for lane in e.getLanes()]
+    assert len(lanes) >= 3 * len(ra.legs)
+    for lane in lanes:
+        poly = LineString(lane.getShape()).buffer(lane.getWidth() / 2, cap_style="flat")
+        outside = poly.difference(paved)
+        worst = max((paved.distance(shapely.Point(p)) for p in shapely.get_coordinates(outside)), default=0.0)
+        assert worst <= 0.5, (lane.getID(), worst)
+    ring = [e for e in net.getEdges() if e.getID().startswith("ring")]
+    # circulation: counter-clockwise under right-hand traffic, clockwise under left-hand
+    a, b = np.array(ring[0].getShape()[0]), np.array(ring[0].getShape()[1])
+    d = b - a
+    assert np.sign(a[0] * d[1] - a[1] * d[0]) == (1 if traffic_side == "right" else -1)
+    assert net.getRoundabouts(), "the ring is declared a roundabout"
+
+
+def test_routes_follow_the_nth_exit():
+    from model.traffic.network import route_edges
+
+    ra = parse_scenario(document()).ocp.road.roundabout
+    assert route_edges(ra, 0, 1) == ["in0", "ring0", "out1"]  # legs at 180, 270, 0, 90 degrees: ccw
+    assert route_edges(ra, 0, 4) == ["in0", "ring0", "ring1", "ring2", "ring3", "out0"]
+
+
+@pytest.fixture(scope="module")
+def sumo_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("traffic") / "run"
+    code = main(["traffic", str(EXAMPLE), "--out", str(out), "--driver", "sumo"])
+    return code, out
+
+
+@pytest.fixture(scope="module")
+def autopilot_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("traffic") / "autopilot"
+    code = main(["traffic", str(EXAMPLE), "--out", str(out), "--driver", "autopilot"])
+    return code, out
+
+
+@pytest.fixture(params=["sumo", "autopilot"])
+def any_run(request):
+    return request.getfixturevalue(f"{request.param}_run")
+
+
+def test_a_sumo_driver_run_writes_the_contract(sumo_run):
+    code, out = sumo_run
+    summary = json.loads((out / "summary.json").read_text())
+    keys = ("driver arrived travel_time free_flow_time delay entry_wait collisions min_distance min_clearance "
+            "max_braking_caused others_time_loss others_time_loss_without_truck energy solve_seconds_max "
+            "realtime_factor sumo_version seed").split()  # fmt: skip
+    assert set(keys) <= set(summary)
+    assert summary["driver"] == "sumo" and summary["sumo_version"] == "1.28.0"
+    assert code == (0 if summary["ok"] else 1)
+    assert summary["arrived"] and summary["travel_time"] > 5.0
+    assert summary["other_vehicles"] > 0
+    rows = list(csv.DictReader((out / "traffic.csv").open()))
+    assert rows and set(rows[0]) == {"t", "id", "type", "x", "y", "heading", "speed", "length", "width"}
+    traj = list(csv.DictReader((out / "trajectory.csv").open()))
+    assert float(traj[0]["t"]) == pytest.approx(20.0)
+    assert list(traj[0]) == ["t", "x", "y", "theta", "phi", "u1", "u2"]
+    for name in ("net.net.xml", "routes.rou.xml", "run.sumocfg"):
+        assert (out / "sumo" / name).exists()
+    assert 'id="truck"' in (out / "sumo" / "routes.rou.xml").read_text()
+    assert 'depart="19.90"' in (out / "sumo" / "routes.rou.xml").read_text()
+
+
+def test_the_replay_loop_reproduces_traffic_csv(sumo_run):
+    """The contract's loop, written here independently of model.traffic, on DIR/sumo and trajectory.csv."""
+
+    import traci
+
+    _, out = sumo_run
+    traj = list(csv.DictReader((out / "trajectory.csv").open()))
+    front = 8.0 - 1.5
+    rows = {round(float(r["t"]), 6): r for r in traj}
+    t_last = max(rows)
+    seen = []
+    traci.start(["sumo", "-c", str(out / "sumo" / "run.sumocfg")])
+    try:
+        while traci.simulation.getTime() < t_last - 1e-9:
+            t_next = round(traci.simulation.getTime() + 0.1, 6)
+            if t_next in rows and "truck" in traci.vehicle.getIDList():
+                r = rows[t_next]
+                th = float(r["theta"])
+                x, y = float(r["x"]) + front * math.cos(th), float(r["y"]) + front * math.sin(th)
+                traci.vehicle.moveToXY("truck", "", -1, x, y, 90 - math.degrees(th), keepRoute=2)
+            traci.simulationStep()
+            t = round(traci.simulation.getTime(), 6)
+            for vid in traci.vehicle.getIDList():
+                if vid != "truck":
+                    seen.append((t, vid, traci.vehicle.getPosition(vid)))
+    finally:
+        traci.close()
+    recorded = list(csv.DictReader((out / "traffic.csv").open()))
+    assert len(seen) == len(recorded) > 0
+    for (t, vid, (fx, fy)), r in zip(seen, recorded, strict=True):
+        assert (t, vid) == (float(r["t"]), r["id"])
+        h, half = float(r["heading"]), float(r["length"]) / 2
+        assert math.hypot(fx - half * math.cos(h) - float(r["x"]), fy - half * math.sin(h) - float(r["y"])) < 1e-6
+
+
+def test_sumo_not_installed_exits_2_naming_the_package(tmp_path, capsys, monkeypatch):
+    import importlib
+
+    real = importlib.import_module
+
+    def without_sumo(name, *args):
+        if name == "sumo":
+            raise ImportError(name)
+        return real(name, *args)
+
+    monkeypatch.setattr(importlib, "import_module", without_sumo)
+    assert main(["traffic", str(EXAMPLE), "--out", str(tmp_path / "out"), "--driver", "sumo"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "eclipse-sumo" in err[0] and "pip install" in err[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_runs_write_runs_csv_and_the_means(tmp_path):
+    data = (
+        EXAMPLE.read_text().replace("time_limit = 60.0", "time_limit = 30.0").replace("warmup = 20.0", "warmup = 10.0")
+    )
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(data)
+    out = tmp_path / "out"
+    code = main(["traffic", str(scenario), "--out", str(out), "--driver", "sumo", "--runs", "2"])
+    summary = json.loads((out / "summary.json").read_text())
+    runs = list(csv.DictReader((out / "runs.csv").open()))
+    assert [int(r["seed"]) for r in runs] == [0, 1]
+    assert summary["runs"] == 2 and code == (0 if summary["ok"] else 1)
+    assert summary["min_distance"] == pytest.approx(min(float(r["min_distance"]) for r in runs))
+    loss = [float(r["others_time_loss"]) for r in runs]
+    assert summary["others_time_loss"] == pytest.approx(np.mean(loss))
+    assert (out / "run-1" / "sumo" / "run.sumocfg").read_text().count('<seed value="1"/>') == 1
+
+
+def test_encounter_counts_an_overlap_and_measures_the_exact_distance():
+    """A car 3 m beside the truck's side, then overlapping its front corner: distance and collision, exactly."""
+    from model.traffic.cosim import Pass
+    from model.traffic.run import encounter, other_corners
+
+    scenario = parse_scenario(document())
+    cols = {"t": np.array([20.0, 20.1]), "x": np.zeros(2), "y": np.zeros(2), "theta": np.zeros(2), "phi": np.zeros(2)}
+    # truck body: x in [-1.5, 6.5], y in [-1.25, 1.25]; car 4 x 2 centred at (2, 1.25 + 3 + 1): gap 3 m
+    beside = (20.0, "car", "passenger", 2.0, 5.25, 0.0, 5.0, 4.0, 2.0)
+    corner = (20.1, "car", "passenger", 7.0, 1.5, math.pi / 2, 5.0, 4.0, 2.0)
+    scored = Pass(rows=[beside, corner], braking={20.0: {"car": 6.0}, 20.1: {"car": 1.0}})
+    got = encounter(scenario, cols, scored)
+    assert got["collisions"] == 1
+    assert got["min_distance"] < 0.0
+    assert got["max_braking_caused"] == 6.0
+    only_beside = encounter(scenario, cols, Pass(rows=[beside], braking={}))
+    assert only_beside["min_distance"] == pytest.approx(3.0)
+    assert shapely.Polygon(other_corners(corner)).area == pytest.approx(8.0)
+
+
+def test_the_autopilot_gives_way_keeps_its_distance_and_arrives(autopilot_run):
+    code, out = autopilot_run
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["driver"] == "autopilot" and summary["plan_valid"]
+    assert summary["arrived"] and summary["collisions"] == 0 and code == 0
+    assert summary["min_distance"] >= 1.0  # safety_distance of the example, exact rectangles
+    assert summary["min_clearance"] >= 0.0  # the plan's path: every body in its corridor
+    assert summary["travel_time"] >= summary["free_flow_time"] - 1e-9
+    assert summary["free_flow_time"] == pytest.approx(summary["plan_final_time"], abs=0.25)
+    assert 0 < summary["realtime_factor"] == pytest.approx(summary["solve_seconds_max"] / 0.1)
+    assert summary["realtime_factor"] <= 1.0  # measured 0.35-0.47 on 2 shared cores
+    traj = list(csv.DictReader((out / "trajectory.csv").open()))
+    speeds = np.array([float(r["u1"]) for r in traj])
+    assert speeds.min() >= 0.0 and speeds.max() <= 8.0 + 1e-9  # the plan's speeds, scaled by the rate in [0, 1]
+
+
+def test_the_autopilot_stands_before_the_line_when_a_car_circulates(tmp_path):
+    """A car on the ring just upstream of the entry: the truck, at the line, must not enter (stand or stop)."""
+    from model.problem.scenario import load_scenario
+    from model.traffic.autopilot import Autopilot, Plan, predict
+
+    scenario = load_scenario(EXAMPLE)
+    ra = scenario.ocp.road.roundabout
+    # a straight plan along the entry lane into the ring: x from -50 to -10 at y = -2, heading +x
+    t = np.linspace(0.0, 5.0, 51)
+    cols = {"x": -50.0 + 8.0 * t, "y": np.full_like(t, -2.0), "theta": np.zeros_like(t), "phi": np.zeros_like(t),
+            "u1": np.full_like(t, 8.0), "u2": np.zeros_like(t)}  # fmt: skip
+    pilot = Autopilot(scenario, Plan(t, cols), front=6.5)
+    assert math.hypot(-50.0 + 8.0 * pilot.give_way + 6.5, -2.0) == pytest.approx(ra.outer_radius + 1.0, abs=0.05)
+    pilot.s = pilot.give_way - 0.05
+    pilot.rate = 0.2
+    r = 17.0  # ring centre line; a car at 7 m/s counter-clockwise, 30 degrees before the entry (180 deg)
+    a = math.radians(150.0)
+    car = (0.0, "car", "passenger", r * math.cos(a), r * math.sin(a), a + math.pi / 2, 7.0, 4.5, 1.8)
+    previous = a + math.pi / 2 - 7.0 / r * 0.1
+    name, _ = pilot.decide([predict(car, previous, 0.1)], 0.1)
+    assert name in ("stop at the line", "stand")
+    assert pilot.s <= pilot.give_way
+    free = Autopilot(scenario, Plan(t, cols), front=6.5)
+    free.s, free.rate = pilot.give_way - 0.05, 0.2
+    assert free.decide([], 0.1)[0] == "rate 1"
+
+
+def test_export_sumo_writes_a_config_that_sumo_runs(tmp_path):
+    import subprocess
+
+    from model.traffic.sumo import find_sumo
+
+    out = tmp_path / "export"
+    assert main(["export-sumo", str(EXAMPLE), "--out", str(out)]) == 0
+    for name in ("net.net.xml", "routes.rou.xml", "run.sumocfg"):
+        assert (out / name).exists()
+    done = subprocess.run([find_sumo().sumo, "-c", str(out / "run.sumocfg"), "--end", "30"], capture_output=True)
+    assert done.returncode == 0, done.stderr
+    net = sumolib.net.readNet(str(out / "net.net.xml"))
+    x0, y0, _, _ = net.getBoundary()
+    assert x0 < -50.0 and y0 < -50.0  # the scenario's coordinates, not shifted to the origin
+
+
+def test_left_hand_traffic_a_sumo_run_arrives_by_its_exit(tmp_path):
+    scenario = tmp_path / "left.toml"
+    text = EXAMPLE.read_text().replace('traffic = "right"', 'traffic = "left"')
+    text = text.replace("warmup = 20.0", "warmup = 10.0").replace("time_limit = 60.0", "time_limit = 30.0")
+    scenario.write_text(text)
+    out = tmp_path / "out"
+    main(["traffic", str(scenario), "--out", str(out), "--driver", "sumo"])
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["arrived"] and summary["exit_taken"] == 2
+    traj = list(csv.DictReader((out / "trajectory.csv").open()))
+    assert float(traj[0]["y"]) == pytest.approx(2.0)  # left-hand: the entry lane of the leg at 180 deg is at y > 0
