@@ -194,10 +194,10 @@ def shadow(mpc: MPC, peer: OptiPeer) -> None:
     queue = []
     original = mpc.horizon.set_problem
 
-    def set_problem(start, length, free, target, weights, disturbance=None):
+    def set_problem(start, length, free, target, weights, disturbance=None, times=None):
         d = None if disturbance is None else np.array(disturbance, dtype=float)
         queue.append((dict(start), length, free, dict(target), dict(weights), d))
-        original(start, length, free, target, weights, disturbance)
+        original(start, length, free, target, weights, disturbance, times)
 
     mpc.horizon.set_problem = set_problem
     original_step = mpc.make_step

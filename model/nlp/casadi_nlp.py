@@ -254,6 +254,46 @@ class CasadiNLP(NLP):
         """For each row of the reduced NLP (Ipopt's g), its index in ``constraints`` (the model's rows)."""
         return self._rows.copy()
 
+    def columns_of(self, component) -> np.ndarray:
+        """The columns (Ipopt's x) of a Var component's entries, in the component's index order.
+
+        Parameters
+        ----------
+        component : pyomo Var component (indexed or scalar), or its name on the model
+
+        Returns
+        -------
+        ndarray of int
+            One per entry: its column in the reduced NLP, -1 for an entry that is fixed or that
+            the presolve eliminated (a defined variable).
+        """
+        comp = self.model.component(component) if isinstance(component, str) else component
+        if not hasattr(self, "_column_of"):
+            where = np.full(len(self.variables), -1)
+            where[self._cols] = np.arange(len(self._cols))
+            self._column_of = {id(v): int(where[i]) for i, v in enumerate(self.variables)}
+        return np.array([self._column_of.get(id(v), -1) for v in comp.values()], dtype=int)
+
+    def rows_of(self, component) -> np.ndarray:
+        """The rows (Ipopt's g) of a Constraint component's entries, in the component's index order.
+
+        Parameters
+        ----------
+        component : pyomo Constraint component (indexed or scalar), or its name on the model
+
+        Returns
+        -------
+        ndarray of int
+            One per entry: its row in the reduced NLP, -1 for an inactive entry or one the presolve
+            turned into a bound or a definition.
+        """
+        comp = self.model.component(component) if isinstance(component, str) else component
+        if not hasattr(self, "_row_of"):
+            where = np.full(len(self.constraints), -1)
+            where[self._rows] = np.arange(len(self._rows))
+            self._row_of = {id(c): int(where[i]) for i, c in enumerate(self.constraints)}
+        return np.array([self._row_of.get(id(c), -1) for c in comp.values()], dtype=int)
+
     def nnz_jacobian(self) -> int:
         return len(self._jac_rc[0])
 

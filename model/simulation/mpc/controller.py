@@ -1,9 +1,11 @@
 """Nonlinear MPC: the scenario's own OCP re-solved at every sample, warm-started, in real time.
 
-One Pyomo/CasADi model of the horizon is built at construction (``HorizonModel``); a step only
-changes its mutable Params (start, horizon length, terminal target), runs Ipopt on the built NLP
-and reads the plan out of the primal vector (no validation, no certificate: they cost more than
-the solve).
+The horizon problem (``horizon.HorizonModel``, built once) is the transcription's receding-horizon
+model (``model.direct.options``); the prediction model and the disturbance estimate are
+``estimator.DisturbanceEstimator``; this module is the controller that joins them: a step only
+changes the horizon's mutable Params (start, horizon length, terminal target, disturbance), solves
+the built NLP and reads the plan out of the primal vector (no validation, no certificate: they
+cost more than the solve).
 
 The horizon problem (``horizon`` intervals, or the scenario's own N when "shrinking"):
 
@@ -27,9 +29,9 @@ The pass-direction constraint is left out: the warm start and the terminal targe
 vehicle on the reference's side of the obstacle, and a sign constraint on the swept angle must
 not make a disturbed step infeasible.
 
-Each step starts Ipopt from the previous iterate interpolated onto the new grid in time (primal;
-its tail beyond the old horizon continued by the nominal model) and from its multipliers moved the
-same way (duals), with an iteration cap and a wall-time budget. A step stopped early (wall time,
+Each step starts from the previous iterate interpolated onto the new grid in time (primal; its
+tail beyond the old horizon continued by the prediction model) and from its multipliers moved the
+same way (duals); the step is warm-started Ipopt with an iteration cap and a wall-time budget. A step stopped early (wall time,
 iteration cap, or any other non-converged stop) whose iterate satisfies the constraints to
 ``feasible_inf_pr`` relative to the scene (``MPC._violation``) is used and counted as
 ``truncated``; only a step without such an iterate is ``failed``. The control sent is the plan's
@@ -37,19 +39,8 @@ mean over the sample it acts on (the plan's controls are piecewise linear betwee
 holds one value over the sample). In the last ``stop_samples`` samples, or when a step fails
 (``failed``), the controller follows the last usable plan; after the plan's end it sends zero.
 
-Offset-free MPC (Pannocchia & Rawlings 2003; Maeder, Borrelli & Morari 2009; by default for a
-fixed final time only, ``MPCSettings.offset_free``): the prediction model
-is x' = f(x, u) + d with a constant disturbance d on the rates of the position and heading states
-(mutable Params of the built model, so the CasADi NLP is built once). At each sample d is updated
-from the prediction error over the last ``estimator_window`` samples: x_pred is the measurement
-then, carried to now under the controls applied since by f + d_hat (RK4); with h that time,
-d_hat <- d_hat + alpha (y - x_pred) / h, each component saturated at ``disturbance_share`` of the
-largest rate of that state along the reference. A window of 1 is the one-step error; the default 3
-divides the measurement noise in (y - x_pred) / h by 3 (real truck: 3 cm of noise at 0.1 s is
-0.4 m/s in a one-step rate, as large as the crosswind), measured to end closer on both study
-geometries (alpha 0.3 / 0.5, window 1 / 3). The same model f + d_hat predicts through the pending
-(delayed) controls and continues a plan's tail. Undisturbed, the prediction error is the
-integrator's only, and d_hat stays ~0.
+Offset-free MPC (by default for a fixed final time only, ``MPCSettings.offset_free``): see
+``estimator``.
 """
 
 from __future__ import annotations
@@ -57,20 +48,16 @@ from __future__ import annotations
 import copy
 import math
 import time
-from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
-import pyomo.environ as pyo
 
-from model.direct.resolve import WARM_OPTIONS
 from model.direct.solution import Solution
-from model.direct.solve import Start, load_start, paused_gc
-from model.direct.transcription import build_model
-from model.nlp.casadi_nlp import CasadiNLP
-from model.nlp.ipopt import IpoptResult, run_ipopt
+from model.direct.solve import Start, load_start
+from model.nlp.ipopt import IpoptResult
 from model.problem.closed_loop import ControlSettings, Disturbance
-from model.problem.ocp import OCP
+from model.simulation.mpc.estimator import DisturbanceEstimator
+from model.simulation.mpc.horizon import HorizonModel, Plan
 
 USABLE = ("optimal", "acceptable")
 LIMIT_CODES = (-1, -4, -5)  # Ipopt: iteration limit, CPU time, wall time (-5 reads "solver_error" in ipopt.py)
@@ -147,275 +134,6 @@ class MPCSettings:
     estimator_window: int = 3
 
 
-@dataclass
-class Plan:
-    """One solved horizon: node times (absolute), the NLP's primal and dual vectors."""
-
-    times: np.ndarray
-    x: np.ndarray
-    mult_g: np.ndarray
-    mult_x_L: np.ndarray
-    mult_x_U: np.ndarray
-    values: dict[str, np.ndarray]
-
-    def mean(self, name: str, start: float, end: float) -> float:
-        """The mean of a node variable (piecewise linear in time) over [start, end], clipped to the plan."""
-        a, b = max(start, self.times[0]), min(end, self.times[-1])
-        if b <= a:
-            return float(np.interp(a, self.times, self.values[name]))
-        inside = self.times[(self.times > a) & (self.times < b)]
-        ts = np.concatenate([[a], inside, [b]])
-        return float(np.trapezoid(np.interp(ts, self.times, self.values[name]), ts) / (b - a))
-
-
-class HorizonModel:
-    """The horizon OCP built once: Params for the start, the horizon length and the terminal target.
-
-    Parameters
-    ----------
-    ocp : OCP
-        The scenario's problem (not modified).
-    intervals : int
-        Trapezoid intervals of the horizon.
-    scales : dict
-        Scale of each state's terminal error (m for positions, rad for angles).
-    cost_scales : tuple of float
-        (final time, energy) that normalise the cost to about 1.
-    settings : MPCSettings
-    path_length : float
-        The reference's path length (m): normalises the keep-out slacks.
-    """
-
-    def __init__(self, ocp: OCP, intervals: int, scales: dict[str, float], cost_scales: tuple[float, float],
-                 settings: MPCSettings, path_length: float):  # fmt: skip
-        self.ocp, self.n, self.settings = ocp, intervals, settings
-        self.states, self.controls = ocp.vehicle.states, ocp.vehicle.controls
-        self.free_time = ocp.cost.free_final_time
-        self.scales = np.array([scales[k] for k in self.states])
-        with paused_gc():
-            m = build_model(ocp, intervals, passing=None, relax=True)
-            self._soften(m, scales, cost_scales, path_length)
-            self._add_disturbance(m)
-            self.model = m
-            self.nlp = CasadiNLP(m)
-        self._layout()
-
-    # -- construction -------------------------------------------------------------------
-    def _soften(self, m: pyo.ConcreteModel, scales: dict, cost_scales: tuple[float, float], length: float) -> None:
-        """Replace the objective, the final conditions and the keep-out rows by their soft forms."""
-        for comp in (m.objective, getattr(m, "violation", None), *(m.component(f"final_{k}") for k in self.ocp.final)):
-            if comp is not None:
-                comp.deactivate()
-        slacks = self._soft_keep_out(m)
-        slacks += [v[t] for v in getattr(m, "slacks", []) for t in m.nodes]  # road bodies (relax=True)
-        penalty = self._soft_target(m, scales)
-        m.time_weight = pyo.Param(mutable=True, initialize=1.0 if self.free_time else 0.0)
-        m.energy_weight = pyo.Param(mutable=True, initialize=self.settings.time_energy if self.free_time else 1.0)
-        m.mpc_objective = pyo.Objective(
-            expr=m.time_weight * m.tf / cost_scales[0]
-            + m.energy_weight * _energy(m, self.ocp) / cost_scales[1]
-            + penalty
-            + self.settings.obstacle_l1 / length * pyo.quicksum(slacks),
-            sense=pyo.minimize,
-        )
-
-    def _add_disturbance(self, m: pyo.ConcreteModel) -> None:
-        """dX/dtau = Tf (f(X, U) + d_hat): a mutable Param d_hat per state (zero: the nominal model)."""
-        m.d_hat = pyo.Param(list(self.states), mutable=True, initialize=0.0)
-        for name in self.states:
-            ode = m.component(f"ode_{name}")
-            for t in ode:
-                lhs, rhs = ode[t].expr.args
-                ode[t].set_value(lhs == rhs + m.tf * m.d_hat[name])
-
-    def _soft_keep_out(self, m: pyo.ConcreteModel) -> list:
-        """|p - c| >= R - s with a slack 0 <= s <= R (metres) per obstacle and node; the slacks."""
-        m.obstacle.deactivate()
-        px, py = self.ocp.vehicle.position
-        X, Y = m.component(px), m.component(py)
-        m.keep_out_slack = pyo.Var(m.obstacle_set, m.tau, bounds=lambda _m, i, t: (0.0, pyo.value(m.obstacle_R[i])),
-                                   initialize=0.0)  # fmt: skip
-
-        def keep_out(_m, i, t):
-            gap = m.obstacle_R[i] - m.keep_out_slack[i, t]
-            return (X[t] - m.obstacle_cx[i]) ** 2 + (Y[t] - m.obstacle_cy[i]) ** 2 >= gap**2
-
-        m.soft_obstacle = pyo.Constraint(m.obstacle_set, m.tau, rule=keep_out)
-        return [m.keep_out_slack[i, t] for i in m.obstacle_set for t in m.tau]
-
-    def _soft_target(self, m: pyo.ConcreteModel, scales: dict):
-        """(X_k(end) - target_k) / scale_k = above_k - below_k; the weighted L1 + quadratic penalty."""
-        s = self.settings
-        m.state_set = pyo.Set(initialize=list(self.states), ordered=True)
-        m.target = pyo.Param(m.state_set, mutable=True, initialize=0.0)
-        m.target_weight = pyo.Param(m.state_set, mutable=True, initialize=1.0)
-        m.above = pyo.Var(m.state_set, bounds=(0.0, None), initialize=0.0)
-        m.below = pyo.Var(m.state_set, bounds=(0.0, None), initialize=0.0)
-        end = m.nodes[-1]
-
-        def terminal(_m, k):
-            return (m.component(k)[end] - m.target[k]) / scales[k] == m.above[k] - m.below[k]
-
-        m.terminal = pyo.Constraint(m.state_set, rule=terminal)
-        return sum(
-            m.target_weight[k] * (s.terminal_l1 * (m.above[k] + m.below[k])
-                                  + s.terminal_quadratic * (m.above[k] - m.below[k]) ** 2)
-            for k in self.states
-        )  # fmt: skip
-
-    def _layout(self) -> None:
-        """Where each primal column and each row of the reduced NLP sits in time (fraction of the horizon)."""
-        nlp, n = self.nlp, self.n
-        saved = [v.value for v in nlp.variables]
-        for i, v in enumerate(nlp.variables):
-            v.set_value(float(i), skip_validation=True)
-        cols = np.rint(nlp.init_primals()).astype(int)
-        for v, val in zip(nlp.variables, saved, strict=True):
-            v.set_value(val, skip_validation=True)
-        self.columns = TimeLayout(np.array([_fraction(nlp.variables[c], n) for c in cols]), n)
-        rows = nlp.constraint_rows()  # the reduced NLP's rows among nlp.constraints
-        self.rows = TimeLayout(np.array([_fraction(nlp.constraints[r], n) for r in rows]), n)
-        position = {id(v): j for j, v in enumerate(nlp.variables[c] for c in cols)}
-        self.node_cols = {
-            name: np.array([position[id(self.model.component(name)[t])] for t in self.model.nodes])
-            for name in (*self.states, *self.controls)
-        }
-        self.tf_col = position.get(id(self.model.tf)) if self.free_time else None
-        m = self.model
-        self.above_cols = np.array([position[id(m.above[k])] for k in self.states])
-        self.below_cols = np.array([position[id(m.below[k])] for k in self.states])
-        self.keep_out_cols = np.array([[position[id(m.keep_out_slack[i, t])] for t in m.nodes] for i in m.obstacle_set],
-                                      dtype=int).reshape(-1, len(m.nodes))  # fmt: skip
-
-    # -- a step -----------------------------------------------------------------------------
-    def set_problem(self, start: dict[str, float], length: float, free: bool, target: dict[str, float],
-                    weights: dict[str, float], disturbance: np.ndarray | None = None) -> None:  # fmt: skip
-        """Initial state, horizon length (a fixed value, or a guess if ``free``), terminal target and
-        the disturbance on the state rates (state order; None: zero)."""
-        m = self.model
-        d = np.zeros(len(self.states)) if disturbance is None else disturbance
-        for name, val in zip(self.states, d, strict=True):
-            m.d_hat[name].set_value(float(val))
-        for name, val in start.items():
-            lo, hi = self.ocp.bounds.get(name, (-math.inf, math.inf))
-            m.component(f"initial_{name}_value").set_value(min(max(val, lo), hi))
-        for name in self.states:
-            m.target[name] = target[name]
-            m.target_weight[name] = weights[name]
-        if self.free_time:  # a fixed horizon's running cost is the energy alone; a free one's the time
-            m.tf.setlb(1e-3 if free else length)
-            m.tf.setub(None if free else length)
-            m.time_weight.set_value(1.0 if free else 0.0)
-            m.energy_weight.set_value(self.settings.time_energy if free else 1.0)
-        else:
-            m.tf.set_value(length)
-        self.nlp.refresh_parameters()
-
-    def fill_slacks(self, x: np.ndarray) -> None:
-        """Set the terminal and keep-out slacks of a primal vector to match its node values (in place)."""
-        m = self.model
-        end = np.array([x[self.node_cols[k][-1]] for k in self.states])
-        target = np.array([float(m.target[k].value) for k in self.states])
-        err = (end - target) / self.scales
-        x[self.above_cols] = np.maximum(err, 0.0) + 1e-8
-        x[self.below_cols] = np.maximum(-err, 0.0) + 1e-8
-        px, py = self.ocp.vehicle.position
-        X, Y = x[self.node_cols[px]], x[self.node_cols[py]]
-        for i, cols in zip(m.obstacle_set, self.keep_out_cols, strict=True):
-            R = float(m.obstacle_R[i].value)
-            dist = np.hypot(X - float(m.obstacle_cx[i].value), Y - float(m.obstacle_cy[i].value))
-            x[cols] = np.clip(R - dist, 0.0, R) + 1e-8
-
-    def solve(self, x0: np.ndarray, duals: tuple | None, options: dict) -> IpoptResult:
-        """Run Ipopt on the built NLP from ``x0`` (and the multipliers ``duals``)."""
-        opts = {**(WARM_OPTIONS if duals is not None else {}), **options}
-        return run_ipopt(self.nlp, opts, x0=x0, duals=duals)
-
-    def violation(self, x: np.ndarray) -> float:
-        """The largest violation of a row's bounds at the primal vector ``x`` (absolute units)."""
-        nlp = self.nlp
-        nlp.set_primals(x)
-        g = nlp.evaluate_constraints()
-        return float(np.max(np.maximum(nlp.constraints_lb() - g, g - nlp.constraints_ub()), initial=0.0))
-
-    def horizon_length(self, x: np.ndarray, fixed: float) -> float:
-        """The horizon's length in a primal vector (the fixed value unless the final time is free)."""
-        return float(x[self.tf_col]) if self.tf_col is not None and self.free_time else fixed
-
-
-def _fraction(data, n: int) -> float:
-    """A variable's or row's place in the horizon in [0, 1]; NaN for one not tied to a node."""
-    comp = data.parent_component()
-    if not comp.is_indexed():
-        return math.nan
-    idx = data.index()
-    tau = idx[-1] if isinstance(idx, tuple) else idx
-    tau_indexed = any(getattr(s, "local_name", "") == "tau" for s in comp.index_set().subsets())
-    if tau_indexed:
-        return float(tau)
-    if isinstance(tau, int) and len(comp) == n:  # the trapezoid rows k = 1..N
-        return tau / n
-    return math.nan
-
-
-def _energy(m: pyo.ConcreteModel, ocp: OCP):
-    """1/2 integral of the squared controls by the trapezoid rule (the energy objective's own sum)."""
-    if not ocp.cost.free_final_time:
-        return m.objective.expr
-    nodes, n = m.nodes, len(m.nodes) - 1
-
-    def rate(t):
-        return sum(m.component(c)[t] ** 2 for c in ocp.vehicle.controls) / 2
-
-    inner = pyo.quicksum(rate(t) for t in nodes[1:-1])
-    return m.tf / n * (inner + (rate(nodes[0]) + rate(nodes[-1])) / 2)
-
-
-class TimeLayout:
-    """Where the entries of a vector laid out like the horizon (primals, rows) sit in time.
-
-    Parameters
-    ----------
-    fractions : ndarray
-        Each entry's place in the horizon in [0, 1] (node k at k / N), NaN if not tied to a node.
-    n : int
-        Intervals of the horizon.
-
-    Entries of one component are consecutive and ordered by node (Pyomo's order, kept by the
-    NLP's reduction): runs of consecutive nodes are found once, and an entry's neighbour at
-    node j is the entry of its own run at that node (clipped to the run).
-    """
-
-    def __init__(self, fractions: np.ndarray, n: int):
-        self.n = n
-        self.tied = np.flatnonzero(~np.isnan(fractions))
-        k = np.rint(fractions[self.tied] * n).astype(int)
-        new_run = np.ones(len(k), dtype=bool)
-        new_run[1:] = (np.diff(self.tied) != 1) | (np.diff(k) != 1)
-        run = np.cumsum(new_run) - 1
-        firsts = np.flatnonzero(new_run)
-        lasts = np.append(firsts[1:] - 1, len(k) - 1)
-        self.first, self.last = self.tied[firsts][run], self.tied[lasts][run]
-        self.k0 = k[firsts][run]
-        self.k = k
-
-    def move(self, vector: np.ndarray, old: np.ndarray, new: np.ndarray) -> np.ndarray:
-        """``vector`` on the uniform grid ``old`` (node times) moved onto the uniform grid ``new``.
-
-        Tied entries are interpolated linearly in time and held beyond the old grid's ends;
-        the others keep their value.
-        """
-        out = vector.copy()
-        times = new[0] + self.k / self.n * (new[-1] - new[0])
-        pos = np.clip((times - old[0]) / max(old[-1] - old[0], 1e-12) * self.n, 0, self.n)
-        lo = np.minimum(np.floor(pos).astype(int), self.n - 1)
-        w = pos - lo
-        src_lo = np.clip(self.first + lo - self.k0, self.first, self.last)
-        src_hi = np.clip(self.first + lo + 1 - self.k0, self.first, self.last)
-        out[self.tied] = (1 - w) * vector[src_lo] + w * vector[src_hi]
-        return out
-
-
 class MPC:
     """Nonlinear MPC of a scenario around its open-loop optimum (implements ``Controller``).
 
@@ -467,12 +185,11 @@ class MPC:
             self.horizon_time = math.inf
         self.horizon = HorizonModel(self.ocp, intervals, self._scales(), self._cost_scales(), self.settings,
                                     self._path_length())  # fmt: skip
-        self.rhs = self.ocp.vehicle.rhs_function()
-        self.d_hat = np.zeros(len(self.ocp.vehicle.states))
-        self.d_bound = self._disturbance_bound()
-        self._history: deque[tuple[float, np.ndarray, np.ndarray]] = deque(maxlen=self.settings.estimator_window)
         free = self.ocp.cost.free_final_time
         self.offset_free = not free if self.settings.offset_free is None else self.settings.offset_free
+        s = self.settings
+        self.estimator = DisturbanceEstimator(self.ocp.vehicle, self.reference, self.offset_free, s.estimator_gain,
+                                              s.disturbance_share, s.estimator_window)  # fmt: skip
         kind = "offset-free mpc" if self.offset_free else "mpc"
         self.name = f"{kind} (warm-started Ipopt, {intervals} intervals, {control.horizon} horizon)"
         self.failed = self.truncated = False
@@ -501,12 +218,15 @@ class MPC:
         """
         pending = np.asarray(pending, dtype=float).reshape(-1, len(self.ocp.vehicle.controls))
         y = np.asarray(y, dtype=float)
-        self._estimate(float(t), y)
+        self.estimator.update(float(t), y)
         u = self._control(float(t), y, pending)
-        applied = pending[0] if len(pending) else u
-        if np.all(np.isfinite(y)):  # (t, y, the control applied over the sample from t)
-            self._history.append((float(t), y.copy(), applied.copy()))
+        self.estimator.record(float(t), y, pending[0] if len(pending) else u)
         return u
+
+    @property
+    def d_hat(self) -> np.ndarray:
+        """The current disturbance estimate on the state rates (``estimator.d_hat``)."""
+        return self.estimator.d_hat
 
     def _control(self, t: float, y: np.ndarray, pending: np.ndarray) -> np.ndarray:
         """Solve from the state predicted through ``pending`` (or follow the plan near its end)."""
@@ -528,50 +248,7 @@ class MPC:
 
     def predict(self, y: np.ndarray, pending: np.ndarray, substeps: int = 10) -> np.ndarray:
         """The prediction model's state (f + d_hat) after the pending controls (RK4, ``substeps`` per sample)."""
-        x = y.copy()
-        for u in pending:
-            x = self._carry(x, u, self.dt, substeps)
-        return x
-
-    def _carry(self, x: np.ndarray, u: np.ndarray, duration: float, substeps: int = 10) -> np.ndarray:
-        """``x`` after ``duration`` with ``u`` held (RK4 of f + d_hat)."""
-        for _ in range(substeps):
-            x = self._rk4(x, u, duration / substeps)
-        return x
-
-    def _rk4(self, x: np.ndarray, u: np.ndarray, h: float) -> np.ndarray:
-        """One classical Runge-Kutta step of the prediction model f(x, u) + d_hat."""
-        k1 = self._rate(x, u)
-        k2 = self._rate(x + h / 2 * k1, u)
-        k3 = self._rate(x + h / 2 * k2, u)
-        k4 = self._rate(x + h * k3, u)
-        return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-
-    def _rate(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return self.rhs(x, u) + self.d_hat
-
-    # -- the disturbance estimate ----------------------------------------------------------
-    def _estimate(self, t: float, y: np.ndarray) -> None:
-        """d_hat <- sat(d_hat + alpha (y - x_pred) / h): the prediction error over the last
-        ``estimator_window`` samples (x_pred: the measurement then, carried by f + d_hat)."""
-        if not self.offset_free or not self._history or not np.all(np.isfinite(y)):
-            return
-        x, h = self._history[0][1], t - self._history[0][0]
-        if h <= 1e-12:
-            return
-        ends = [s[0] for s in list(self._history)[1:]] + [t]
-        for (t0, _, applied), t1 in zip(self._history, ends, strict=True):
-            x = self._carry(x, applied, t1 - t0)
-        step = self.settings.estimator_gain * (y - x) / h
-        self.d_hat = np.clip(self.d_hat + np.where(self.d_bound > 0, step, 0.0), -self.d_bound, self.d_bound)
-
-    def _disturbance_bound(self) -> np.ndarray:
-        """Per state: ``disturbance_share`` x its largest rate on the reference for the position and
-        heading states, 0 (not estimated) for the others."""
-        v, ref = self.ocp.vehicle, self.reference
-        estimated = [s in v.position or s.startswith("theta") for s in v.states]
-        rates = [np.max(np.abs(np.gradient(ref[s], ref["t"]))) if ref["t"].size > 1 else 0.0 for s in v.states]
-        return np.where(estimated, self.settings.disturbance_share * np.asarray(rates, dtype=float), 0.0)
+        return self.estimator.predict(y, pending, self.dt, substeps)
 
     # -- internals -----------------------------------------------------------------------
     def _follow(self, start: float) -> np.ndarray:
@@ -589,8 +266,8 @@ class MPC:
         length, free = self._horizon(start)
         target, weights = self._target(start + length, final=free or self._final_phase)
         hm = self.horizon
-        hm.set_problem(state, length, free, target, weights, self.d_hat)
         times = start + np.linspace(0.0, length, hm.n + 1)
+        hm.set_problem(state, length, free, target, weights, self.d_hat, times)
         prev = self.warm
         x0 = hm.columns.move(prev.x, prev.times, times)
         known, values = self._extended(prev, times[-1])
@@ -644,7 +321,7 @@ class MPC:
         v = self.ocp.vehicle
         u = np.array([values[c][-1] for c in v.controls])
         x = np.array([values[k][-1] for k in v.states])
-        tail = [x := self._rk4(x, u, h) for _ in range(extra)]
+        tail = [x := self.estimator.rk4(x, u, h) for _ in range(extra)]
         out = {k: np.append(values[k], [p[i] for p in tail]) for i, k in enumerate(v.states)}
         out |= {c: np.append(values[c], np.full(extra, values[c][-1])) for c in v.controls}
         return np.append(times, times[-1] + h * np.arange(1, extra + 1)), out
@@ -706,4 +383,4 @@ class MPC:
         return self.final_time, max(energy, 1e-9)
 
 
-__all__ = ["MPC", "HorizonModel", "MPCSettings", "Plan", "TimeLayout"]
+__all__ = ["MPC", "MPCSettings"]
