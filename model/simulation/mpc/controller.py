@@ -31,7 +31,11 @@ not make a disturbed step infeasible.
 
 Each step starts from the previous iterate interpolated onto the new grid in time (primal; its
 tail beyond the old horizon continued by the prediction model) and from its multipliers moved the
-same way (duals); the step is warm-started Ipopt with an iteration cap and a wall-time budget. A step stopped early (wall time,
+same way (duals). With ``MPCSettings(realtime=True)`` a step is one real-time iteration
+(``rti.RealTimeIteration``: one condensed SQP step on the built NLP's CasADi functions, the QP by a
+dense active-set solver, hot-started from the previous step's active set), used when its point
+satisfies the constraints to ``feasible_inf_pr``; otherwise, and by default, the step is
+warm-started Ipopt with an iteration cap and a wall-time budget. A step stopped early (wall time,
 iteration cap, or any other non-converged stop) whose iterate satisfies the constraints to
 ``feasible_inf_pr`` relative to the scene (``MPC._violation``) is used and counted as
 ``truncated``; only a step without such an iterate is ``failed``. The control sent is the plan's
@@ -58,6 +62,7 @@ from model.nlp.ipopt import IpoptResult
 from model.problem.closed_loop import ControlSettings, Disturbance
 from model.simulation.mpc.estimator import DisturbanceEstimator
 from model.simulation.mpc.horizon import HorizonModel, Plan
+from model.simulation.mpc.rti import RealTimeIteration
 
 USABLE = ("optimal", "acceptable")
 LIMIT_CODES = (-1, -4, -5)  # Ipopt: iteration limit, CPU time, wall time (-5 reads "solver_error" in ipopt.py)
@@ -103,6 +108,14 @@ class MPCSettings:
         The filter gain alpha of the disturbance estimate (0 < alpha <= 1).
     disturbance_share : float
         Saturation of each estimated rate, as a share of that state's largest rate on the reference.
+    realtime : bool
+        A step is one real-time iteration (``rti.RealTimeIteration``: one condensed SQP step on the
+        built NLP, the QP by ``qp_solver``), used when its point satisfies the constraints to
+        ``feasible_inf_pr``; warm-started Ipopt is the fallback when it does not.
+    qp_solver : str
+        The real-time iteration's dense QP solver (``rti.QP_SOLVERS``).
+    rti_regularization : float
+        The real-time iteration's proximal weight on each QP variable.
     estimator_window : int
         Samples of the prediction error: the measurement this many samples back is carried to now
         through the controls applied since, and the error divided by that time (1: the one-step
@@ -132,6 +145,9 @@ class MPCSettings:
     estimator_gain: float = 0.5
     disturbance_share: float = 0.3
     estimator_window: int = 3
+    realtime: bool = False
+    qp_solver: str = "qpoases"
+    rti_regularization: float = 1e-2
 
 
 class MPC:
@@ -197,6 +213,12 @@ class MPC:
         self.plan = self.warm = self._reference_plan()
         self._final_phase = False
         self.plan = self._solve(0.0, self.ocp.initial, record=False) or self.plan  # multipliers for step 1
+        self.rti = None
+        if self.settings.realtime:
+            self.rti = RealTimeIteration(self.horizon.model, self.horizon.nlp, self.ocp.vehicle.states,
+                                         self.settings.qp_solver, self.settings.rti_regularization)  # fmt: skip
+            self._rti_key = None
+            self.rti.step(self.plan.x)  # the QP solver's first (cold) active set, before the loop
 
     # -- the Controller protocol ---------------------------------------------------------
     def make_step(self, t: float, y: np.ndarray, pending: np.ndarray) -> np.ndarray:
@@ -260,7 +282,7 @@ class MPC:
 
     def _solve(self, start: float, state: dict[str, float], record: bool = True) -> Plan | None:
         """Set up and solve the horizon from ``state`` at ``start``; the new plan, or None if it failed."""
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         if not all(math.isfinite(v) for v in state.values()):
             raise ValueError("the measured state is not finite")
         length, free = self._horizon(start)
@@ -282,6 +304,11 @@ class MPC:
         if len(prev.mult_g):
             bounds = [hm.columns.move(z, prev.times, times) for z in (prev.mult_x_L, prev.mult_x_U)]
             duals = (hm.rows.move(prev.mult_g, prev.times, times), *bounds)
+        self._rti_attempt = None
+        if record and self.rti is not None:
+            plan = self._realtime(start, length, free, (target, weights), x0, duals, (t0, c0))
+            if plan is not None:
+                return plan
         options = {**self.settings.ipopt, **({"max_wall_time": self.settings.budget * self.dt} if record else {})}
         res = hm.solve(x0, duals, options)
         converged = res.status in USABLE
@@ -296,11 +323,45 @@ class MPC:
             self.final_time = float(plan.times[-1])
         if record:
             self.steps.append({"t": start, "seconds": time.perf_counter() - t0, "ipopt_seconds": res.seconds,
+                               "cpu_seconds": time.process_time() - c0,
                                "iterations": res.iterations, "status": res.status, "code": res.code,
                                "limit": res.code in LIMIT_CODES, "horizon": length, "used": plan is not None,
                                "truncated": self.truncated, "violation": violation,
                                "inf_pr": res.log[-1][2] if res.log else math.nan,
-                               "d_hat": self.d_hat.tolist()})  # fmt: skip
+                               "d_hat": self.d_hat.tolist(), "realtime": False,
+                               "rti": self._rti_attempt})  # fmt: skip
+        return plan
+
+    def _realtime(self, start: float, length: float, free: bool, goal: tuple, x0: np.ndarray, duals: tuple | None,
+                  clocks: tuple[float, float]) -> Plan | None:  # fmt: skip
+        """One real-time iteration from ``x0``: the plan if its point is usable, else None (the caller
+        falls back to Ipopt; the attempt is recorded in the step's ``rti`` entry)."""
+        key = (free, tuple(goal[1].values()))
+        if key != self._rti_key:  # the objective's Params changed: its Hessian with them
+            self.rti.refresh_hessian()
+            self._rti_key = key
+        step = self.rti.step(x0)
+        violation = self._violation(step.x)
+        self._rti_attempt = {"status": step.status, "seconds": step.seconds, "violation": violation,
+                             "qp_iterations": step.qp_iterations}  # fmt: skip
+        if not step.success or violation > self.settings.feasible_inf_pr:
+            return None
+        hm = self.horizon
+        empty = np.zeros(0)
+        mult = duals if duals is not None else (empty, empty, empty)
+        length = hm.horizon_length(step.x, length)
+        times = start + np.linspace(0.0, length, hm.n + 1)
+        values = {name: step.x[cols].copy() for name, cols in hm.node_cols.items()}
+        plan = Plan(times, step.x.copy(), *(np.asarray(z).copy() for z in mult), values)
+        self.warm = plan
+        self.truncated = False
+        if free:
+            self.final_time = float(times[-1])
+        self.steps.append({"t": start, "seconds": time.perf_counter() - clocks[0], "iterations": 1,
+                           "cpu_seconds": time.process_time() - clocks[1], "status": step.status,
+                           "code": 0, "limit": False, "horizon": length, "used": True, "truncated": False,
+                           "violation": violation, "d_hat": self.d_hat.tolist(), "realtime": True,
+                           "qp_iterations": step.qp_iterations})  # fmt: skip
         return plan
 
     def _violation(self, x: np.ndarray) -> float:

@@ -102,7 +102,7 @@ class HorizonModel:
             for comp in m.component_objects(kind, active=True if kind is pyo.Constraint else None, descend_into=True):
                 for data, j in zip(comp.values(), where(comp), strict=True):
                     if j >= 0:
-                        out[j] = _fraction(data, n)
+                        out[j] = node_fraction(data, n)
         self.columns, self.rows = TimeLayout(col_frac, n), TimeLayout(row_frac, n)
         self.node_cols = {name: nlp.columns_of(name) for name in (*self.states, *self.controls)}
         if any(np.any(c < 0) for c in self.node_cols.values()):
@@ -136,7 +136,7 @@ class HorizonModel:
         else:
             m.tf.set_value(length)
         self.set_node_times(np.linspace(0.0, length, self.n + 1) if times is None else np.asarray(times))
-        self.nlp.refresh_parameters()
+        self.nlp.refresh_parameters(variables=[m.tf] if self.free_time else [])  # tf: the only bounds that move
 
     def set_node_times(self, times: np.ndarray) -> None:
         """The hook for time-varying data: ``m.node_time`` per node, then each ``m.node_parameters``
@@ -179,8 +179,16 @@ class HorizonModel:
         return float(x[self.tf_col]) if self.tf_col is not None and self.free_time else fixed
 
 
-def _fraction(data, n: int) -> float:
-    """A variable's or row's place in the horizon in [0, 1]; NaN for one not tied to a node."""
+def node_fraction(data, n: int) -> float:
+    """A variable's or row's place in the horizon in [0, 1]; NaN for one not tied to a node.
+
+    Parameters
+    ----------
+    data : pyomo VarData or ConstraintData
+        An entry of a horizon model's component.
+    n : int
+        Intervals of the horizon (the trapezoid rows k = 1..N sit at k / N).
+    """
     comp = data.parent_component()
     if not comp.is_indexed():
         return math.nan
