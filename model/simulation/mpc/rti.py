@@ -17,8 +17,12 @@ and the accessors of named components):
   the states at nodes 1..N; the body-disc centres' definitions) are solved for them by one sparse LU,
   d_D = a + S z, so the QP's variables z are the independent columns only (controls, a free final
   time, the terminal slacks); columns fixed by their bounds (the start state) move to their bound;
-- the keep-out and body-row slacks are held at their current values in the step (their rows hard
-  at that value: a step never buys violation; Ipopt, the fallback, may);
+- the keep-out and body-row slacks are held at their current values in the step, with one elastic
+  variable sigma >= 0 shared by all their rows (priced at the slacks' largest price times the
+  number of those rows, so the QP uses it only where the rows cannot be met; SNOPT's elastic mode
+  in one variable); after the step each such row's own slack is raised by what the new point
+  lacks (one Newton step of the row in its slack), so the point satisfies those rows as the
+  NLP's soft rows do, at the price the NLP's objective sets;
 - the dense QP (about n_controls (N + 1) + 2 n_states variables) is solved by a dense active-set
   solver of the casadi wheel (``casadi.conic``: qpOASES by default, or DAQP).
 
@@ -81,7 +85,8 @@ class RealTimeIteration:
         self._partition(model, states)
         jac = nlp.evaluate_jacobian()
         self._jac_parts = self._split(jac.row, jac.col)
-        n_z = len(self.free)
+        self._elastic_entries(jac.row, jac.col)
+        n_z = len(self.free) + 1  # the last: the elastic variable
         n_rows = len(self.rest) + len(self.bounded_dep)
         opts = {"error_on_fail": False}
         if solver == "qpoases":
@@ -146,6 +151,16 @@ class RealTimeIteration:
                 parts[rname + cname] = (order, pattern.indices.copy(), pattern.indptr.copy(), shape)
         return parts
 
+    def _elastic_entries(self, rows: np.ndarray, cols: np.ndarray) -> None:
+        """The Jacobian entries of the held slacks: their rows (positions in R and in g) and columns."""
+        k = np.flatnonzero(np.isin(cols, self.held))
+        if len(np.unique(rows[k])) != len(k):
+            raise ValueError("a soft row with more than one slack")
+        rest_pos = np.full(self.nlp.n_constraints(), -1)
+        rest_pos[self.rest] = np.arange(len(self.rest))
+        self._soft_k, self._soft_rows, self._soft_cols = k, rows[k], cols[k]
+        self._soft_rest = rest_pos[rows[k]]
+
     def _block(self, data: np.ndarray, name: str) -> csc_matrix:
         order, indices, indptr, shape = self._jac_parts[name]
         return csc_matrix((data[order], indices, indptr), shape=shape)
@@ -199,20 +214,43 @@ class RealTimeIteration:
         uba = np.concatenate([uba, ubx[dep] - x[dep] - a[bd]])
         Hz, gz = self._condensed_cost(grad, S, a, d_other, free_pos)
         cols, width, big = others[free_pos], len(self.free), 1e20
+        A_qp = np.zeros((A.shape[0], width + 1))
+        A_qp[:, : len(free_pos)] = A
+        A_qp[self._soft_rest, width] = data[self._soft_k]  # the elastic column: each soft row's slack coefficient
+        gz[width] = float(np.max(grad[self.held], initial=0.0)) * len(self._soft_k)
+        lbz = _pad_bounds(np.clip(lbx[cols] - x[cols], -big, big), width + 1)
+        ubz = _pad_bounds(np.clip(ubx[cols] - x[cols], -big, big), width + 1)
+        ubz[width] = big if len(self._soft_k) else 0.0
         t_qp = time.perf_counter()
-        res = self.qp(h=Hz, g=gz, a=_pad(A, width), lba=np.clip(lba, -big, big), uba=np.clip(uba, -big, big),
-                      lbx=_pad_bounds(np.clip(lbx[cols] - x[cols], -big, big), width),
-                      ubx=_pad_bounds(np.clip(ubx[cols] - x[cols], -big, big), width))  # fmt: skip
+        res = self.qp(h=Hz, g=gz, a=A_qp, lba=np.clip(lba, -big, big), uba=np.clip(uba, -big, big), lbx=lbz, ubx=ubz)
         self.qp_seconds, self.prep_seconds = time.perf_counter() - t_qp, t_qp - t0
         stats = self.qp.stats()
-        z = np.asarray(res["x"]).ravel()[: len(free_pos)]
+        zs = np.asarray(res["x"]).ravel()
+        z, self.elastic = zs[: len(free_pos)], float(zs[width])
         d = np.zeros(len(x))
         d[others], d[cols], d[self.dep] = d_other, z, a + S @ z
         ok = bool(stats.get("success", False)) and bool(np.all(np.isfinite(d)))
         status = str(stats.get("return_status", "")) or ("solved" if ok else "failed")
         size = float(np.max(np.abs(d), initial=0.0))
         iterations = int(stats.get("iter_count", -1) or -1)
-        return StepResult(x + d if ok else x, ok, status, time.perf_counter() - t0, size, iterations)
+        new = self._repair(x + d, data) if ok else x
+        return StepResult(new, ok, status, time.perf_counter() - t0, size, iterations)
+
+    def _repair(self, x: np.ndarray, data: np.ndarray) -> np.ndarray:
+        """Raise each soft row's slack by what ``x`` lacks on the row (its coefficient from ``data``, the
+        Jacobian at the step's start), within the slack's bounds."""
+        if not len(self._soft_k):
+            return x
+        nlp = self.nlp
+        nlp.set_primals(x)
+        g = nlp.evaluate_constraints()
+        lack = np.maximum(nlp.constraints_lb()[self._soft_rows] - g[self._soft_rows], 0.0)
+        coef = data[self._soft_k]
+        raise_by = np.where(coef > 1e-12, lack / np.maximum(coef, 1e-12), 0.0)
+        out = x.copy()
+        cols = self._soft_cols
+        out[cols] = np.minimum(out[cols] + raise_by, nlp.primals_ub()[cols])
+        return out
 
     def _condensed_cost(self, grad, S, a, d_other, free_pos) -> tuple[np.ndarray, np.ndarray]:
         """H_z = T' H T + delta I and g_z = T' (grad + H t) for d = T z + t."""
@@ -225,15 +263,11 @@ class RealTimeIteration:
         Hz = S.T @ HT[dep] + HT[cols]
         Hz = (Hz + Hz.T) / 2 + self.delta * np.eye(len(cols))
         gz = S.T @ g_full[dep] + g_full[cols]
-        n_z = len(self.free)
+        n_z = len(self.free) + 1
         H_pad = np.eye(n_z)  # the QP's size is fixed: unused variables get a unit Hessian, zero bounds
         H_pad[: len(cols), : len(cols)] = Hz
+        H_pad[-1, -1] = self.delta  # the elastic variable
         return H_pad, np.pad(gz, (0, n_z - len(cols)))
-
-
-def _pad(A: np.ndarray, width: int) -> np.ndarray:
-    """``A`` with zero columns up to ``width``."""
-    return np.hstack([A, np.zeros((A.shape[0], width - A.shape[1]))])
 
 
 def _pad_bounds(b: np.ndarray, width: int) -> np.ndarray:
