@@ -116,6 +116,8 @@ class MPCSettings:
         The real-time iteration's dense QP solver (``rti.QP_SOLVERS``).
     rti_regularization : float
         The real-time iteration's proximal weight on each QP variable.
+    qp_options : dict
+        Options of the QP solver (``casadi.conic``'s plug-in options).
     estimator_window : int
         Samples of the prediction error: the measurement this many samples back is carried to now
         through the controls applied since, and the error divided by that time (1: the one-step
@@ -148,6 +150,7 @@ class MPCSettings:
     realtime: bool = False
     qp_solver: str = "qpoases"
     rti_regularization: float = 1e-2
+    qp_options: dict = field(default_factory=dict)
 
 
 class MPC:
@@ -216,7 +219,8 @@ class MPC:
         self.rti = None
         if self.settings.realtime:
             self.rti = RealTimeIteration(self.horizon.model, self.horizon.nlp, self.ocp.vehicle.states,
-                                         self.settings.qp_solver, self.settings.rti_regularization)  # fmt: skip
+                                         self.settings.qp_solver, self.settings.rti_regularization,
+                                         self.settings.qp_options)  # fmt: skip
             self._rti_key = None
             self.rti.step(self.plan.x)  # the QP solver's first (cold) active set, before the loop
 
@@ -361,7 +365,8 @@ class MPC:
                            "cpu_seconds": time.process_time() - clocks[1], "status": step.status,
                            "code": 0, "limit": False, "horizon": length, "used": True, "truncated": False,
                            "violation": violation, "d_hat": self.d_hat.tolist(), "realtime": True,
-                           "qp_iterations": step.qp_iterations})  # fmt: skip
+                           "qp_iterations": step.qp_iterations, "qp_seconds": step.qp_seconds,
+                           "rti_seconds": step.seconds})  # fmt: skip
         return plan
 
     def _violation(self, x: np.ndarray) -> float:

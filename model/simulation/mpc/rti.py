@@ -57,6 +57,7 @@ class StepResult:
     seconds: float
     step: float
     qp_iterations: int = -1
+    qp_seconds: float = 0.0
 
 
 class RealTimeIteration:
@@ -75,10 +76,12 @@ class RealTimeIteration:
         A dense ``casadi.conic`` plug-in (``QP_SOLVERS``).
     regularization : float
         The proximal term on every QP variable (in the NLP's own units).
+    options : dict, optional
+        Options of the QP plug-in (added to the defaults).
     """
 
     def __init__(self, model: pyo.ConcreteModel, nlp: CasadiNLP, states, solver: str = "qpoases",
-                 regularization: float = 1e-6):  # fmt: skip
+                 regularization: float = 1e-6, options: dict | None = None):  # fmt: skip
         if not ca.has_conic(solver):
             raise ValueError(f"casadi has no QP solver {solver!r}")
         self.nlp, self.delta, self.solver = nlp, float(regularization), solver
@@ -90,7 +93,8 @@ class RealTimeIteration:
         n_rows = len(self.rest) + len(self.bounded_dep)
         opts = {"error_on_fail": False}
         if solver == "qpoases":
-            opts |= {"printLevel": "none", "sparse": False}
+            opts |= {"printLevel": "none", "sparse": False, "hessian_type": "posdef"}
+        opts |= options or {}
         self.qp = ca.conic("rti", solver, {"h": ca.Sparsity.dense(n_z, n_z), "a": ca.Sparsity.dense(n_rows, n_z)},
                            opts)  # fmt: skip
         self._hz: np.ndarray | None = None
@@ -234,7 +238,7 @@ class RealTimeIteration:
         size = float(np.max(np.abs(d), initial=0.0))
         iterations = int(stats.get("iter_count", -1) or -1)
         new = self._repair(x + d, data) if ok else x
-        return StepResult(new, ok, status, time.perf_counter() - t0, size, iterations)
+        return StepResult(new, ok, status, time.perf_counter() - t0, size, iterations, self.qp_seconds)
 
     def _repair(self, x: np.ndarray, data: np.ndarray) -> np.ndarray:
         """Raise each soft row's slack by what ``x`` lacks on the row (its coefficient from ``data``, the
