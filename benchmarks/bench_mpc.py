@@ -36,9 +36,12 @@ import sys
 import time
 from pathlib import Path
 
-import casadi as ca
-import numpy as np
-from scipy.integrate import solve_ivp
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: the RTI's small dense algebra, no thread contention
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import casadi as ca  # noqa: E402
+import numpy as np  # noqa: E402
+from scipy.integrate import solve_ivp  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
