@@ -29,6 +29,25 @@ peer's, the ratio, whether the goal was reached (the loop's tolerance), the fina
 exact-rectangle corridor check at every sample (``model.analysis.bodies.clearances``: the smallest
 clearance of the bodies' exact rectangles to the exact corridor, and how many samples are below 0).
 Timings on a shared machine are noisy: the load average is printed before and after each case.
+
+Measured at 2a08fc4 (x86_64, 2 cores shared, load average 5-8: wall seconds are 3-4 times the CPU
+seconds; reference N = 100):
+
+| case | controller | steps (RTI/fallback/failed) | wall mean/max s | CPU mean/max s | Opti mean/max s | goal |
+|---|---|---|---|---|---|---|
+| truck | rti | 105 (105/0/0) | 0.081 / 0.183 | 0.018 / 0.044 | 0.52 / 12.7 | yes (1.4 mm) |
+| truck | ipopt | 105 (0/0/100) | 0.154 / 0.385 | 0.040 / 0.080 | 1.97 / 6.37 | no (60 m) |
+| semitrailer | rti | 132 (132/0/0) | 0.191 / 0.372 | 0.043 / 0.086 | 1.24 / 32.5 | yes (2.0 mm) |
+| semitrailer | ipopt | 132 (0/0/131) | 0.153 / 0.222 | 0.071 / 0.108 | 2.58 / 14.8 | no (61 m) |
+
+Exact corridor at every sample: no sample outside in any run (smallest clearance of the exact
+rectangles 0.122 / 0.126 / 0.052 / 0.145 m).
+
+(ipopt: at this load nearly every warm-started Ipopt step hits its wall-time budget, 0.8 x the
+sample, without a usable iterate, so the controller follows old plans; at load ~3 the same truck
+run had 17 failed steps, mean 0.078 s. The peer has no budget: its "unsolved" counts iteration-cap
+stops. The 10 ms mean / 30 ms worst target is not met here: the RTI's CPU time is 18 / 44 ms on the
+truck, 43 / 86 ms on the semitrailer; the dense QP (qpOASES) is about half of it.)
 """
 
 from __future__ import annotations
