@@ -1,6 +1,11 @@
 """Benchmark: NMPC per-step solve times in a nominal closed loop, against a plain CasADi Opti peer.
 
-Usage: python benchmarks/bench_mpc.py [--cases real-s1 real-s2 paper paper-fine road] [--no-peer]
+Usage: python benchmarks/bench_mpc.py [--cases real-s1 real-s2 paper paper-fine road road-truck road-semitrailer]
+       [--no-peer]
+
+The road cases with bodies ``road-truck`` and ``road-semitrailer`` (the roundabout at 10 Hz, a 4 s
+horizon, the real-time iteration and warm-started Ipopt, each beside a plain CasADi Opti peer of the
+same horizon problem) are benchmarks/bench_mpc_road.py's (its docstring; a table of their own).
 
 For each case (scenario, sample time, horizon 40, a disturbance or none) the truck is integrated
 accurately (scipy, rtol 1e-10) under a zero-order hold; ``model.simulation.mpc.MPC`` is called
@@ -31,9 +36,12 @@ import sys
 import time
 from pathlib import Path
 
-import casadi as ca
-import numpy as np
-from scipy.integrate import solve_ivp
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: the RTI's small dense algebra, no thread contention
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import casadi as ca  # noqa: E402
+import numpy as np  # noqa: E402
+from scipy.integrate import solve_ivp  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -50,6 +58,7 @@ CASES = {  # name: (scenario, sample time, speed gain, steering bias)
     "paper-fine": ("s2-case1", 0.05, 0.97, 0.005),
     "road": ("../roads/truck-straight-on", 0.1, 0.95, 0.02),  # 8 m body in the corridor: no peer
 }
+ROAD_CASES = {"road-truck": "truck", "road-semitrailer": "semitrailer"}  # benchmarks/bench_mpc_road.py
 
 
 def plant(d: float, gain: float, bias: float):
@@ -194,10 +203,10 @@ def shadow(mpc: MPC, peer: OptiPeer) -> None:
     queue = []
     original = mpc.horizon.set_problem
 
-    def set_problem(start, length, free, target, weights, disturbance=None):
+    def set_problem(start, length, free, target, weights, disturbance=None, times=None):
         d = None if disturbance is None else np.array(disturbance, dtype=float)
         queue.append((dict(start), length, free, dict(target), dict(weights), d))
-        original(start, length, free, target, weights, disturbance)
+        original(start, length, free, target, weights, disturbance, times)
 
     mpc.horizon.set_problem = set_problem
     original_step = mpc.make_step
@@ -284,7 +293,8 @@ def _warm() -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    every = list(CASES) + list(ROAD_CASES)
+    ap.add_argument("--cases", nargs="+", default=every, choices=every)
     ap.add_argument("--no-peer", action="store_true")
     args = ap.parse_args(argv)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
@@ -298,7 +308,7 @@ def main(argv: list[str] | None = None) -> int:
         sep += "---|---|---|---|---|"
     print(head)
     print(sep)
-    for name in args.cases:
+    for name in (c for c in args.cases if c in CASES):
         for r in run_case(name, not args.no_peer):
             line = (f"| {r['case']} | {r['N']} | {r['dt']:g} | {r['steps']} | {r['mean']:.4f} | {r['max']:.4f} | "
                     f"{r['rt']:.2f} | {r['it']} | {r['failed']} ({r['truncated']}) | "
@@ -312,6 +322,13 @@ def main(argv: list[str] | None = None) -> int:
                 du = f"{r['du']:.1e} ({r['du_max']:.1e})"
                 line += f" {r['peer_mean']:.4f} | {r['peer_max']:.4f} | {r['peer_it']:.1f} | {ratio} | {du} |"
             print(line, flush=True)
+    road = [ROAD_CASES[c] for c in args.cases if c in ROAD_CASES]
+    if road:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import bench_mpc_road
+
+        print()
+        bench_mpc_road.main(["--cases", *road, *(["--no-peer"] if args.no_peer else [])])
     return 0
 
 

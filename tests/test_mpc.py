@@ -277,3 +277,59 @@ def test_a_step_stopped_early_is_used_exactly_when_feasible(real, tolerance):
     assert feasible == (tolerance > 0)
     assert step["used"] == step["truncated"] == mpc.truncated == feasible
     assert mpc.failed == (not feasible)
+
+
+@pytest.fixture(scope="module")
+def road():
+    sc = load_scenario(ROOT / "workflows" / "roads" / "truck-straight-on.toml")
+    return sc.ocp.solve(intervals=sc.intervals)
+
+
+def rti_problem(mpc: MPC, start: float, push: float) -> np.ndarray:
+    """Set the horizon's problem at ``start`` from the plan's state pushed sideways; the shifted warm start."""
+    hm, plan = mpc.horizon, mpc.plan
+    state = {k: float(np.interp(start, plan.times, plan.values[k])) for k in hm.states}
+    state["y"] += push
+    length, free = mpc._horizon(start)
+    target, weights = mpc._target(start + length, final=free)
+    times = start + np.linspace(0.0, length, hm.n + 1)
+    hm.set_problem(state, length, free, target, weights, mpc.d_hat, times)
+    x0 = hm.columns.move(plan.x, plan.times, times)
+    for k, val in state.items():
+        x0[hm.node_cols[k][0]] = val
+    hm.fill_slacks(x0)
+    return x0
+
+
+def test_a_real_time_iteration_is_a_fixed_point_at_the_optimum_and_repairs_a_push(road):
+    """From the horizon's own optimum the condensed SQP step is (almost) zero; from a state pushed
+    0.2 m sideways one step brings the dynamics defects from decimetres to millimetres."""
+    mpc = MPC(road, ControlSettings(0.1, 40), settings=MPCSettings(realtime=True, budget=100.0))
+    hm = mpc.horizon
+    x0 = rti_problem(mpc, 0.0, 0.0)
+    res = hm.solve(x0, None, {"tol": 1e-10, "max_iter": 300})
+    assert res.status == "optimal"
+    mpc.rti.refresh_hessian()
+    still = mpc.rti.step(res.x)
+    assert still.success and still.step < 1e-3
+    pushed = rti_problem(mpc, 0.1, 0.2)
+    before = hm.violation(pushed)
+    step = mpc.rti.step(pushed)
+    assert step.success and before > 0.1
+    assert hm.violation(step.x) < 0.02 * before
+
+
+def test_real_time_steps_follow_the_road(road):
+    """Real-time iterations in the closed loop (pushed 0.2 m at two samples): each step is used,
+    most of them real-time iterations, and the controls stay finite and inside their bounds."""
+    mpc = MPC(road, ControlSettings(0.1, 40), settings=MPCSettings(realtime=True, budget=100.0))
+    cols = road.columns
+    for t in np.arange(0.0, 0.6, 0.1):
+        y = np.array([np.interp(t, cols["t"], cols[k]) for k in road.ocp.vehicle.states])
+        y[1] += 0.2 if t in (0.0, 0.3) else 0.0
+        u = mpc.make_step(float(t), y, np.zeros((0, 2)))
+        assert not mpc.failed and np.all(np.isfinite(u))
+        for c, val in zip(road.ocp.vehicle.controls, u, strict=True):
+            lo, hi = road.ocp.bounds[c]
+            assert lo - 1e-9 <= val <= hi + 1e-9
+    assert sum(s["realtime"] for s in mpc.steps) >= 4

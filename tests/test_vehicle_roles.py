@@ -220,9 +220,6 @@ def test_the_figures_draw_the_renamed_car_as_the_truck(disc_pair):
     assert "$v$" in labels and "$steer_{rate}$" in labels and "$p_{\\psi}$" in labels and "$u_1$" not in labels
 
 
-@pytest.mark.xfail(strict=True, reason="model/simulation/mpc.py (MPC._disturbance_bound) picks the estimated "
-                   "states by s.startswith('theta'): the car's heading psi is not estimated. Convert it to "
-                   "vehicle.roles.headings after the mpc package split, then drop this mark.")
 def test_the_mpc_drives_the_renamed_car_as_the_truck(disc_pair):
     (ts, truck), (cs, car) = disc_pair
     control = replace(ts.control, horizon=20)
@@ -252,7 +249,6 @@ EXEMPT = {
     "model/vehicles/": "the vehicles own their names",
     "model/nlp/": "the NLP knows no vehicle: 'x' is CasADi's decision vector",
     "derivations/paper/": "the seed paper's claims are about its truck, system (1), by its names",
-    "model/simulation/mpc.py": "being split into a package on another branch: convert after the merge",
     "model/direct/bodies.py": "Pyomo component names of a disc centre's coordinates (<tag>_x, <tag>_y), not states",
 }
 

@@ -19,6 +19,8 @@ import model.direct.trapezoid  # noqa: F401  (registers dae.trapezoid)
 from model.direct.bodies import DEFAULT_FORMULATION, add_body_constraints
 from model.direct.expressions import sympy_to_pyomo
 from model.direct.moving import add_moving_obstacles
+from model.direct.options import Horizon, TranscriptionOptions
+from model.problem.costs import Energy
 from model.problem.ocp import OCP
 from model.vehicles import sym
 
@@ -31,6 +33,7 @@ def build_model(
     passing: str | None = None,
     relax: bool = False,
     formulation: str = DEFAULT_FORMULATION,
+    options: TranscriptionOptions | None = None,
 ) -> pyo.ConcreteModel:
     """The discretised Pyomo model of ``ocp`` on ``intervals`` uniform trapezoid steps.
 
@@ -38,7 +41,15 @@ def build_model(
     the objective is their sum (see ``model.direct.bodies``). ``formulation``: the bodies' NLP
     formulation on a road (``model.direct.bodies.FORMULATIONS``; the model records it as
     ``m.body_formulation``).
+    ``options``: soft keep-out and body rows, the rate disturbance, a receding horizon
+    (``model.direct.options``). A horizon model has a node-time hook for time-varying data:
+    ``m.node_time[t]``, a mutable Param per node (the node's absolute time, 0 .. Tf until its user
+    sets it), and ``m.node_parameters``, a list of callables ``fill(times)`` that a component with
+    node-indexed mutable Params appends; the controller calls each with the node times of every
+    step before it re-reads the parameters.
     """
+    opts = options or TranscriptionOptions()
+    soft = opts.soft_penalty is not None
     v = ocp.vehicle
     m = pyo.ConcreteModel(name=ocp.name)
     m.tau = ContinuousSet(bounds=(0, 1))
@@ -47,19 +58,27 @@ def build_model(
     for name in v.states:
         m.add_component(f"d{name}", DerivativeVar(m.component(name), wrt=m.tau))
     _add_final_time(m, ocp)
-    _add_dynamics(m, ocp)
-    _add_boundary_conditions(m, ocp)
+    _add_dynamics(m, ocp, opts.rate_disturbance)
+    _add_boundary_conditions(m, ocp, final=opts.horizon is None)
     pyo.TransformationFactory("dae.trapezoid").apply_to(m, wrt=m.tau, nfe=intervals)
     m.nodes = list(m.tau)
     _add_output_bounds(m, ocp)
     _add_path_bounds(m, ocp)
-    _add_obstacles(m, ocp)
-    add_body_constraints(m, ocp, relax, formulation)
+    _add_obstacle_data(m, ocp)
+    if not soft:
+        _add_obstacle_rows(m, ocp)
+    add_body_constraints(m, ocp, relax or soft, formulation)
     add_moving_obstacles(m, ocp)
     if passing in ("ccw", "cw") and ocp.obstacles:
         _add_pass_direction(m, ocp, passing)
+    if opts.horizon is not None:
+        _add_horizon(m, ocp, opts.horizon, opts.soft_penalty)
+        return m
     _add_objective(m, ocp)
-    if relax and getattr(m, "slacks", None):
+    if soft:  # the soft rows after the objective's: the column order of the MPC's model before the options
+        _add_obstacle_rows(m, ocp, soft=True)
+        m.objective.set_value(m.objective.expr + _soft_cost(m, opts.soft_penalty))
+    elif relax and getattr(m, "slacks", None):
         m.objective.deactivate()
         m.slack_total = pyo.Expression(expr=pyo.quicksum(v[t] for v in m.slacks for t in m.nodes))
         # a free Tf has no price in the violation: without one it drifted to 1e3-1e6 s ("at t = 2951418 s")
@@ -75,8 +94,11 @@ def _add_final_time(m: pyo.ConcreteModel, ocp: OCP) -> None:
         m.tf = pyo.Param(mutable=True, initialize=ocp.final_time)
 
 
-def _add_dynamics(m: pyo.ConcreteModel, ocp: OCP) -> None:
+def _add_dynamics(m: pyo.ConcreteModel, ocp: OCP, disturbance: bool = False) -> None:
+    """dX/dtau = Tf f(X, U) per state; ``disturbance``: Tf (f(X, U) + d_hat[X]), ``d_hat`` mutable (0)."""
     v = ocp.vehicle
+    if disturbance:
+        m.d_hat = pyo.Param(list(v.states), mutable=True, initialize=0.0)
     params = {sym(k): val for k, val in v.parameters().items()}
     rhs = v.rhs(numeric=False)
 
@@ -88,14 +110,17 @@ def _add_dynamics(m: pyo.ConcreteModel, ocp: OCP) -> None:
     for name, f in zip(v.states, rhs, strict=True):
         derivative = m.component(f"d{name}")
 
-        def rule(_m, t, f=f, dv=derivative):
-            return dv[t] == m.tf * sympy_to_pyomo(f, env(t))
+        def rule(_m, t, f=f, dv=derivative, name=name):
+            rate = sympy_to_pyomo(f, env(t))
+            return dv[t] == (m.tf * rate + m.tf * m.d_hat[name] if disturbance else m.tf * rate)
 
         m.add_component(f"ode_{name}", pyo.Constraint(m.tau, rule=rule))
 
 
-def _add_boundary_conditions(m: pyo.ConcreteModel, ocp: OCP) -> None:
-    for where, values, t in (("initial", ocp.initial, 0), ("final", ocp.final, 1)):
+def _add_boundary_conditions(m: pyo.ConcreteModel, ocp: OCP, final: bool = True) -> None:
+    """X(0) = initial and (if ``final``) X(1) = final, each value a mutable Param."""
+    ends = (("initial", ocp.initial, 0), ("final", ocp.final, 1)) if final else (("initial", ocp.initial, 0),)
+    for where, values, t in ends:
         for name, val in values.items():
             par = pyo.Param(mutable=True, initialize=float(val))
             m.add_component(f"{where}_{name}_value", par)
@@ -156,19 +181,69 @@ def _add_path_bounds(m: pyo.ConcreteModel, ocp: OCP) -> None:
         m.add_component(f"bound_{name}_midpoint", pyo.Constraint(pyo.RangeSet(1, n), rule=mid_rule))
 
 
-def _add_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
-    """dist^2 >= R^2 at every node (smooth); centre and R are mutable Params."""
-    px, py = ocp.vehicle.position
-    X, Y = m.component(px), m.component(py)
+def _add_obstacle_data(m: pyo.ConcreteModel, ocp: OCP) -> None:
+    """Each obstacle's centre and keep-out radius R as mutable Params."""
     m.obstacle_set = pyo.RangeSet(0, len(ocp.obstacles) - 1) if ocp.obstacles else pyo.Set(initialize=[])
     m.obstacle_cx = pyo.Param(m.obstacle_set, mutable=True, initialize=lambda _m, i: ocp.obstacles[i].center[0])
     m.obstacle_cy = pyo.Param(m.obstacle_set, mutable=True, initialize=lambda _m, i: ocp.obstacles[i].center[1])
     m.obstacle_R = pyo.Param(m.obstacle_set, mutable=True, initialize=lambda _m, i: ocp.obstacles[i].keep_out)
 
+
+def _add_obstacle_rows(m: pyo.ConcreteModel, ocp: OCP, soft: bool = False) -> None:
+    """dist^2 >= R^2 at every node (smooth).
+
+    ``soft``: dist^2 >= (R - s)^2 with a slack ``keep_out_slack`` 0 <= s <= R (metres) per obstacle
+    and node.
+    """
+    px, py = ocp.vehicle.position
+    X, Y = m.component(px), m.component(py)
+    if soft:
+        m.keep_out_slack = pyo.Var(m.obstacle_set, m.tau, initialize=0.0,
+                                   bounds=lambda _m, i, t: (0.0, pyo.value(m.obstacle_R[i])))  # fmt: skip
+
     def rule(_m, i, t):
-        return (X[t] - m.obstacle_cx[i]) ** 2 + (Y[t] - m.obstacle_cy[i]) ** 2 >= m.obstacle_R[i] ** 2
+        gap = m.obstacle_R[i] - m.keep_out_slack[i, t] if soft else m.obstacle_R[i]
+        return (X[t] - m.obstacle_cx[i]) ** 2 + (Y[t] - m.obstacle_cy[i]) ** 2 >= gap**2
 
     m.obstacle = pyo.Constraint(m.obstacle_set, m.tau, rule=rule)
+
+
+def _soft_cost(m: pyo.ConcreteModel, penalty: float):
+    """``penalty`` times the summed keep-out and body-row slacks (metres) over all nodes."""
+    slacks = [m.keep_out_slack[i, t] for i in m.obstacle_set for t in m.tau] if hasattr(m, "keep_out_slack") else []
+    slacks += [v[t] for v in getattr(m, "slacks", []) for t in m.nodes]
+    return penalty * pyo.quicksum(slacks)
+
+
+def _add_horizon(m: pyo.ConcreteModel, ocp: OCP, horizon: Horizon, soft_penalty: float | None) -> None:
+    """The receding horizon's soft terminal target, objective and node-time hook (``options.Horizon``)."""
+    spent = energy(m, ocp)
+    if soft_penalty is not None:
+        _add_obstacle_rows(m, ocp, soft=True)
+    m.state_set = pyo.Set(initialize=list(ocp.vehicle.states), ordered=True)
+    m.target = pyo.Param(m.state_set, mutable=True, initialize=0.0)
+    m.target_weight = pyo.Param(m.state_set, mutable=True, initialize=1.0)
+    m.above = pyo.Var(m.state_set, bounds=(0.0, None), initialize=0.0)
+    m.below = pyo.Var(m.state_set, bounds=(0.0, None), initialize=0.0)
+    end, scales = m.nodes[-1], horizon.scales
+
+    def terminal(_m, k):
+        return (m.component(k)[end] - m.target[k]) / scales[k] == m.above[k] - m.below[k]
+
+    m.terminal = pyo.Constraint(m.state_set, rule=terminal)
+    penalty = sum(
+        m.target_weight[k] * (horizon.terminal_l1 * (m.above[k] + m.below[k])
+                              + horizon.terminal_quadratic * (m.above[k] - m.below[k]) ** 2)
+        for k in m.state_set
+    )  # fmt: skip
+    m.time_weight = pyo.Param(mutable=True, initialize=1.0 if ocp.cost.free_final_time else 0.0)
+    m.energy_weight = pyo.Param(mutable=True, initialize=1.0)
+    cost = m.time_weight * m.tf / horizon.time_scale + m.energy_weight * spent / horizon.energy_scale + penalty
+    m.objective = pyo.Objective(expr=cost + _soft_cost(m, soft_penalty) if soft_penalty is not None else cost,
+                                sense=pyo.minimize)  # fmt: skip
+    tf = float(pyo.value(m.tf))
+    m.node_time = pyo.Param(m.tau, mutable=True, initialize=lambda _m, t: t * tf)
+    m.node_parameters = []
 
 
 def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
@@ -205,18 +280,49 @@ def _add_objective(m: pyo.ConcreteModel, ocp: OCP) -> None:
     if ocp.cost.free_final_time and L == 1:
         m.objective = pyo.Objective(expr=m.tf + _rate_penalty(m, ocp), sense=pyo.minimize)
         return
-    nodes = m.nodes
-    n = len(nodes) - 1
+    n = len(m.nodes) - 1
+    total = _running_cost_sum(m, ocp, L)
+    expr = total / n + _rate_penalty(m, ocp) if ocp.cost.free_final_time else total / n
+    m.objective = pyo.Objective(expr=expr, sense=pyo.minimize)
+
+
+def _running_cost_sum(m: pyo.ConcreteModel, ocp: OCP, L):
+    """The running-cost variables ``running_cost[t] == Tf L(U[t])`` (defined: the NLP presolve
+    eliminates them again) and their trapezoid sum (times N)."""
+    v = ocp.vehicle
     m.running_cost = pyo.Var(m.tau, initialize=0.0)
 
     def rule(_m, t):
         return m.running_cost[t] == m.tf * sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
 
     m.running_cost_rate = pyo.Constraint(m.tau, rule=rule)
-    rate = m.running_cost
-    total = pyo.quicksum(rate[t] for t in nodes[1:-1]) + (rate[nodes[0]] + rate[nodes[-1]]) / 2
-    expr = total / n + _rate_penalty(m, ocp) if ocp.cost.free_final_time else total / n
-    m.objective = pyo.Objective(expr=expr, sense=pyo.minimize)
+    return _trapezoid_sum(m, lambda t: m.running_cost[t])
+
+
+def energy(m: pyo.ConcreteModel, ocp: OCP):
+    """The energy E = integral of 1/2 sum_i w_i u_i^2 dt as a Pyomo expression (trapezoid rule).
+
+    For an energy objective, the objective's own sum: the running-cost variables Tf L(U) of the
+    cost's Lagrangian, with its ``weights`` (added here if the model has none yet, as in a horizon
+    model); for any other cost, the trapezoid sum of Tf L_E(U) with unit weights (``Energy()``).
+    """
+    v, n = ocp.vehicle, len(m.nodes) - 1
+    if isinstance(ocp.cost, Energy):
+        if not hasattr(m, "running_cost"):
+            return _running_cost_sum(m, ocp, ocp.cost.lagrangian(v)) / n
+        return _trapezoid_sum(m, lambda t: m.running_cost[t]) / n
+    L = Energy().lagrangian(v)
+
+    def rate(t):
+        return m.tf * sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
+
+    return _trapezoid_sum(m, rate) / n
+
+
+def _trapezoid_sum(m: pyo.ConcreteModel, rate):
+    """sum_k rate(t_k) with half weights at both ends (the trapezoid rule on the nodes, times N)."""
+    nodes = m.nodes
+    return pyo.quicksum(rate(t) for t in nodes[1:-1]) + (rate(nodes[0]) + rate(nodes[-1])) / 2
 
 
 def _rate_penalty(m: pyo.ConcreteModel, ocp: OCP):

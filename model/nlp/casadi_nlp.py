@@ -254,6 +254,46 @@ class CasadiNLP(NLP):
         """For each row of the reduced NLP (Ipopt's g), its index in ``constraints`` (the model's rows)."""
         return self._rows.copy()
 
+    def columns_of(self, component) -> np.ndarray:
+        """The columns (Ipopt's x) of a Var component's entries, in the component's index order.
+
+        Parameters
+        ----------
+        component : pyomo Var component (indexed or scalar), or its name on the model
+
+        Returns
+        -------
+        ndarray of int
+            One per entry: its column in the reduced NLP, -1 for an entry that is fixed or that
+            the presolve eliminated (a defined variable).
+        """
+        comp = self.model.component(component) if isinstance(component, str) else component
+        if not hasattr(self, "_column_of"):
+            where = np.full(len(self.variables), -1)
+            where[self._cols] = np.arange(len(self._cols))
+            self._column_of = {id(v): int(where[i]) for i, v in enumerate(self.variables)}
+        return np.array([self._column_of.get(id(v), -1) for v in comp.values()], dtype=int)
+
+    def rows_of(self, component) -> np.ndarray:
+        """The rows (Ipopt's g) of a Constraint component's entries, in the component's index order.
+
+        Parameters
+        ----------
+        component : pyomo Constraint component (indexed or scalar), or its name on the model
+
+        Returns
+        -------
+        ndarray of int
+            One per entry: its row in the reduced NLP, -1 for an inactive entry or one the presolve
+            turned into a bound or a definition.
+        """
+        comp = self.model.component(component) if isinstance(component, str) else component
+        if not hasattr(self, "_row_of"):
+            where = np.full(len(self.constraints), -1)
+            where[self._rows] = np.arange(len(self._rows))
+            self._row_of = {id(c): int(where[i]) for i, c in enumerate(self.constraints)}
+        return np.array([self._row_of.get(id(c), -1) for c in comp.values()], dtype=int)
+
     def nnz_jacobian(self) -> int:
         return len(self._jac_rc[0])
 
@@ -333,11 +373,24 @@ class CasadiNLP(NLP):
     def get_obj_factor(self) -> float:
         return float(self._sigma[0])
 
-    def refresh_parameters(self) -> None:
-        """Re-read mutable Param values, variable bounds and the constraint bounds."""
+    def refresh_parameters(self, variables: list | None = None) -> None:
+        """Re-read mutable Param values, variable bounds and the constraint bounds.
+
+        ``variables``: re-read the bounds of these variables only (a receding-horizon step changes
+        a few; re-reading all of them costs about 10 ms on a road horizon of 1400 columns).
+        """
         self._p[:] = [float(pyo.value(q)) for q in self.params]
-        for name in ("_lbx", "_ubx"):  # re-read on next use (also when nothing has read them since the last refresh)
-            self.__dict__.pop(name, None)
+        if variables is None or not hasattr(self, "_lbx"):
+            self.__dict__.pop("_lbx", None)
+            self.__dict__.pop("_ubx", None)
+        else:
+            if not hasattr(self, "_variable_index"):
+                self._variable_index = {id(v): i for i, v in enumerate(self.variables)}
+            for v in variables:
+                i = self._variable_index[id(v)]
+                lo, hi = v.bounds
+                self._lbx[i] = -np.inf if lo is None else lo
+                self._ubx[i] = np.inf if hi is None else hi
         self._evaluate_bounds()
 
     def get_obj_scaling(self):

@@ -1,0 +1,278 @@
+"""Benchmark: real-time MPC on the roundabout road with bodies, against a plain CasADi Opti peer.
+
+Usage: python benchmarks/bench_mpc_road.py [--cases truck semitrailer] [--controllers rti ipopt]
+       [--reference-intervals 100] [--no-peer]
+
+Cases: the rigid truck (examples/roundabout-truck.toml) and the EU semitrailer
+(examples/roundabout-semitrailer.toml) through the roundabout, sampled at 10 Hz with a 4 s horizon
+(40 intervals). The open-loop optimum (``ocp.solve``, ``--reference-intervals``) is the reference;
+the closed loop is ``model.simulation.loop.simulate`` with the nominal plant (the vehicle's own
+dynamics, no disturbance). Controllers: ``rti`` is ``MPC(settings=MPCSettings(realtime=True))``
+(one condensed SQP step per sample, warm-started Ipopt the fallback), ``ipopt`` the warm-started
+Ipopt MPC (the default controller).
+
+The peer shadows the controller in the same run: after each of the MPC's steps it is handed the same
+horizon problem (every active row and the objective of the horizon's Pyomo model: the body discs,
+the soft constraints with their slacks, the same cost; the Params' values and the variables' bounds
+of the step) written in plain CasADi Opti: the rows translated to SX by a direct walk of each
+expression (``model.nlp.pyomo_sx.PyomoToSX``: no templates, no presolve; CasADi's own derivatives,
+its own Ipopt interface, ``detect_simple_bounds``), and started from the same warm start (the MPC's
+primal start, ``CasadiNLP.full_primals``; at the first step the multipliers the MPC starts from,
+``CasadiNLP.full_duals``, then its own previous multipliers moved in time like the MPC's).
+Its Ipopt options are the MPC's Ipopt options without a wall-time budget. ``du`` is the largest
+difference of the first planned controls (the real-time iteration is one step, not a converged
+solve: it differs by what one step leaves).
+
+Per case and controller: the MPC's steps (real-time iterations, Ipopt fallbacks, failed), mean and
+worst step seconds (wall, and CPU: ``time.process_time``, less sensitive to a shared machine), the
+peer's, the ratio, whether the goal was reached (the loop's tolerance), the final errors, and the
+exact-rectangle corridor check at every sample (``model.analysis.bodies.clearances``: the smallest
+clearance of the bodies' exact rectangles to the exact corridor, and how many samples are below 0).
+Timings on a shared machine are noisy: the load average is printed before and after each case.
+
+Measured at 2a08fc4 (x86_64, 2 cores shared, load average 5-8: wall seconds are 3-4 times the CPU
+seconds; reference N = 100):
+
+| case | controller | steps (RTI/fallback/failed) | wall mean/max s | CPU mean/max s | Opti mean/max s | goal |
+|---|---|---|---|---|---|---|
+| truck | rti | 105 (105/0/0) | 0.081 / 0.183 | 0.018 / 0.044 | 0.52 / 12.7 | yes (1.4 mm) |
+| truck | ipopt | 105 (0/0/100) | 0.154 / 0.385 | 0.040 / 0.080 | 1.97 / 6.37 | no (60 m) |
+| semitrailer | rti | 132 (132/0/0) | 0.191 / 0.372 | 0.043 / 0.086 | 1.24 / 32.5 | yes (2.0 mm) |
+| semitrailer | ipopt | 132 (0/0/131) | 0.153 / 0.222 | 0.071 / 0.108 | 2.58 / 14.8 | no (61 m) |
+
+Exact corridor at every sample: no sample outside in any run (smallest clearance of the exact
+rectangles 0.122 / 0.126 / 0.052 / 0.145 m).
+
+(ipopt: at this load nearly every warm-started Ipopt step hits its wall-time budget, 0.8 x the
+sample, without a usable iterate, so the controller follows old plans; at load ~3 the same truck
+run had 17 failed steps, mean 0.078 s. The peer has no budget: its "unsolved" counts iteration-cap
+stops. The 10 ms mean / 30 ms worst target is not met here: the RTI's CPU time is 18 / 44 ms on the
+truck, 43 / 86 ms on the semitrailer; the dense QP (qpOASES) is about half of it.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the condensing's small dense algebra: no thread contention
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import casadi as ca  # noqa: E402
+import numpy as np  # noqa: E402
+import pyomo.environ as pyo  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from model.analysis.bodies import clearances  # noqa: E402
+from model.direct.resolve import WARM_OPTIONS  # noqa: E402
+from model.nlp.ipopt import DEFAULT_OPTIONS  # noqa: E402
+from model.nlp.pyomo_sx import PyomoToSX  # noqa: E402
+from model.problem.closed_loop import ControlSettings, Disturbance  # noqa: E402
+from model.problem.scenario import load_scenario  # noqa: E402
+from model.simulation.loop import simulate  # noqa: E402
+from model.simulation.mpc import MPC, MPCSettings, TimeLayout  # noqa: E402
+from model.simulation.mpc.horizon import node_fraction  # noqa: E402
+
+CASES = {"truck": "examples/roundabout-truck.toml", "semitrailer": "examples/roundabout-semitrailer.toml"}
+SAMPLE, HORIZON = 0.1, 40  # 10 Hz, 4 s
+BIG = 1e20  # Ipopt reads |bound| >= 1e19 as none
+
+
+class OptiPeer:
+    """The MPC's horizon problem in plain CasADi Opti, warm-started like the MPC (see the module docstring)."""
+
+    def __init__(self, mpc: MPC):
+        hm = mpc.horizon
+        self.mpc, self.model, self.nlp, self.n = mpc, hm.model, hm.nlp, hm.n
+        self.variables, self.params = hm.nlp.variables, hm.nlp.params
+        self.rows = list(self.model.component_data_objects(pyo.Constraint, active=True, descend_into=True))
+        xs, ps = ca.SX.sym("x", len(self.variables)), ca.SX.sym("p", len(self.params))
+        walk = PyomoToSX({id(v): i for i, v in enumerate(self.variables)}, xs,
+                         {id(q): i for i, q in enumerate(self.params)}, ps)  # fmt: skip
+        body, lower, upper = [], [], []
+        for c in self.rows:  # constant bounds (a Param bound: an equality row, written body - bound == 0)
+            lo, expr, hi = c.to_bounded_expression(evaluate_bounds=False)
+            if c.equality and not _number(lo):
+                body.append(walk(expr) - walk(lo))
+                lo = hi = 0.0
+            else:
+                body.append(walk(expr))
+                if not (_number(lo) and _number(hi)):
+                    raise ValueError(f"{c.name}: a Param bound on an inequality row")
+            lower.append(-BIG if lo is None else float(lo))
+            upper.append(BIG if hi is None else float(hi))
+        objective = walk(self.model.component_data_objects(pyo.Objective, active=True).__next__().expr)
+        fn = ca.Function("horizon", [xs, ps], [ca.vertcat(*body), objective])
+        opti = self.opti = ca.Opti()
+        self.X, self.P = opti.variable(len(self.variables)), opti.parameter(len(self.params))
+        self.LBX, self.UBX = opti.parameter(len(self.variables)), opti.parameter(len(self.variables))
+        g, f = fn(self.X, self.P)
+        opti.subject_to(opti.bounded(ca.DM(lower), g, ca.DM(upper)))
+        opti.subject_to(opti.bounded(self.LBX, self.X, self.UBX))
+        opti.minimize(f)
+        s = mpc.settings
+        self.options = {**DEFAULT_OPTIONS, **WARM_OPTIONS, **s.ipopt, "max_wall_time": 10.0}
+        opti.solver("ipopt", {"expand": True, "print_time": False, "detect_simple_bounds": True}, self.options)
+        fractions = [node_fraction(c, self.n) for c in (*self.rows, *self.variables)]  # Opti's g: rows, then bounds
+        self.layout = TimeLayout(np.array(fractions), self.n)
+        index = {id(v): i for i, v in enumerate(self.variables)}
+        self.first = {c: index[id(self.model.component(c)[0])] for c in mpc.ocp.vehicle.controls}
+        plan = mpc.plan  # the MPC's first step starts from this plan's multipliers: the peer's too
+        self.prev = None
+        if len(plan.mult_g):  # the rows' multipliers (the bounds' start at zero)
+            rows = hm.nlp.full_duals(plan.x, plan.mult_g)
+            self.prev = (plan.times, np.concatenate([rows, np.zeros(len(self.variables))]))
+        self.seconds, self.cpu, self.iterations, self.du, self.status = [], [], [], [], []
+
+    def solve(self, times: np.ndarray, x0: np.ndarray) -> None:
+        """The step's problem (the model's Params and bounds as the MPC left them) from the MPC's start."""
+        opti = self.opti
+        opti.set_value(self.P, [float(pyo.value(q)) for q in self.params])
+        bounds = np.array([v.bounds for v in self.variables], dtype=float).reshape(-1, 2)
+        opti.set_value(self.LBX, np.nan_to_num(bounds[:, 0], nan=-BIG))
+        opti.set_value(self.UBX, np.nan_to_num(bounds[:, 1], nan=BIG))
+        opti.set_initial(self.X, self.nlp.full_primals(x0))
+        if self.prev is not None:
+            old, lam = self.prev
+            opti.set_initial(opti.lam_g, self.layout.move(lam, old, times))
+        t0, c0 = time.perf_counter(), time.process_time()
+        try:
+            sol = opti.solve()
+        except RuntimeError:  # not converged (iteration cap): its last iterate, counted as unsolved
+            sol = opti.debug
+        self.seconds.append(time.perf_counter() - t0)
+        self.cpu.append(time.process_time() - c0)
+        stats = opti.stats()
+        self.iterations.append(int(stats.get("iter_count", -1)))
+        self.status.append(str(stats.get("return_status", "")))
+        x = np.asarray(sol.value(self.X)).ravel()
+        lam = np.asarray(sol.value(opti.lam_g)).ravel()
+        if lam.size == opti.ng:  # (Opti's debug value after a failed solve may not be the full vector)
+            self.prev = (times, lam)
+        plan = self.mpc.warm.values
+        self.du.append(max(abs(x[i] - plan[c][0]) for c, i in self.first.items()))
+
+
+def _number(bound) -> bool:
+    """None or a plain number (not an expression of Params)."""
+    return bound is None or isinstance(bound, int | float)
+
+
+class Shadowed:
+    """The MPC as the loop's controller, with the peer solving each of its steps' problems after it."""
+
+    def __init__(self, mpc: MPC, peer: OptiPeer | None):
+        self.mpc, self.peer = mpc, peer
+        self.name = mpc.name
+        hm, self._last = mpc.horizon, None
+        fill = hm.fill_slacks
+
+        def fill_slacks(x):  # the MPC's warm start of the step, complete (a copy: microseconds)
+            fill(x)
+            self._last = x.copy()
+
+        hm.fill_slacks = fill_slacks
+
+    @property
+    def failed(self) -> bool:
+        return self.mpc.failed
+
+    @property
+    def final_time(self) -> float:
+        return self.mpc.final_time
+
+    def make_step(self, t, y, pending):
+        self._last = None
+        u = self.mpc.make_step(t, y, pending)
+        step = self.mpc.steps[-1] if self.mpc.steps else None
+        if self.peer is not None and self._last is not None and step is not None and step.get("t") is not None:
+            m = self.mpc.horizon.model
+            times = np.array([float(m.node_time[t].value) for t in m.nodes])
+            self.peer.solve(times, self._last)
+        return u
+
+
+def run(case: str, controller: str, reference_intervals: int, peer: bool) -> dict:
+    sc = load_scenario(ROOT / CASES[case])
+    t0 = time.perf_counter()
+    sol = sc.ocp.solve(intervals=reference_intervals)
+    solve_seconds = time.perf_counter() - t0
+    control, disturbance = ControlSettings(SAMPLE, HORIZON), Disturbance()
+    mpc = MPC(sol, control, disturbance, settings=MPCSettings(realtime=controller == "rti"))
+    shadow = Shadowed(mpc, OptiPeer(mpc) if peer else None)
+    load_before = os.getloadavg()[0]
+    loop = simulate(sc, sol, shadow, disturbance, control)
+    load_after = os.getloadavg()[0]
+    steps = [s for s in mpc.steps if "seconds" in s]
+    wall = np.array([s["seconds"] for s in steps])
+    cpu = np.array([s["cpu_seconds"] for s in steps])
+    v = sc.ocp.vehicle
+    gaps = clearances(sc.ocp, {s: loop.columns[s] for s in v.states})
+    worst = np.min(np.vstack(list(gaps.values())), axis=0)
+    row = {
+        "case": case, "controller": controller, "N": mpc.horizon.n, "reference_ok": bool(sol.ok),
+        "reference_seconds": solve_seconds, "columns": mpc.horizon.nlp.n_primals(),
+        "rows": mpc.horizon.nlp.n_constraints(), "steps": len(steps),
+        "realtime": sum(1 for s in steps if s.get("realtime")),
+        "fallback": sum(1 for s in steps if not s.get("realtime")) if controller == "rti" else 0,
+        "failed": sum(1 for s in steps if not s.get("used", True)),
+        "mean": wall.mean(), "max": wall.max(), "cpu_mean": cpu.mean(), "cpu_max": cpu.max(),
+        "reached": bool(loop.summary["reached_goal"]), "position_error": loop.summary["final_position_error"],
+        "heading_error": loop.summary["final_heading_error"], "min_clearance": float(worst.min()),
+        "samples_outside": int(np.sum(worst < 0)), "samples": int(worst.size),
+        "load": (load_before, load_after),
+    }  # fmt: skip
+    if peer:
+        p = shadow.peer
+        row |= {"peer_mean": float(np.mean(p.seconds)), "peer_max": float(np.max(p.seconds)),
+                "peer_cpu_mean": float(np.mean(p.cpu)), "peer_cpu_max": float(np.max(p.cpu)),
+                "peer_it": float(np.mean(p.iterations)), "peer_steps": len(p.seconds),
+                "peer_unsolved": sum(1 for s in p.status if s not in ("Solve_Succeeded", "Solved_To_Acceptable_Level")),
+                "du_median": float(np.median(p.du)), "du_max": float(np.max(p.du))}  # fmt: skip
+    return row
+
+
+HEAD = ("| case | controller | columns x rows | steps (RTI / fallback / failed) | mean s | max s | CPU mean s | "
+        "CPU max s | Opti mean s | Opti max s | Opti iters | ratio mean (max) | du median (max) | goal | "
+        "end error m / rad | exact corridor: min clearance m, samples outside | load |")  # fmt: skip
+
+
+def line(r: dict) -> str:
+    peer = " - | - | - | - | - |"
+    if "peer_mean" in r:
+        ratio = f"{r['mean'] / r['peer_mean']:.3f} ({r['max'] / r['peer_max']:.3f})"
+        peer = (f" {r['peer_mean']:.4f} | {r['peer_max']:.4f} | {r['peer_it']:.1f} "
+                f"({r['peer_unsolved']} unsolved) | {ratio} | {r['du_median']:.1e} ({r['du_max']:.1e}) |")  # fmt: skip
+    return (f"| {r['case']} | {r['controller']} | {r['columns']} x {r['rows']} | {r['steps']} ({r['realtime']} / "
+            f"{r['fallback']} / {r['failed']}) | {r['mean']:.4f} | {r['max']:.4f} | {r['cpu_mean']:.4f} | "
+            f"{r['cpu_max']:.4f} |{peer} {'yes' if r['reached'] else 'no'} | "
+            f"{r['position_error']:.2g} / {r['heading_error']:.2g} | {r['min_clearance']:.3f}, "
+            f"{r['samples_outside']} of {r['samples']} | {r['load'][0]:.1f} -> {r['load'][1]:.1f} |")  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    ap.add_argument("--controllers", nargs="+", default=["rti", "ipopt"], choices=["rti", "ipopt"])
+    ap.add_argument("--reference-intervals", type=int, default=100)
+    ap.add_argument("--no-peer", action="store_true")
+    args = ap.parse_args(argv)
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"Python {platform.python_version()}, CasADi {ca.__version__}, load average {os.getloadavg()[0]:.2f}; "
+          f"{SAMPLE:g} s samples, horizon {HORIZON} intervals ({SAMPLE * HORIZON:g} s)")  # fmt: skip
+    print(HEAD)
+    print("|" + "---|" * (HEAD.count("|") - 1))
+    for case in args.cases:
+        for controller in args.controllers:
+            print(line(run(case, controller, args.reference_intervals, not args.no_peer)), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

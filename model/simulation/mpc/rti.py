@@ -1,0 +1,279 @@
+"""The real-time iteration: one condensed SQP step per sample on the horizon's built NLP.
+
+Diehl's real-time iteration (Diehl, Bock & Schloeder 2005) takes one Newton-type step per sample
+from the shifted previous solution instead of solving to convergence: the horizon problem changes
+little between samples, so one step tracks its solution. The step here is a sequential quadratic
+program's on the reduced NLP of ``CasadiNLP`` (the bridge's CasADi functions: the constraints, their
+Jacobian, the objective's gradient and Hessian, read through the NLP's public pynumero interface
+and the accessors of named components):
+
+    min_d  1/2 d' H d + grad' d   s.t.  lbg - g(x) <= J(x) d <= ubg - g(x),  lbx - x <= d <= ubx - x.
+
+- H is the Hessian of the objective alone (a Gauss-Newton-type choice: the constraints' curvature
+  left out keeps the QP convex; the horizon's objective is the energy, quadratic in the controls,
+  plus a quadratic terminal penalty), evaluated once and again only when ``refresh_hessian`` is
+  called (its Params changed), plus ``regularization`` times the identity on the QP's variables;
+- condensing: the equality rows that define the dependent columns (the trapezoid rows, which give
+  the states at nodes 1..N; the body-disc centres' definitions) are solved for them by one sparse LU,
+  d_D = a + S z, so the QP's variables z are the independent columns only (controls, a free final
+  time, the terminal slacks); columns fixed by their bounds (the start state) move to their bound;
+- the keep-out and body-row slacks are held at their current values in the step, with one elastic
+  variable sigma >= 0 shared by all their rows (priced at the slacks' largest price times the
+  number of those rows, so the QP uses it only where the rows cannot be met; SNOPT's elastic mode
+  in one variable); after the step each such row's own slack is raised by what the new point
+  lacks (one Newton step of the row in its slack), so the point satisfies those rows as the
+  NLP's soft rows do, at the price the NLP's objective sets;
+- the dense QP (about n_controls (N + 1) + 2 n_states variables) is solved by a dense active-set
+  solver of the casadi wheel (``casadi.conic``: qpOASES by default, or DAQP).
+
+The step is accepted by the controller when the new point satisfies the nonlinear constraints to
+its tolerance (``MPC._violation``); otherwise the controller falls back to warm-started Ipopt.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+import pyomo.environ as pyo
+from scipy.sparse import coo_matrix, csc_matrix
+from scipy.sparse.linalg import splu
+
+from model.direct.bodies import point_definitions
+from model.nlp.casadi_nlp import CasadiNLP
+
+QP_SOLVERS = ("qpoases", "daqp")
+
+
+@dataclass
+class StepResult:
+    """One real-time iteration: the new primal point, the QP's status, the time it took (s)."""
+
+    x: np.ndarray
+    success: bool
+    status: str
+    seconds: float
+    step: float
+    qp_iterations: int = -1
+    qp_seconds: float = 0.0
+
+
+class RealTimeIteration:
+    """Condensed SQP steps on the horizon's built NLP (the QP solver created once).
+
+    Parameters
+    ----------
+    model : pyo.ConcreteModel
+        The horizon's model (``build_model`` with a ``Horizon``): its component names say which
+        rows are the dynamics and the definitions.
+    nlp : CasadiNLP
+        Its NLP.
+    states : sequence of str
+        The state names (``d<state>_trapezoid`` are their trapezoid rows).
+    solver : str
+        A dense ``casadi.conic`` plug-in (``QP_SOLVERS``).
+    regularization : float
+        The proximal term on every QP variable (in the NLP's own units).
+    options : dict, optional
+        Options of the QP plug-in (added to the defaults).
+    """
+
+    def __init__(self, model: pyo.ConcreteModel, nlp: CasadiNLP, states, solver: str = "qpoases",
+                 regularization: float = 1e-6, options: dict | None = None):  # fmt: skip
+        if not ca.has_conic(solver):
+            raise ValueError(f"casadi has no QP solver {solver!r}")
+        self.nlp, self.delta, self.solver = nlp, float(regularization), solver
+        self._partition(model, states)
+        jac = nlp.evaluate_jacobian()
+        self._jac_parts = self._split(jac.row, jac.col)
+        self._elastic_entries(jac.row, jac.col)
+        n_z = len(self.free) + 1  # the last: the elastic variable
+        n_rows = len(self.rest) + len(self.bounded_dep)
+        opts = {"error_on_fail": False}
+        if solver == "qpoases":
+            opts |= {"printLevel": "none", "sparse": False, "hessian_type": "posdef"}
+        opts |= options or {}
+        self.qp = ca.conic("rti", solver, {"h": ca.Sparsity.dense(n_z, n_z), "a": ca.Sparsity.dense(n_rows, n_z)},
+                           opts)  # fmt: skip
+        self._hz: np.ndarray | None = None
+        self._h = None
+
+    # -- structure ----------------------------------------------------------------------------
+    def _partition(self, m: pyo.ConcreteModel, states) -> None:
+        """Dependent columns D and their defining rows E; the free QP columns; the fixed ones; the
+        other rows R."""
+        nlp = self.nlp
+        n, rows = nlp.n_primals(), nlp.n_constraints()
+        dep_rows = [nlp.rows_of(m.component(f"d{s}_trapezoid")) for s in states]
+        dep_cols = [nlp.columns_of(s)[1:] for s in states]
+        for var, row in point_definitions(m):
+            dep_cols.append(nlp.columns_of(var))
+            dep_rows.append(nlp.rows_of(row))
+        self.dep, self.eq = np.concatenate(dep_cols), np.concatenate(dep_rows)
+        if np.any(self.dep < 0) or np.any(self.eq < 0) or len(self.dep) != len(self.eq):
+            raise ValueError("the horizon's dynamics and definitions do not condense")
+        held = [nlp.columns_of(v) for v in getattr(m, "slacks", [])]
+        if hasattr(m, "keep_out_slack"):
+            held.append(nlp.columns_of(m.keep_out_slack))
+        self.held = np.concatenate(held) if held else np.zeros(0, int)
+        role = np.zeros(n, dtype=int)  # 0 free, 1 dependent, 2 held
+        role[self.dep], role[self.held] = 1, 2
+        self.others = np.flatnonzero(role != 1)  # free or held (or fixed by bounds)
+        is_row = np.ones(rows, dtype=bool)
+        is_row[self.eq] = False
+        self.rest = np.flatnonzero(is_row)
+        self._role = role
+        self.free = np.flatnonzero(role == 0)  # the fixed ones among them are decided per step
+        lb, ub = nlp.primals_lb()[self.dep], nlp.primals_ub()[self.dep]
+        state_dep = np.concatenate(dep_cols[: len(states)])
+        bounded = np.isin(self.dep, state_dep) & (np.isfinite(lb) | np.isfinite(ub))
+        self.bounded_dep = np.flatnonzero(bounded)  # positions in dep
+
+    def _split(self, rows: np.ndarray, cols: np.ndarray) -> dict:
+        """For each block (rows E or R) x (columns D, other): which Jacobian entries fall in it and
+        how they fill a fixed CSC pattern (entries, order, indices, indptr, shape)."""
+        n, m = self.nlp.n_primals(), self.nlp.n_constraints()
+        row_pos = np.full(m, -1)
+        row_pos[self.eq], row_pos[self.rest] = np.arange(len(self.eq)), np.arange(len(self.rest))
+        col_d, col_o = np.full(n, -1), np.full(n, -1)
+        col_d[self.dep], col_o[self.others] = np.arange(len(self.dep)), np.arange(len(self.others))
+        in_eq = np.zeros(m, dtype=bool)
+        in_eq[self.eq] = True
+        parts = {}
+        for rname, rmask in (("E", in_eq[rows]), ("R", ~in_eq[rows])):
+            for cname, cpos in (("D", col_d), ("O", col_o)):
+                k = np.flatnonzero(rmask & (cpos[cols] >= 0))
+                shape = (len(self.eq if rname == "E" else self.rest), len(self.dep if cname == "D" else self.others))
+                pattern = coo_matrix((np.arange(1, len(k) + 1, dtype=float), (row_pos[rows[k]], cpos[cols[k]])),
+                                     shape=shape).tocsc()  # fmt: skip
+                pattern.sort_indices()
+                if pattern.nnz != len(k):
+                    raise ValueError("repeated entries in the Jacobian's pattern")
+                order = k[pattern.data.astype(int) - 1]
+                parts[rname + cname] = (order, pattern.indices.copy(), pattern.indptr.copy(), shape)
+        return parts
+
+    def _elastic_entries(self, rows: np.ndarray, cols: np.ndarray) -> None:
+        """The Jacobian entries of the held slacks: their rows (positions in R and in g) and columns."""
+        k = np.flatnonzero(np.isin(cols, self.held))
+        if len(np.unique(rows[k])) != len(k):
+            raise ValueError("a soft row with more than one slack")
+        rest_pos = np.full(self.nlp.n_constraints(), -1)
+        rest_pos[self.rest] = np.arange(len(self.rest))
+        self._soft_k, self._soft_rows, self._soft_cols = k, rows[k], cols[k]
+        self._soft_rest = rest_pos[rows[k]]
+
+    def _block(self, data: np.ndarray, name: str) -> csc_matrix:
+        order, indices, indptr, shape = self._jac_parts[name]
+        return csc_matrix((data[order], indices, indptr), shape=shape)
+
+    # -- the objective's Hessian ------------------------------------------------------------------
+    def refresh_hessian(self) -> None:
+        """Evaluate the objective's Hessian again at the next step (after its Params changed)."""
+        self._h = None
+
+    def _hessian(self) -> csc_matrix:
+        nlp = self.nlp
+        nlp.set_obj_factor(1.0)
+        nlp.set_duals(np.zeros(nlp.n_constraints()))
+        lower = nlp.evaluate_hessian_lag()
+        full = coo_matrix((lower.data, (lower.row, lower.col)), shape=lower.shape)
+        off = coo_matrix((np.where(lower.row != lower.col, lower.data, 0.0), (lower.col, lower.row)), shape=lower.shape)
+        return (full + off).tocsc()
+
+    # -- a step ---------------------------------------------------------------------------------------
+    def step(self, x: np.ndarray) -> StepResult:
+        """One condensed SQP step from the primal point ``x`` (the problem's Params already set)."""
+        t0 = time.perf_counter()
+        nlp = self.nlp
+        nlp.set_primals(x)
+        if self._h is None:
+            self._h = self._hessian()
+            nlp.set_primals(x)
+        g, grad, jac = nlp.evaluate_constraints(), nlp.evaluate_grad_objective(), nlp.evaluate_jacobian()
+        lbx, ubx = nlp.primals_lb(), nlp.primals_ub()
+        data = jac.data
+        others = self.others
+        fixed = (self._role[others] == 2) | (lbx[others] == ubx[others])
+        d_other = np.where(fixed, np.where(self._role[others] == 2, 0.0, lbx[others] - x[others]), 0.0)
+        free_pos = np.flatnonzero(~fixed)
+        J_ED, J_EO = self._block(data, "ED"), self._block(data, "EO")
+        J_RD, J_RO = self._block(data, "RD"), self._block(data, "RO")
+        try:
+            lu = splu(J_ED)
+        except RuntimeError as exc:
+            return StepResult(x, False, f"singular dynamics: {exc}", time.perf_counter() - t0, 0.0)
+        J_EO_free = J_EO[:, free_pos].toarray()
+        a = -lu.solve(g[self.eq] + J_EO @ d_other)
+        S = -lu.solve(J_EO_free)
+        A_rest = J_RD @ S + J_RO[:, free_pos].toarray()
+        b_rest = g[self.rest] + J_RD @ a + J_RO @ d_other
+        lba, uba = nlp.constraints_lb()[self.rest] - b_rest, nlp.constraints_ub()[self.rest] - b_rest
+        bd = self.bounded_dep
+        dep = self.dep[bd]
+        A = np.vstack([A_rest, S[bd]])
+        lba = np.concatenate([lba, lbx[dep] - x[dep] - a[bd]])
+        uba = np.concatenate([uba, ubx[dep] - x[dep] - a[bd]])
+        Hz, gz = self._condensed_cost(grad, S, a, d_other, free_pos)
+        cols, width, big = others[free_pos], len(self.free), 1e20
+        A_qp = np.zeros((A.shape[0], width + 1))
+        A_qp[:, : len(free_pos)] = A
+        A_qp[self._soft_rest, width] = data[self._soft_k]  # the elastic column: each soft row's slack coefficient
+        gz[width] = float(np.max(grad[self.held], initial=0.0)) * len(self._soft_k)
+        lbz = _pad_bounds(np.clip(lbx[cols] - x[cols], -big, big), width + 1)
+        ubz = _pad_bounds(np.clip(ubx[cols] - x[cols], -big, big), width + 1)
+        ubz[width] = big if len(self._soft_k) else 0.0
+        t_qp = time.perf_counter()
+        res = self.qp(h=Hz, g=gz, a=A_qp, lba=np.clip(lba, -big, big), uba=np.clip(uba, -big, big), lbx=lbz, ubx=ubz)
+        self.qp_seconds, self.prep_seconds = time.perf_counter() - t_qp, t_qp - t0
+        stats = self.qp.stats()
+        zs = np.asarray(res["x"]).ravel()  # names: the QP solver's solution vector
+        z, self.elastic = zs[: len(free_pos)], float(zs[width])
+        d = np.zeros(len(x))
+        d[others], d[cols], d[self.dep] = d_other, z, a + S @ z
+        ok = bool(stats.get("success", False)) and bool(np.all(np.isfinite(d)))
+        status = str(stats.get("return_status", "")) or ("solved" if ok else "failed")
+        size = float(np.max(np.abs(d), initial=0.0))
+        iterations = int(stats.get("iter_count", -1) or -1)
+        new = self._repair(x + d, data) if ok else x
+        return StepResult(new, ok, status, time.perf_counter() - t0, size, iterations, self.qp_seconds)
+
+    def _repair(self, x: np.ndarray, data: np.ndarray) -> np.ndarray:
+        """Raise each soft row's slack by what ``x`` lacks on the row (its coefficient from ``data``, the
+        Jacobian at the step's start), within the slack's bounds."""
+        if not len(self._soft_k):
+            return x
+        nlp = self.nlp
+        nlp.set_primals(x)
+        g = nlp.evaluate_constraints()
+        lack = np.maximum(nlp.constraints_lb()[self._soft_rows] - g[self._soft_rows], 0.0)
+        coef = data[self._soft_k]
+        raise_by = np.where(coef > 1e-12, lack / np.maximum(coef, 1e-12), 0.0)
+        out = x.copy()
+        cols = self._soft_cols
+        out[cols] = np.minimum(out[cols] + raise_by, nlp.primals_ub()[cols])
+        return out
+
+    def _condensed_cost(self, grad, S, a, d_other, free_pos) -> tuple[np.ndarray, np.ndarray]:
+        """H_z = T' H T + delta I and g_z = T' (grad + H t) for d = T z + t."""
+        H, others, dep = self._h, self.others, self.dep
+        cols = others[free_pos]
+        t = np.zeros(H.shape[0])
+        t[others], t[dep] = d_other, a
+        g_full = grad + H @ t
+        HT = (H[:, dep] @ S) + H[:, cols].toarray()
+        Hz = S.T @ HT[dep] + HT[cols]
+        Hz = (Hz + Hz.T) / 2 + self.delta * np.eye(len(cols))
+        gz = S.T @ g_full[dep] + g_full[cols]
+        n_z = len(self.free) + 1
+        H_pad = np.eye(n_z)  # the QP's size is fixed: unused variables get a unit Hessian, zero bounds
+        H_pad[: len(cols), : len(cols)] = Hz
+        H_pad[-1, -1] = self.delta  # the elastic variable
+        return H_pad, np.pad(gz, (0, n_z - len(cols)))
+
+
+def _pad_bounds(b: np.ndarray, width: int) -> np.ndarray:
+    """``b`` with zeros up to ``width`` (the padding variables are fixed at 0)."""
+    return np.concatenate([b, np.zeros(width - len(b))])
