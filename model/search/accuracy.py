@@ -9,6 +9,12 @@ reached.
 
 Tolerance: ``GOAL_ACCURACY * max(1, L)`` for the position states (L the start-goal distance,
 metres) and ``GOAL_ACCURACY`` for every other state fixed at the goal (radians for angles).
+
+Between the nodes (on a road with bodies): a solution that fails validation only because the
+controls, integrated from a node, take a body further from the next node than its clearance
+there (``integration_error``) or out of the corridor on the way (``dense_clearance``) is solved
+again on 2N the same way; if the finer grid does not cure it, it stays failed, with the numbers
+in its validation (``measures.integration_error``, ``measures.min_clearance_integrated``).
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ MAX_DOUBLINGS = 1
 MAX_INTERVALS = 1600  # never refine beyond this grid
 ROUTE = "for accuracy"  # the end of an attempt's route when it is a re-solve on a finer grid
 SAME_OPTIMUM = 0.02  # a finer grid's objective more than 2 % above the coarse one is another local optimum
+GRID_CHECKS = frozenset({"integration_error", "dense_clearance"})  # checks a finer grid can cure
 
 
 def goal_tolerances(ocp: OCP, accuracy: float = GOAL_ACCURACY) -> dict[str, float]:
@@ -42,6 +49,14 @@ def goal_drift(sol: Solution, accuracy: float = GOAL_ACCURACY) -> tuple[float, s
     return (errors[worst] / tol[worst], worst) if worst else (0.0, None)
 
 
+def grid_failures(sol: Solution) -> list[str]:
+    """The failed validation checks of a converged solution if all of them are ones a finer grid can cure, else []."""
+    if sol.status not in ("optimal", "validation_failed"):
+        return []
+    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
+    return failed if failed and set(failed) <= GRID_CHECKS else []
+
+
 def refine_for_accuracy(
     sol: Solution,
     solve: Callable[[int, Solution], Solution],
@@ -53,28 +68,30 @@ def refine_for_accuracy(
     ``solve(n, guess)`` solves the problem on n intervals from ``guess``. Returns the solution to
     keep and the record for the summary (``accuracy``).
     """
-    if accuracy is None or not sol.ok:
+    if accuracy is None or not (sol.ok or grid_failures(sol)):
         return sol, {}
     ratio, state = goal_drift(sol, accuracy)
     record = {"tolerance": goal_tolerances(sol.ocp, accuracy), "intervals_requested": sol.intervals}
     for _ in range(MAX_DOUBLINGS):
-        if ratio <= 1.0 or 2 * sol.intervals > MAX_INTERVALS:
+        failures = grid_failures(sol)
+        if (ratio <= 1.0 and not failures) or 2 * sol.intervals > MAX_INTERVALS:
             break
         if progress is not None:
-            progress(
-                f"goal drift {ratio:.3g} x the tolerance ({state}) on N = {sol.intervals}: now N = {2 * sol.intervals}"
-            )
+            why = f"goal drift {ratio:.3g} x the tolerance ({state})"
+            why = why if ratio > 1.0 else f"{', '.join(failures)} failed"
+            progress(f"{why} on N = {sol.intervals}: now N = {2 * sol.intervals}")
         finer = solve(2 * sol.intervals, sol)
         if not finer.ok:
-            record["refinement_failed"] = finer.status
+            record["refinement_failed"] = finer.status if finer.status != "optimal" else "checks failed: " + ", ".join(
+                k for k, c in finer.validation.get("checks", {}).items() if not c["passed"])  # fmt: skip
             break
-        if finer.objective > sol.objective + SAME_OPTIMUM * abs(sol.objective):
+        if sol.ok and finer.objective > sol.objective + SAME_OPTIMUM * abs(sol.objective):
             record["refinement_failed"] = f"N = {finer.intervals} found another local optimum ({finer.objective:.6g})"
             break
         sol = finer
         ratio, state = goal_drift(sol, accuracy)
     return sol, record | {"drift_over_tolerance": ratio, "worst_state": state, "reached": ratio <= 1.0,
-                          "intervals": sol.intervals}  # fmt: skip
+                          "intervals": sol.intervals, "grid_failures": grid_failures(sol)}  # fmt: skip
 
 
 def objectives_on_grid(attempts: list[dict] | None) -> list[float]:
@@ -83,4 +100,5 @@ def objectives_on_grid(attempts: list[dict] | None) -> list[float]:
             if a.get("valid") is True and not str(a.get("route", "")).endswith(ROUTE)]  # fmt: skip
 
 
-__all__ = ["GOAL_ACCURACY", "ROUTE", "goal_drift", "goal_tolerances", "objectives_on_grid", "refine_for_accuracy"]
+__all__ = ["GOAL_ACCURACY", "ROUTE", "goal_drift", "goal_tolerances", "grid_failures", "objectives_on_grid",
+           "refine_for_accuracy"]
