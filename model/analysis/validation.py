@@ -90,6 +90,8 @@ def validate(ocp: OCP, traj: Columns, tf: float, passing: str | None = None) -> 
         checks["exit_taken"] = _check(0.0, 0.0, measures["exit_taken"] == ocp.road.route.exit)
     else:
         measures["min_clearance"] = None
+    if "integration_error" not in measures:
+        measures["integration_error"] = _position_step_error(ocp, t, X, U)
     drift, dense = _reintegration_drift(ocp, t, X, U)
     measures["reintegration"] = drift
     if v.path_outputs():
@@ -188,10 +190,27 @@ def one_step(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray, steps: int =
     return sol.y.reshape(*shape, steps + 1) if sol.success else None
 
 
+def _position_step_error(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray) -> dict:
+    """Without bodies (measured, not judged): the reference point's one-step error, its largest value and node."""
+    paths = one_step(ocp, t, X, U, steps=1)
+    if paths is None:
+        return {"success": False}
+    ix, iy = (ocp.vehicle.states.index(n) for n in ocp.vehicle.position)
+    error = np.hypot(paths[ix, :, -1] - X[ix, 1:], paths[iy, :, -1] - X[iy, 1:])
+    return {"success": True, "integration_error_max": float(np.max(error)), "max_node": int(np.argmax(error)) + 1}
+
+
 def _between_nodes(ocp: OCP, traj: dict[str, np.ndarray], measures: dict) -> dict:
     """The one-step integration error of the bodies against their node clearances, and the clearance on the way.
 
-    Adds ``integration_error`` and ``min_clearance_integrated`` to ``measures``; returns the checks.
+    The error at node k + 1 is the largest distance between a body's corners there and where
+    interval k's controls, integrated from node k, put them. Adds ``integration_error`` to
+    ``measures`` (``integration_error_max`` with its ``max_body`` and ``max_node``; the ``node``
+    and ``body`` with the largest error over the allowance, its ``body_error``, the exact
+    ``clearance`` there and the ``tolerance`` max(clearance, INTEGRATION_TOL)) and
+    ``min_clearance_integrated`` (the least clearance of the bodies along the integrated motion,
+    inside the intervals); returns the checks ``integration_error`` (the largest excess over the
+    allowance, passed if <= 0) and ``dense_clearance``.
     """
     from model.analysis.bodies import body_corners
     from model.analysis.bodies import clearances as body_clearances
@@ -212,7 +231,9 @@ def _between_nodes(ocp: OCP, traj: dict[str, np.ndarray], measures: dict) -> dic
     k = int(np.argmax(excess[body]))
     worst = max(moved, key=lambda b: float(np.max(moved[b])))
     measures["integration_error"] = {
-        "success": True, "max_body_error": float(np.max(moved[worst])), "max_body": worst,
+        "success": True,
+        "integration_error_max": float(np.max(moved[worst])), "max_body": worst,
+        "max_node": int(np.argmax(moved[worst])) + 1,
         "node": k + 1, "body": body, "body_error": float(moved[body][k]), "clearance": float(clear[body][k]),
         "tolerance": max(float(clear[body][k]), INTEGRATION_TOL),
     }  # fmt: skip

@@ -82,8 +82,8 @@ def refine_for_accuracy(
             progress(f"{why} on N = {sol.intervals}: now N = {2 * sol.intervals}")
         finer = solve(2 * sol.intervals, sol)
         if not finer.ok:
-            record["refinement_failed"] = finer.status if finer.status != "optimal" else "checks failed: " + ", ".join(
-                k for k, c in finer.validation.get("checks", {}).items() if not c["passed"])  # fmt: skip
+            failed = [k for k, c in finer.validation.get("checks", {}).items() if not c["passed"]]
+            record["refinement_failed"] = finer.status + (f" ({', '.join(failed)})" if failed else "")
             break
         if sol.ok and finer.objective > sol.objective + SAME_OPTIMUM * abs(sol.objective):
             record["refinement_failed"] = f"N = {finer.intervals} found another local optimum ({finer.objective:.6g})"
