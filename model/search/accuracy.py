@@ -13,8 +13,9 @@ metres) and ``GOAL_ACCURACY`` for every other state fixed at the goal (radians f
 Between the nodes (on a road with bodies): a solution that fails validation only because the
 controls, integrated from a node, take a body further from the next node than its clearance
 there (``integration_error``) or out of the corridor on the way (``dense_clearance``) is solved
-again on 2N the same way; if the finer grid does not cure it, it stays failed, with the numbers
-in its validation (``measures.integration_error``, ``measures.min_clearance_integrated``).
+again on 2N the same way, and on 4N if 2N still fails only these (``MAX_GRID_DOUBLINGS``); if the
+finer grids do not cure it, it stays failed, with the numbers in its validation
+(``measures.integration_error``, ``measures.min_clearance_integrated``).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from model.problem.ocp import OCP
 
 GOAL_ACCURACY = 1e-3
 MAX_DOUBLINGS = 1
+MAX_GRID_DOUBLINGS = 2  # a solution failing only the between-node checks may be refined up to 4N
 MAX_INTERVALS = 1600  # never refine beyond this grid
 ROUTE = "for accuracy"  # the end of an attempt's route when it is a re-solve on a finer grid
 SAME_OPTIMUM = 0.02  # a finer grid's objective more than 2 % above the coarse one is another local optimum
@@ -72,15 +74,19 @@ def refine_for_accuracy(
         return sol, {}
     ratio, state = goal_drift(sol, accuracy)
     record = {"tolerance": goal_tolerances(sol.ocp, accuracy), "intervals_requested": sol.intervals}
-    for _ in range(MAX_DOUBLINGS):
+    for doubling in range(max(MAX_DOUBLINGS, MAX_GRID_DOUBLINGS)):
         failures = grid_failures(sol)
-        if (ratio <= 1.0 and not failures) or 2 * sol.intervals > MAX_INTERVALS:
+        drifts = ratio > 1.0 and doubling < MAX_DOUBLINGS
+        if not (drifts or (failures and doubling < MAX_GRID_DOUBLINGS)) or 2 * sol.intervals > MAX_INTERVALS:
             break
         if progress is not None:
             why = f"goal drift {ratio:.3g} x the tolerance ({state})"
             why = why if ratio > 1.0 else f"{', '.join(failures)} failed"
             progress(f"{why} on N = {sol.intervals}: now N = {2 * sol.intervals}")
         finer = solve(2 * sol.intervals, sol)
+        if not finer.ok and grid_failures(finer) and doubling + 1 < MAX_GRID_DOUBLINGS:
+            sol, (ratio, state) = finer, goal_drift(finer, accuracy)  # closer: one more doubling may cure it
+            continue
         if not finer.ok:
             failed = [k for k, c in finer.validation.get("checks", {}).items() if not c["passed"]]
             record["refinement_failed"] = finer.status + (f" ({', '.join(failed)})" if failed else "")
