@@ -129,16 +129,15 @@ def test_the_lane_margin_and_the_check_command_print_the_bounds(tmp_path, capsys
 
 def test_a_tight_ring_is_solved_and_the_coarse_grid_re_solved_for_its_integration_error():
     """SU-30 straight on through a 4.6 m ring: the steady turn leaves 0.26 m (tight). On N = 40 the controls,
-    integrated from node 28, end 0.066 m from node 29 where the clearance is 0.047 m: the validation fails it,
-    and the search's 2N re-solve gives a validated answer whose bodies stay within their clearances."""
+    integrated from node 28, end 0.066 m from node 29 where the clearance is 0.047 m: the search solves again
+    on 2N, and the answer's bodies end each interval within their clearances."""
     ocp = ocp_of(road(ring=4.6))
     bounds = road_bounds(ocp)
     assert bounds["verdict"] == "tight" and 0.0 < bounds["ring_fit"]["margin"] < 0.5
     sol = ocp.solve(intervals=40)
-    assert sol.ok and sol.intervals == 80
+    assert sol.ok and sol.intervals == 80 and sol.accuracy["grid_failures"] == []
     assert sol.objective >= bounds["time_lower_bound_s"]
-    coarse = [a for a in sol.attempts if a.get("route") == "arc"]
-    assert coarse and not any(a["valid"] for a in coarse)
+    assert any(a.get("route") == "N=80 for accuracy" for a in sol.attempts)
     error = sol.validation["measures"]["integration_error"]
-    assert error["body_error"] <= error["tolerance"]
+    assert error["within_clearance"] and error["body_error"] <= error["tolerance"]
     assert sol.validation["measures"]["min_clearance_integrated"] >= -0.02

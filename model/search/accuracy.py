@@ -10,12 +10,13 @@ reached.
 Tolerance: ``GOAL_ACCURACY * max(1, L)`` for the position states (L the start-goal distance,
 metres) and ``GOAL_ACCURACY`` for every other state fixed at the goal (radians for angles).
 
-Between the nodes (on a road with bodies): a solution that fails validation only because the
-controls, integrated from a node, take a body further from the next node than its clearance
-there (``integration_error``) or out of the corridor on the way (``dense_clearance``) is solved
-again on 2N the same way, and on 4N if 2N still fails only these (``MAX_GRID_DOUBLINGS``); if the
-finer grids do not cure it, it stays failed, with the numbers in its validation
-(``measures.integration_error``, ``measures.min_clearance_integrated``).
+Between the nodes (on a road with bodies): a solution whose controls, integrated from a node,
+take a body further from the next node than its clearance there (the validation's
+``integration_error``, ``within_clearance`` False), or that fails validation only because the
+integrated motion leaves the corridor (``dense_clearance``), is solved again on 2N the same way,
+and on 4N if 2N still shows either (``MAX_GRID_DOUBLINGS``); if the finer grids do not cure it,
+the numbers stay in its validation (``measures.integration_error``,
+``measures.min_clearance_integrated``) and the record says so (``grid_failures``).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ MAX_GRID_DOUBLINGS = 2  # a solution failing only the between-node checks may be
 MAX_INTERVALS = 1600  # never refine beyond this grid
 ROUTE = "for accuracy"  # the end of an attempt's route when it is a re-solve on a finer grid
 SAME_OPTIMUM = 0.02  # a finer grid's objective more than 2 % above the coarse one is another local optimum
-GRID_CHECKS = frozenset({"integration_error", "dense_clearance"})  # checks a finer grid can cure
+GRID_CHECKS = frozenset({"dense_clearance"})  # failed checks a finer grid can cure
 
 
 def goal_tolerances(ocp: OCP, accuracy: float = GOAL_ACCURACY) -> dict[str, float]:
@@ -52,11 +53,15 @@ def goal_drift(sol: Solution, accuracy: float = GOAL_ACCURACY) -> tuple[float, s
 
 
 def grid_failures(sol: Solution) -> list[str]:
-    """The failed validation checks of a converged solution if all of them are ones a finer grid can cure, else []."""
+    """What a finer grid may cure in a converged solution: ``integration_error`` beyond the clearance, and
+    ``dense_clearance`` if it is the only failed check ([] if nothing, or if another check fails)."""
     if sol.status not in ("optimal", "validation_failed"):
         return []
     failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
-    return failed if failed and set(failed) <= GRID_CHECKS else []
+    if not set(failed) <= GRID_CHECKS:
+        return []
+    error = sol.validation.get("measures", {}).get("integration_error") or {}
+    return failed + (["integration_error"] if error.get("within_clearance") is False else [])
 
 
 def refine_for_accuracy(
@@ -84,7 +89,7 @@ def refine_for_accuracy(
             why = why if ratio > 1.0 else f"{', '.join(failures)} failed"
             progress(f"{why} on N = {sol.intervals}: now N = {2 * sol.intervals}")
         finer = solve(2 * sol.intervals, sol)
-        if not finer.ok and grid_failures(finer) and doubling + 1 < MAX_GRID_DOUBLINGS:
+        if not (sol.ok or finer.ok) and grid_failures(finer) and doubling + 1 < MAX_GRID_DOUBLINGS:
             sol, (ratio, state) = finer, goal_drift(finer, accuracy)  # closer: one more doubling may cure it
             continue
         if not finer.ok:
