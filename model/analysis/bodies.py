@@ -4,7 +4,9 @@ At the nodes a body must lie in its corridor (the route's, with the apron where 
 lets that body use it): ``node_clearance`` is the smallest signed clearance over bodies and
 nodes (>= 0 inside). Between the nodes the states are interpolated linearly on ``SUBSTEPS``
 sub-steps and the worst clearance is reported (``dense_clearance``), not judged, as for
-obstacles. ``swept_polygons`` is the area each body sweeps (for swept_path.geojson).
+obstacles; the validation judges the clearance along the controls integrated from each node
+(``model.analysis.validation``, ``dense_clearance`` and ``integration_error``).
+``swept_polygons`` is the area each body sweeps (for swept_path.geojson).
 """
 
 from __future__ import annotations

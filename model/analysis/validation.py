@@ -8,6 +8,15 @@ drift of a scipy re-integration of the controls are measured and reported. The
 lateral acceleration (``Vehicle.lateral_acceleration``) is measured at the nodes and on
 the dense re-integration; bounded, it is checked at the nodes with the other bounds and
 between them within 5 % of the bound (``lateral_acceleration_dense``).
+
+Between the nodes, on a road with bodies: the controls are integrated from each node to the next
+(``one_step``). The exact rectangles along that motion, interval ends included, may not leave the
+corridor by more than ``DENSE_CLEARANCE_TOL`` (check ``dense_clearance``: a grid too coarse for
+the steering fails, with the numbers). Where a body ends an interval further from the next node
+than ``max(clearance there, INTEGRATION_TOL)`` the measure ``integration_error`` says so
+(``within_clearance`` False, with the error, the node and the clearance): the search then solves
+again on a finer grid (``model.search.accuracy``); such an answer is reported, not failed, as long
+as the integrated motion itself stays in the corridor.
 """
 
 from __future__ import annotations
@@ -22,6 +31,8 @@ from model.problem.ocp import OCP
 TOL = {"defect": 1e-6, "bound": 1e-6, "boundary": 1e-6, "clearance": 1e-6, "grid": 1e-9}
 DENSE_SHARE = 0.05  # between the nodes a bounded lateral acceleration may exceed its bound by 5 % of max(|lo|, |hi|)
 DENSE_STEPS = 10  # samples of the re-integration per interval
+INTEGRATION_TOL = 0.02  # m: a body may end an interval this far from its node whatever the clearance there
+DENSE_CLEARANCE_TOL = 0.02  # m: between the nodes a body may leave its corridor by this much at most
 
 
 def dynamics_function(ocp: OCP):
@@ -79,12 +90,15 @@ def validate(ocp: OCP, traj: Columns, tf: float, passing: str | None = None) -> 
         measures.update(road_measures(ocp, traj))
         if ocp.bodies:
             checks["body_clearance"] = _check(-min(measures["min_clearance"], 0.0), TOL["clearance"])
+            checks.update(_between_nodes(ocp, traj, measures))
         checks["exit_taken"] = _check(0.0, 0.0, measures["exit_taken"] == ocp.road.route.exit)
     else:
         measures["min_clearance"] = None
     if ocp.moving_obstacles:
         measures.update(moving_measures(ocp, traj))
         checks["moving_clearance"] = _check(-min(measures["min_clearance_moving"], 0.0), TOL["clearance"])
+    if "integration_error" not in measures:
+        measures["integration_error"] = _position_step_error(ocp, t, X, U)
     drift, dense = _reintegration_drift(ocp, t, X, U)
     measures["reintegration"] = drift
     if v.path_outputs():
@@ -156,6 +170,83 @@ def _dense_clearance(ocp: OCP, X: np.ndarray, f: np.ndarray, h: float, sub: int 
     for ob in ocp.obstacles:
         worst = min(worst, float(np.min(ob.clearance(qx, qy))))
     return worst
+
+
+def one_step(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray, steps: int = DENSE_STEPS) -> np.ndarray | None:
+    """Every interval integrated from its own node with the controls linear in between (scipy DOP853).
+
+    All intervals in one integration over the normalised time s in [0, 1] (x_k' = h_k f(x_k, u_k(s))).
+
+    Returns
+    -------
+    ndarray, shape (n_states, N, steps + 1), or None if the integration failed
+        The states at ``steps + 1`` equally spaced points of each interval; ``[:, k, -1]`` is where
+        interval k's controls take the vehicle from node k (compare node k + 1).
+    """
+    from scipy.integrate import solve_ivp  # here, not at import: see model/nlp/imports.py
+
+    f = dynamics_function(ocp)
+    shape = (X.shape[0], len(t) - 1)
+    h, u0, du = np.diff(t), U[:, :-1], U[:, 1:] - U[:, :-1]
+
+    def rhs(s, y):
+        return (f(y.reshape(shape), u0 + du * s) * h).ravel()
+
+    sol = solve_ivp(rhs, (0.0, 1.0), X[:, :-1].ravel(), method="DOP853", rtol=1e-9, atol=1e-11,
+                    t_eval=np.linspace(0.0, 1.0, steps + 1))  # fmt: skip
+    return sol.y.reshape(*shape, steps + 1) if sol.success else None
+
+
+def _position_step_error(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray) -> dict:
+    """Without bodies (measured, not judged): the reference point's one-step error, its largest value and node."""
+    paths = one_step(ocp, t, X, U, steps=1)
+    if paths is None:
+        return {"success": False}
+    ix, iy = (ocp.vehicle.states.index(n) for n in ocp.vehicle.position)
+    error = np.hypot(paths[ix, :, -1] - X[ix, 1:], paths[iy, :, -1] - X[iy, 1:])
+    return {"success": True, "integration_error_max": float(np.max(error)), "max_node": int(np.argmax(error)) + 1}
+
+
+def _between_nodes(ocp: OCP, traj: dict[str, np.ndarray], measures: dict) -> dict:
+    """The one-step integration error of the bodies against their node clearances, and the clearance on the way.
+
+    The error at node k + 1 is the largest distance between a body's corners there and where
+    interval k's controls, integrated from node k, put them. Adds ``integration_error`` to
+    ``measures`` (``integration_error_max`` with its ``max_body`` and ``max_node``; the ``node``
+    and ``body`` with the largest error over the allowance, its ``body_error``, the exact
+    ``clearance`` there, the ``tolerance`` max(clearance, INTEGRATION_TOL) and ``within_clearance``)
+    and ``min_clearance_integrated`` (the least clearance of the bodies along the integrated
+    motion, interval ends included); returns the check ``dense_clearance``.
+    """
+    from model.analysis.bodies import body_corners
+    from model.analysis.bodies import clearances as body_clearances
+
+    v = ocp.vehicle
+    X = np.array([traj[s] for s in v.states])
+    paths = one_step(ocp, traj["t"], X, np.array([traj[c] for c in v.controls]))
+    if paths is None:
+        measures["integration_error"] = {"success": False}
+        return {"dense_clearance": _check(np.inf, DENSE_CLEARANCE_TOL, False)}
+    ends = dict(zip(v.states, paths[:, :, -1], strict=True))
+    nodes = {s: traj[s][1:] for s in v.states}
+    moved = {b: np.max(np.linalg.norm(c - body_corners(ocp, nodes)[b], axis=-1), axis=-1)
+             for b, c in body_corners(ocp, ends).items()}  # fmt: skip
+    clear = body_clearances(ocp, nodes)
+    excess = {b: moved[b] - np.maximum(clear[b], INTEGRATION_TOL) for b in moved}
+    body = max(excess, key=lambda b: float(np.max(excess[b])))
+    k = int(np.argmax(excess[body]))
+    worst = max(moved, key=lambda b: float(np.max(moved[b])))
+    measures["integration_error"] = {
+        "success": True,
+        "integration_error_max": float(np.max(moved[worst])), "max_body": worst,
+        "max_node": int(np.argmax(moved[worst])) + 1,
+        "node": k + 1, "body": body, "body_error": float(moved[body][k]), "clearance": float(clear[body][k]),
+        "tolerance": max(float(clear[body][k]), INTEGRATION_TOL), "within_clearance": bool(excess[body][k] <= 0.0),
+    }  # fmt: skip
+    inside = {s: paths[i, :, 1:].ravel() for i, s in enumerate(v.states)}
+    dense = min(float(np.min(c)) for c in body_clearances(ocp, inside).values())
+    measures["min_clearance_integrated"] = dense
+    return {"dense_clearance": _check(-min(dense, 0.0), DENSE_CLEARANCE_TOL)}
 
 
 def _reintegration_drift(

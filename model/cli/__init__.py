@@ -154,6 +154,8 @@ def _main(argv: list[str] | None) -> int:
         if scenario.ocp.map_route is not None:
             print(map_lines(scenario.ocp.map_route))
         print(f"{args.scenario}: ok")
+        if scenario.ocp.road is not None:
+            print(bounds_line(scenario.ocp))
         return 0
     if args.command == "derive":
         return _derive(scenario, args.latex)
@@ -164,6 +166,21 @@ def _main(argv: list[str] | None) -> int:
     if args.command == "export-sumo":
         return _export_sumo(scenario, args, sumo)
     return _solve(scenario, args, options)
+
+
+def bounds_line(ocp) -> str:
+    """One line of the road bounds (``model.analysis.bounds``, no solver): verdict, margins, time bound, proofs."""
+    from model.analysis.bounds import geometric_bounds
+
+    b = geometric_bounds(ocp)
+    parts = [f"bounds: {b['verdict']}"]
+    if b["swept_annulus"]:
+        parts.append(f"steady swept annulus at full lock {b['swept_annulus']['outer']:.3g} / "
+                     f"{b['swept_annulus']['inner']:.3g} m")  # fmt: skip
+    if b["time_lower_bound_s"] is not None:
+        parts.append(f"time >= {b['time_lower_bound_s']:.4g} s")
+    parts += [p["message"] for p in b["proofs"]] + b["tight"]
+    return "; ".join(parts)
 
 
 # Measured peak memory of a solve (truck, 4 states + 2 controls): about 165 MB plus 70 kB per interval.

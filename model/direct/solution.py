@@ -84,7 +84,8 @@ class Solution:
             "valid": bool(self.validation.get("passed")),
             "validation": self.validation.get("checks", {}),
             "reintegration": measures.get("reintegration"),
-            **({k: measures[k] for k in ("lateral_acceleration",) if k in measures}),
+            **({k: measures[k] for k in ("lateral_acceleration", "integration_error", "min_clearance_integrated")
+                if k in measures}),
             **self._steering_cost(),
             **({"accuracy": self.accuracy} if self.accuracy else {}),
             "solver_message": self.solver_message,

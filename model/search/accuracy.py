@@ -9,6 +9,14 @@ reached.
 
 Tolerance: ``GOAL_ACCURACY * max(1, L)`` for the position states (L the start-goal distance,
 metres) and ``GOAL_ACCURACY`` for every other state fixed at the goal (radians for angles).
+
+Between the nodes (on a road with bodies): a solution whose controls, integrated from a node,
+take a body further from the next node than its clearance there (the validation's
+``integration_error``, ``within_clearance`` False), or that fails validation only because the
+integrated motion leaves the corridor (``dense_clearance``), is solved again on 2N the same way,
+and on 4N if 2N still shows either (``MAX_GRID_DOUBLINGS``); if the finer grids do not cure it,
+the numbers stay in its validation (``measures.integration_error``,
+``measures.min_clearance_integrated``) and the record says so (``grid_failures``).
 """
 
 from __future__ import annotations
@@ -20,9 +28,11 @@ from model.problem.ocp import OCP
 
 GOAL_ACCURACY = 1e-3
 MAX_DOUBLINGS = 1
+MAX_GRID_DOUBLINGS = 2  # a solution failing only the between-node checks may be refined up to 4N
 MAX_INTERVALS = 1600  # never refine beyond this grid
 ROUTE = "for accuracy"  # the end of an attempt's route when it is a re-solve on a finer grid
 SAME_OPTIMUM = 0.02  # a finer grid's objective more than 2 % above the coarse one is another local optimum
+GRID_CHECKS = frozenset({"dense_clearance"})  # failed checks a finer grid can cure
 
 
 def goal_tolerances(ocp: OCP, accuracy: float = GOAL_ACCURACY) -> dict[str, float]:
@@ -42,6 +52,18 @@ def goal_drift(sol: Solution, accuracy: float = GOAL_ACCURACY) -> tuple[float, s
     return (errors[worst] / tol[worst], worst) if worst else (0.0, None)
 
 
+def grid_failures(sol: Solution) -> list[str]:
+    """What a finer grid may cure in a converged solution: ``integration_error`` beyond the clearance, and
+    ``dense_clearance`` if it is the only failed check ([] if nothing, or if another check fails)."""
+    if sol.status not in ("optimal", "validation_failed"):
+        return []
+    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
+    if not set(failed) <= GRID_CHECKS:
+        return []
+    error = sol.validation.get("measures", {}).get("integration_error") or {}
+    return failed + (["integration_error"] if error.get("within_clearance") is False else [])
+
+
 def refine_for_accuracy(
     sol: Solution,
     solve: Callable[[int, Solution], Solution | None],
@@ -54,28 +76,37 @@ def refine_for_accuracy(
     search's time limit has passed). Returns the solution to keep and the record for the summary
     (``accuracy``).
     """
-    if accuracy is None or not sol.ok:
+    if accuracy is None or not (sol.ok or grid_failures(sol)):
         return sol, {}
     ratio, state = goal_drift(sol, accuracy)
     record = {"tolerance": goal_tolerances(sol.ocp, accuracy), "intervals_requested": sol.intervals}
-    for _ in range(MAX_DOUBLINGS):
-        if ratio <= 1.0 or 2 * sol.intervals > MAX_INTERVALS:
+    for doubling in range(max(MAX_DOUBLINGS, MAX_GRID_DOUBLINGS)):
+        failures = grid_failures(sol)
+        drifts = ratio > 1.0 and doubling < MAX_DOUBLINGS
+        if not (drifts or (failures and doubling < MAX_GRID_DOUBLINGS)) or 2 * sol.intervals > MAX_INTERVALS:
             break
         if progress is not None:
-            progress(
-                f"goal drift {ratio:.3g} x the tolerance ({state}) on N = {sol.intervals}: now N = {2 * sol.intervals}"
-            )
+            why = f"goal drift {ratio:.3g} x the tolerance ({state})"
+            why = why if ratio > 1.0 else f"{', '.join(failures)} failed"
+            progress(f"{why} on N = {sol.intervals}: now N = {2 * sol.intervals}")
         finer = solve(2 * sol.intervals, sol)
-        if finer is None or not finer.ok:
-            record["refinement_failed"] = "time limit" if finer is None else finer.status
+        if finer is None:
+            record["refinement_failed"] = "time limit"
             break
-        if finer.objective > sol.objective + SAME_OPTIMUM * abs(sol.objective):
+        if not (sol.ok or finer.ok) and grid_failures(finer) and doubling + 1 < MAX_GRID_DOUBLINGS:
+            sol, (ratio, state) = finer, goal_drift(finer, accuracy)  # closer: one more doubling may cure it
+            continue
+        if not finer.ok:
+            failed = [k for k, c in finer.validation.get("checks", {}).items() if not c["passed"]]
+            record["refinement_failed"] = finer.status + (f" ({', '.join(failed)})" if failed else "")
+            break
+        if sol.ok and finer.objective > sol.objective + SAME_OPTIMUM * abs(sol.objective):
             record["refinement_failed"] = f"N = {finer.intervals} found another local optimum ({finer.objective:.6g})"
             break
         sol = finer
         ratio, state = goal_drift(sol, accuracy)
     return sol, record | {"drift_over_tolerance": ratio, "worst_state": state, "reached": ratio <= 1.0,
-                          "intervals": sol.intervals}  # fmt: skip
+                          "intervals": sol.intervals, "grid_failures": grid_failures(sol)}  # fmt: skip
 
 
 def objectives_on_grid(attempts: list[dict] | None) -> list[float]:
@@ -84,4 +115,5 @@ def objectives_on_grid(attempts: list[dict] | None) -> list[float]:
             if a.get("valid") is True and not str(a.get("route", "")).endswith(ROUTE)]  # fmt: skip
 
 
-__all__ = ["GOAL_ACCURACY", "ROUTE", "goal_drift", "goal_tolerances", "objectives_on_grid", "refine_for_accuracy"]
+__all__ = ["GOAL_ACCURACY", "ROUTE", "goal_drift", "goal_tolerances", "grid_failures", "objectives_on_grid",
+           "refine_for_accuracy"]

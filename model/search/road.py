@@ -24,6 +24,7 @@ import pyomo.environ as pyo
 
 from model.direct.solution import Solution
 from model.direct.solve import Start
+from model.search.accuracy import grid_failures
 from model.search.context import Search, clearly_better, cold_starts
 from model.search.diagnosis import finite, road_diagnosis
 from model.search.road_polish import reverses
@@ -48,7 +49,8 @@ def road_steps(search: Search, best: Solution, fallback: bool) -> Solution:
         best = cold_starts(search, ROAD_FALLBACK_STARTS, None, best)
     if not ocp.bodies:
         return best
-    if best.ok and reverses(best) and search.formulation != CORNERS and not search.skip("second opinion", 2):
+    answered = best.ok or grid_failures(best)  # a converged answer that a finer grid may still cure
+    if answered and reverses(best) and search.formulation != CORNERS and not search.skip("second opinion", 2):
         search.progress("the answer reverses: a second opinion from the arc start with the rectangles' corners")
         best = second_opinion(search, best)
     if not best.ok and not search.skip("failed road: corners, minimal violation", 2):
