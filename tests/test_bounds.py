@@ -141,3 +141,14 @@ def test_a_tight_ring_is_solved_and_the_coarse_grid_re_solved_for_its_integratio
     error = sol.validation["measures"]["integration_error"]
     assert error["within_clearance"] and error["body_error"] <= error["tolerance"]
     assert sol.validation["measures"]["min_clearance_integrated"] >= -0.02
+
+
+def test_solve_ocp_refuses_a_proven_infeasible_road_with_the_bound_in_seconds():
+    """The search's first step: a proof ends it, one cut-short start beside it, the proof as the diagnosis."""
+    from model.search.multistart import solve_ocp
+
+    t0 = time.perf_counter()
+    sol = solve_ocp(ocp_of(road(exit_=2, ring=2.0, intervals=30)), 30)
+    assert time.perf_counter() - t0 < 30.0
+    assert not sol.ok and sol.diagnosis["kind"] == "proven bound" and sol.diagnosis["bound"] == "corridor passage"
+    assert len(sol.attempts) == 1

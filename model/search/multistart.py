@@ -21,6 +21,7 @@ from model.direct.solve import paused_gc, solve_starts, wall_time_options
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
 from model.search.accuracy import ROUTE as ACCURACY_ROUTE
+from model.search.bounds import refusal_from_bounds
 from model.search.context import MIN_WALL_TIME, Reporter, Search, better, clearly_better, cold_starts, reporter
 from model.search.curves import curve_routes
 from model.search.diagnosis import bound_diagnosis, solver_diagnosis, time_limit_diagnosis
@@ -35,6 +36,7 @@ TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf gue
 # x1 failed on one (the semitrailer U-turn: x1.5 and x2 equal) and all three reversed on the other two
 ROAD_TIME_STARTS = ((1.0, "arc"),)
 CURVE_TF_SCALES = (1.0, 2.0)  # Tf guesses of a smooth route's start (free final time)
+PROOF_SECONDS = 3.0  # the one start solved beside a proven bound, for the trajectory it reports
 CURVE_MARGIN = 0.02  # a route's coarse optimum is refined if below (1 + this) x the objective so far
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
 REEDS_SHEPP_STARTS = ((1.0, "reeds-shepp"), (1.0, "reeds-shepp-reverse-in"), (1.0, "reeds-shepp-reverse-out"))
@@ -95,7 +97,11 @@ def solve_ocp(
         raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
     ctx = Search(ocp, intervals, verbose, dict(options or {}), check_formulation(formulation), reporter(progress),
                  time_limit)  # fmt: skip
-    # (the problem's bounds before any start, model.search.bounds, belong here: the search's first step)
+    proof = refusal_from_bounds(ocp) if guess is None and starts is None else None
+    if proof is not None:
+        refused = _refuse(ctx, proof)
+        if not refused.ok:
+            return _finish(ctx, refused, search, start)
     best = _search(ctx, guess, starts, screen, search)
     if not best.ok and best.diagnosis is None:
         best = _continue_or_diagnose(ctx, best, continuation)
@@ -117,6 +123,22 @@ def _finish(ctx: Search, best: Solution, level: str, start: float) -> Solution:
     best.solve_seconds = time.perf_counter() - start
     best.timings = {**best.timings, "all_starts": phase_totals(ctx.solutions)}
     return best
+
+
+def _refuse(ctx: Search, proof: dict) -> Solution:
+    """A road problem a bound proves infeasible: one start, cut at ``PROOF_SECONDS``, for the trajectory to
+    report beside the proof. Should that start validate anyway, the proof is wrong: said, and the search goes on."""
+    ctx.progress(f"refused before the search: {proof['message']}")
+    quick = Search(ctx.ocp, ctx.intervals, ctx.verbose, ctx.options, ctx.formulation, ctx.progress, PROOF_SECONDS)
+    first = search_starts(ctx.ocp, "quick")[:1]
+    sol = cold_starts(quick, first, None, None)
+    ctx.attempts.extend(quick.attempts)
+    ctx.solutions.extend(quick.solutions)
+    if sol.ok:
+        ctx.progress("the start validated although a bound said infeasible: the bound is wrong; searching on")
+        return sol
+    sol.diagnosis = proof
+    return sol
 
 
 def _search(ctx: Search, guess: Columns | None, starts, screen, level: str) -> Solution:
