@@ -171,12 +171,12 @@ def test_the_example_checks_and_prints_the_route():
     assert "corridor: 15 lanelets" in out.stdout and "area " in out.stdout and "route length: " in out.stdout
 
 
-def test_solving_a_map_is_refused_until_it_is_implemented(tmp_path):
-    out = cli("solve", EXAMPLE, "--out", tmp_path / "o")
+def test_simulating_or_deriving_a_map_is_refused_until_it_is_implemented(tmp_path):
+    out = cli("simulate", EXAMPLE, "--out", tmp_path / "o", "--controller", "open-loop")
     assert out.returncode == 2 and "not implemented yet" in out.stderr
     assert not (tmp_path / "o").exists()
     with pytest.raises(InputError, match="not implemented"):
-        load_scenario(EXAMPLE).ocp.solve(intervals=10)
+        load_scenario(EXAMPLE).ocp.pmp()
 
 
 def test_checking_a_map_loads_no_solver():
