@@ -355,7 +355,7 @@ def solve_line(scenario, sol) -> str:
 
 
 def failure_reason(sol) -> str:
-    if (sol.diagnosis or {}).get("kind") == "time limit":
+    if (sol.diagnosis or {}).get("kind") in ("time limit", "map corridor"):
         return sol.diagnosis["message"]
     failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
     return sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
