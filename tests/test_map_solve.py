@@ -43,7 +43,8 @@ dataset = "{dataset}"
 objective = "time"
 intervals = 60
 """
-KACKERT = ("rounD/DEU_Kackertstrasse-1", "from_lanelet = 90\nto_lanelet = 102\nstart_offset = 19.0\ngoal_offset = -12.0")
+KACKERT = ("rounD/DEU_Kackertstrasse-1",
+           "from_lanelet = 90\nto_lanelet = 102\nstart_offset = 19.0\ngoal_offset = -12.0")  # fmt: skip
 THIERGARTEN = ("rounD/DEU_Thiergarten-1", "from_lanelet = 21\nto_lanelet = 90\nstart_offset = 12.0\ngoal_offset = -8.0")
 
 

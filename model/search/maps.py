@@ -69,7 +69,7 @@ def diagnosis(sol: Solution) -> dict:
     failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
     parts = [f"the {b['body']} body leaves the corridor by {b['outside']:.3f} m ({b['where']}, t = {b['t']:.2f} s, "
              f"reference point ({b['x']:.2f}, {b['y']:.2f}), lanelets {b['lanelets']})" for b in bodies]  # fmt: skip
-    if sol.status not in ("optimal", "validation_failed"):  # validation_failed: Ipopt converged, the checks did not pass
+    if sol.status not in ("optimal", "validation_failed"):  # validation_failed: Ipopt converged, a check failed
         parts.insert(0, f"Ipopt: {sol.status}")
     if not sol.search.get("converged", True):
         parts.append(f"the projections did not converge in {len(sol.search['solves'])} solves")
