@@ -269,5 +269,5 @@ class OCP:
         """Raise InputError (key ``map``) for what no method handles yet: the Pontryagin system of a
         route through a lanelet map (its solve is ``model.search.maps``)."""
         if self.map_route is not None:
-            raise InputError("map", "the Pontryagin system of map scenarios is not implemented yet "
-                             "(docs/map-corridor.md); roundabout solve solves them")  # fmt: skip
+            raise InputError("map", "simulating map scenarios or deriving their Pontryagin system is not implemented "
+                             "yet (docs/map-corridor.md); roundabout solve solves them")  # fmt: skip
