@@ -24,6 +24,7 @@ RUN_FILES = (
     "summary.json",
     "trajectory.csv",
     "swept_path.geojson",
+    "commonroad.xml",
     "closed_loop.csv",
     "runs.csv",
     "scenario.toml",

@@ -26,6 +26,7 @@ import sympy as sp
 
 from model.analysis.bodies import moving_measures, road_measures
 from model.analysis.columns import Columns, as_arrays
+from model.analysis.maps import map_measures
 from model.problem.ocp import OCP
 
 TOL = {"defect": 1e-6, "bound": 1e-6, "boundary": 1e-6, "clearance": 1e-6, "grid": 1e-9}
@@ -92,6 +93,11 @@ def validate(ocp: OCP, traj: Columns, tf: float, passing: str | None = None) -> 
             checks["body_clearance"] = _check(-min(measures["min_clearance"], 0.0), TOL["clearance"])
             checks.update(_between_nodes(ocp, traj, measures))
         checks["exit_taken"] = _check(0.0, 0.0, measures["exit_taken"] == ocp.road.route.exit)
+    elif ocp.map_route is not None:
+        measures.update(map_measures(ocp, traj))
+        if ocp.bodies:
+            checks["body_clearance"] = _check(-min(measures["min_clearance"], 0.0), TOL["clearance"])
+            checks["body_clearance_dense"] = _check(-min(measures["min_clearance_dense"], 0.0), TOL["clearance"])
     else:
         measures["min_clearance"] = None
     if ocp.moving_obstacles:

@@ -144,7 +144,7 @@ def _main(argv: list[str] | None) -> int:
         check_grid(getattr(args, "intervals", None), scenario)
         if args.command == "simulate":
             check_simulate(args, scenario)
-        if args.command != "check":
+        if args.command not in ("check", "solve"):  # a map scenario solves; simulate and derive do not yet
             scenario.ocp.check_solvable()
         options = checked_ipopt_options(getattr(args, "ipopt", []))
     except InputError as err:
@@ -348,9 +348,9 @@ def open_loop_solve(scenario, args, options: dict, progress: Progress):
     if not progress.quiet:
         print(f"{scenario.ocp.name}: solving with N = {intervals} ...", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
-    from model.problem.methods import DEFAULT_SOLVE, load_method
+    from model.problem.methods import default_solve, load_method
 
-    method = load_method(DEFAULT_SOLVE)
+    method = load_method(default_solve(scenario.ocp))
     t1 = time.perf_counter()
     sol = scenario.ocp.solve(
         intervals=intervals,
@@ -372,7 +372,7 @@ def solve_line(scenario, sol) -> str:
 
 
 def failure_reason(sol) -> str:
-    if (sol.diagnosis or {}).get("kind") == "time limit":
+    if (sol.diagnosis or {}).get("kind") in ("time limit", "map corridor"):
         return sol.diagnosis["message"]
     failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
     return sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)

@@ -1,7 +1,7 @@
 """Prototype (issue 21 item 2): bodies in any corridor through the curvilinear frame of the route.
 
-Not wired into the solve path (``OCP.solve`` still refuses map scenarios); docs/map-corridor.md
-says what was tried and measured. The formulation, for every body's cover disc j at node k:
+The search of map scenarios (``model.search.maps``, ``OCP.solve``'s default for a ``map_route``) runs it;
+docs/map-corridor.md says what was tried and measured. The formulation, for every body's cover disc j at node k:
 
 - the frame: the route's centre line resampled and smoothed (``model.scene.curvilinear.frame``);
 - the corridor's lateral extents w_left(s), w_right(s) along the frame's normals, each the least

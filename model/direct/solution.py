@@ -94,6 +94,7 @@ class Solution:
             "timings": self.timings,
             "certificate": self.certificate,
             **({"diagnosis": self.diagnosis} if self.diagnosis is not None else {}),
+            **({k: measures.get(k) for k in ("route_lanelets", "lanelets_used")} if self.ocp.map_route else {}),
         }
 
     def _steering_cost(self) -> dict:
@@ -118,8 +119,10 @@ class Solution:
     def files(self) -> dict[str, str]:
         """The run's files by name: trajectory.csv, swept_path.geojson (roads), summary.json."""
         files = {"trajectory.csv": csv_text(self.columns)}
-        if self.ocp.road is not None and self.ocp.bodies:
+        if (self.ocp.road is not None or self.ocp.map_route is not None) and self.ocp.bodies:
             files["swept_path.geojson"] = json.dumps(self.swept_path()) + "\n"
+        if self.ocp.map_route is not None:
+            files["commonroad.xml"] = self.commonroad_xml()
         files["summary.json"] = json_text(self.summary())
         return files
 
@@ -133,6 +136,21 @@ class Solution:
         features = [{"type": "Feature", "properties": {"body": name}, "geometry": shapely.geometry.mapping(poly)}
                     for name, poly in polygons.items()]  # fmt: skip
         return {"type": "FeatureCollection", "features": features}
+
+
+    def commonroad_xml(self) -> bytes:
+        """The map's CommonRoad scenario with each body as a DynamicObstacle along the trajectory."""
+        from model.scene.commonroad_out import MovingRectangle, scenario_with_rectangles
+
+        v, poses = self.ocp.vehicle, self.ocp.vehicle.body_poses()
+        states = {k: np.asarray(self.columns[k], float) for k in v.states}
+        rectangles = []
+        for name, body in self.ocp.bodies.items():
+            x, y, h = v.state_function(list(poses[name]))(states)
+            middle = (body.front - body.rear_overhang) / 2  # the rectangle's centre ahead of its reference point
+            cx, cy = x + middle * np.cos(h), y + middle * np.sin(h)
+            rectangles.append(MovingRectangle(body.length, body.width, np.asarray(self.columns["t"], float), cx, cy, h))
+        return scenario_with_rectangles(self.ocp.map_route.map, rectangles)
 
 
 def csv_text(columns: dict[str, np.ndarray]) -> str:

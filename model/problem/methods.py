@@ -14,9 +14,15 @@ from importlib import import_module
 from typing import Any
 
 DEFAULT_SOLVE = "model.search.multistart:solve_ocp"
+DEFAULT_MAP_SOLVE = "model.search.maps:solve_map_route"  # a route through a lanelet map
 DEFAULT_PMP = "derivations.pmp:derive"
 
 Method = Callable[..., Any]
+
+
+def default_solve(ocp: Any) -> str:
+    """The default solve method of a problem: the map search for a ``map_route``, else the multi-start."""
+    return DEFAULT_MAP_SOLVE if getattr(ocp, "map_route", None) is not None else DEFAULT_SOLVE
 
 
 def load_method(method: str | Method) -> Method:
@@ -29,4 +35,4 @@ def load_method(method: str | Method) -> Method:
     return getattr(import_module(module), name)
 
 
-__all__ = ["DEFAULT_PMP", "DEFAULT_SOLVE", "Method", "load_method"]
+__all__ = ["DEFAULT_MAP_SOLVE", "DEFAULT_PMP", "DEFAULT_SOLVE", "Method", "default_solve", "load_method"]

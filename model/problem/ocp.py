@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from model.errors import InputError
 from model.problem.costs import Cost, Energy
-from model.problem.methods import DEFAULT_PMP, DEFAULT_SOLVE, Method, load_method
+from model.problem.methods import DEFAULT_PMP, Method, default_solve, load_method
 from model.scene.lanelet_map import MapRoute
 from model.scene.moving import MovingVehicle
 from model.scene.obstacles import Circle
@@ -56,7 +56,7 @@ class OCP:
         route's corridor.
     map_route : MapRoute, optional
         A route through a CommonRoad lanelet map (docs/map-format.md; instead of ``obstacles`` and
-        ``road``). Solving it is not implemented yet: ``solve`` and ``pmp`` raise InputError.
+        ``road``). ``solve`` uses ``model.search.maps`` by default; ``pmp`` raises InputError.
     name, title : str
         Used in results files.
 
@@ -258,8 +258,7 @@ class OCP:
         >>> sol = ocp.solve(intervals=100)                       # doctest: +SKIP
         >>> sol.ok, sol.objective, sol.trajectory[["t", "x", "y"]]  # doctest: +SKIP
         """
-        self.check_solvable()
-        return load_method(method or DEFAULT_SOLVE)(self, intervals=intervals, **options)
+        return load_method(method or default_solve(self))(self, intervals=intervals, **options)
 
     def pmp(self, **options: Any) -> PMPSystem:
         """The Pontryagin system derived symbolically from this definition (``derivations.pmp.derive``)."""
@@ -267,7 +266,8 @@ class OCP:
         return load_method(DEFAULT_PMP)(self, **options)
 
     def check_solvable(self) -> None:
-        """Raise InputError (key ``map``) for what no method handles yet: a route through a lanelet map."""
+        """Raise InputError (key ``map``) for what no method handles yet: the Pontryagin system of a
+        route through a lanelet map (its solve is ``model.search.maps``)."""
         if self.map_route is not None:
-            raise InputError("map", "solving map scenarios is not implemented yet (docs/map-corridor.md); "
-                             "roundabout check reads the map and its route")  # fmt: skip
+            raise InputError("map", "simulating map scenarios or deriving their Pontryagin system is not implemented "
+                             "yet (docs/map-corridor.md); roundabout solve solves them")  # fmt: skip

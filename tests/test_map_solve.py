@@ -1,0 +1,134 @@
+"""Solving map scenarios (issue 21 items 2 and 4, first cut): roundabout solve on a [map] route.
+
+The Kackertstrasse SU-30 route of docs/map-corridor.md (90 -> 102, N = 60) solves and validates
+with its bodies as exact rectangles inside the corridor; its commonroad.xml, read back with
+commonroad-io, holds one DynamicObstacle per body following the trajectory; the SU-30's right
+turn at Thiergarten's first exit (21 -> 90), which the strip sequence does not solve, exits 1
+with a diagnosis naming the body and how far it leaves the corridor.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+from model.problem.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+
+BASE = """
+name = "{name}"
+
+[vehicle]
+preset = "SU-30"
+
+[bounds]
+u1 = [0.0, 6.944444444444445]
+u2 = [-0.5, 0.5]
+phi = [-0.6, 0.6]
+
+[map]
+dataset = "{dataset}"
+
+[route]
+{route}
+
+[problem]
+objective = "time"
+intervals = 60
+"""
+KACKERT = ("rounD/DEU_Kackertstrasse-1",
+           "from_lanelet = 90\nto_lanelet = 102\nstart_offset = 19.0\ngoal_offset = -12.0")  # fmt: skip
+THIERGARTEN = ("rounD/DEU_Thiergarten-1", "from_lanelet = 21\nto_lanelet = 90\nstart_offset = 12.0\ngoal_offset = -8.0")
+
+
+def solve(folder: Path, name: str, case: tuple[str, str]) -> tuple[subprocess.CompletedProcess, Path, Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.toml"
+    path.write_text(BASE.format(name=name, dataset=case[0], route=case[1]))
+    out = folder / "out"
+    run = subprocess.run([sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(out), "--quiet"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)  # fmt: skip
+    return run, path, out
+
+
+@pytest.fixture(scope="module")
+def kackertstrasse(tmp_path_factory):
+    pytest.importorskip("commonroad")
+    return solve(tmp_path_factory.mktemp("kackert"), "kackert-su30", KACKERT)
+
+
+def trajectory(out: Path) -> dict[str, np.ndarray]:
+    lines = (out / "trajectory.csv").read_text().splitlines()
+    names, rows = lines[0].split(","), [[float(v) if v else np.nan for v in line.split(",")] for line in lines[1:]]
+    return {n: np.array(c) for n, c in zip(names, np.array(rows).T, strict=True)}
+
+
+def test_the_kackertstrasse_su30_route_solves_and_validates(kackertstrasse):
+    run, path, out = kackertstrasse
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "optimal" and summary["valid"]
+    assert summary["final_time"] == pytest.approx(15.7521, abs=5e-3)  # docs/map-corridor.md, N = 60
+    assert summary["min_clearance"] > 0 and summary["min_clearance_dense"] > 0
+    ocp = load_scenario(path).ocp
+    assert summary["route_lanelets"] == sorted(ocp.map_route.corridor_lanelets)
+    # the start (19 m along the route) lies beyond lanelet 90 (7.6 m), on 82; the rounD lanelets overlap
+    # at the ring's entries, so a body inside the corridor may also cover lanelets outside it
+    assert {82, 102} <= set(summary["lanelets_used"]) and 90 not in summary["lanelets_used"]
+    # independently of the solve: every body's exact rectangle inside the corridor at every node
+    cols = trajectory(out)
+    poses = ocp.vehicle.body_poses()
+    for name, body in ocp.bodies.items():
+        x, y, h = ocp.vehicle.state_function(list(poses[name]))(cols)
+        corridor = ocp.map_route.corridor(name).buffer(1e-6)
+        assert all(corridor.contains(shapely.Polygon(c)) for c in body.corners(x, y, h))
+    swept = json.loads((out / "swept_path.geojson").read_text())
+    assert [f["properties"]["body"] for f in swept["features"]] == list(ocp.bodies)
+    area = shapely.geometry.shape(swept["features"][0]["geometry"])
+    assert area.within(ocp.map_route.corridor("vehicle").buffer(1e-3))  # map coordinates, inside the corridor
+
+
+def test_commonroad_xml_has_one_obstacle_per_body_following_the_trajectory(kackertstrasse):
+    from commonroad.common.file_reader import CommonRoadFileReader
+
+    run, path, out = kackertstrasse
+    assert run.returncode == 0, run.stderr
+    scenario, _ = CommonRoadFileReader(str(out / "commonroad.xml")).open()
+    ocp = load_scenario(path).ocp
+    assert len(scenario.dynamic_obstacles) == len(ocp.bodies)
+    assert len(scenario.lanelet_network.lanelets) == len(ocp.map_route.map.network.lanelets)
+    cols = trajectory(out)
+    poses = ocp.vehicle.body_poses()
+    for obstacle, (name, body) in zip(scenario.dynamic_obstacles, ocp.bodies.items(), strict=True):
+        assert obstacle.obstacle_shape.length == pytest.approx(body.length)
+        assert obstacle.obstacle_shape.width == pytest.approx(body.width)
+        states = [obstacle.initial_state, *obstacle.prediction.trajectory.state_list]
+        t = np.array([s.time_step for s in states]) * scenario.dt
+        assert t[-1] <= cols["t"][-1] + 1e-9 and t[-1] > cols["t"][-1] - scenario.dt
+        x, y, h = ocp.vehicle.state_function(list(poses[name]))(cols)
+        centre = body.corners(x, y, h).mean(axis=1)  # the rectangle's centre at the nodes
+        expected = np.column_stack([np.interp(t, cols["t"], centre[:, 0]), np.interp(t, cols["t"], centre[:, 1])])
+        got = np.array([s.position for s in states])
+        assert np.max(np.linalg.norm(got - expected, axis=1)) < 0.01
+        heading = np.interp(t, cols["t"], np.unwrap(h))
+        assert np.max(np.abs(np.array([s.orientation for s in states]) - heading)) < 1e-3
+
+
+def test_a_route_the_strips_do_not_solve_exits_1_with_a_diagnosis(tmp_path):
+    pytest.importorskip("commonroad")
+    run, _, out = solve(tmp_path, "thiergarten-su30", THIERGARTEN)
+    assert run.returncode == 1, run.stderr
+    assert "leaves the corridor by" in run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert not summary["valid"] and summary["min_clearance"] < 0
+    diagnosis = summary["diagnosis"]
+    assert diagnosis["kind"] == "map corridor" and "body_clearance" in diagnosis["failed_checks"]
+    worst = max(diagnosis["bodies"], key=lambda b: b["outside"])
+    assert worst["body"] == "vehicle" and worst["outside"] == pytest.approx(-summary["min_clearance"], abs=1e-9)
