@@ -74,10 +74,10 @@ def steady_radii(vehicle: Vehicle, bodies: Mapping[str, Body], radius: float) ->
     dict
         Body name -> ``axle_radius``, ``outer``, ``inner`` (m).
     """
-    p = vehicle.parameters()
+    p = vehicle.parameter_values()
     axle = {"vehicle": radius}
-    if "L" in p:
-        axle["trailer"] = math.sqrt(max(radius * radius + p["h"] ** 2 - p["L"] ** 2, 0.0))
+    if "trailer_wheelbase" in p:
+        axle["trailer"] = math.sqrt(max(radius * radius + p["hitch_offset"] ** 2 - p["trailer_wheelbase"] ** 2, 0.0))
     out = {}
     for name, body in bodies.items():
         r, half = axle[name], body.width / 2.0
@@ -88,9 +88,9 @@ def steady_radii(vehicle: Vehicle, bodies: Mapping[str, Body], radius: float) ->
 
 def steady_articulation(vehicle: Vehicle, radius: float) -> float:
     """theta - theta1 in the steady turn of rear-axle radius R: asin(L / sqrt(R^2 + h^2)) - atan(h / R)."""
-    p = vehicle.parameters()
-    hitch = math.hypot(radius, p["h"])
-    return math.asin(min(p["L"] / hitch, 1.0)) - math.atan2(p["h"], radius)
+    p = vehicle.parameter_values()
+    hitch = math.hypot(radius, p["hitch_offset"])
+    return math.asin(min(p["trailer_wheelbase"] / hitch, 1.0)) - math.atan2(p["hitch_offset"], radius)
 
 
 def _side(ocp: OCP, name: str) -> float | None:
@@ -110,16 +110,17 @@ def least_steady_radius(ocp: OCP) -> tuple[float, float | None] | None:
     the vehicle cannot steer to that side.
     """
     v = ocp.vehicle
-    p = v.parameters()
-    if "phi" not in v.states or "d" not in p:
+    p = v.parameter_values()
+    if v.roles.steering is None or "wheelbase" not in p:
         return None
-    least = math.sqrt(max(p["L"] ** 2 - p["h"] ** 2, 0.0)) if "L" in p else 0.0
-    phi_max = _side(ocp, "phi")
+    trailer = "trailer_wheelbase" in p
+    least = math.sqrt(max(p["trailer_wheelbase"] ** 2 - p["hitch_offset"] ** 2, 0.0)) if trailer else 0.0
+    phi_max = _side(ocp, v.roles.steering)
     if phi_max is not None and phi_max <= 0.0:
         return math.inf, 0.0
     if phi_max is not None and phi_max < math.pi / 2:
-        least = max(least, p["d"] / math.tan(phi_max))
-    limit = _side(ocp, "articulation") if "L" in p else None
+        least = max(least, p["wheelbase"] / math.tan(phi_max))
+    limit = _side(ocp, "articulation") if trailer else None
     if limit is not None and steady_articulation(v, least) > limit:
         lo, hi = least, max(2.0 * least, 1.0)
         while steady_articulation(v, hi) > limit:
@@ -144,7 +145,8 @@ def swept_annulus(ocp: OCP) -> dict | None:
     if least is None or not ocp.bodies or math.isinf(least[0]):
         return None
     R, phi = least
-    return {"R": R, "phi": phi} | _summary(steady_radii(ocp.vehicle, ocp.bodies, R))
+    radii = _summary(steady_radii(ocp.vehicle, ocp.bodies, R))
+    return {"R": R, "phi": phi} | radii  # names: the summary's key for the steering angle
 
 
 def allowed_inner_radius(ocp: OCP, body: str) -> float:
@@ -208,16 +210,23 @@ def pose_clearances(ocp: OCP) -> dict:
 
     The trailer's pose is fixed only where its angle ``theta1`` is given (at the start always).
     """
-    v = ocp.vehicle
+    v, r = ocp.vehicle, ocp.vehicle.roles
     out = {}
     for where, values in (("start", ocp.initial), ("goal", ocp.final)):
-        free_trailer = "theta1" in v.states and "theta1" not in values
-        full = {"phi": 0.0, "theta1": values.get("theta", 0.0)} | dict(values)
+        free_trailer = any(t not in values for t in r.trailers)
+        full = {**({r.steering: 0.0} if r.steering else {}), **dict.fromkeys(r.trailers, values.get(r.heading, 0.0))}
+        full |= dict(values)
         states = {s: np.array([float(full[s])]) for s in v.states}
         fixed = {b: body for b, body in ocp.bodies.items() if not (free_trailer and b == "trailer")}
         view = SimpleNamespace(vehicle=v, bodies=fixed, road=ocp.road)
         out[where] = {b: float(c[0]) for b, c in clearances(view, states).items()}
     return out
+
+
+def _pose_names(ocp: OCP) -> tuple[str, str, str]:
+    """The names of the reference point's x, y and heading."""
+    r = ocp.vehicle.roles
+    return r.x, r.y, r.heading
 
 
 def _midpoint(body: Body, x: float, y: float, heading: float) -> tuple[np.ndarray, float]:
@@ -234,11 +243,11 @@ def corridor_passage(ocp: OCP) -> dict | None:
     """
     import shapely
 
-    body = ocp.bodies.get("vehicle")
-    if body is None or not all(k in ocp.final for k in ("x", "y", "theta")):
+    body, pose = ocp.bodies.get("vehicle"), _pose_names(ocp)
+    if body is None or not all(k in ocp.final for k in pose):
         return None
-    a, radius = _midpoint(body, ocp.initial["x"], ocp.initial["y"], ocp.initial["theta"])
-    b, _ = _midpoint(body, ocp.final["x"], ocp.final["y"], ocp.final["theta"])
+    a, radius = _midpoint(body, *(ocp.initial[k] for k in pose))
+    b, _ = _midpoint(body, *(ocp.final[k] for k in pose))
     region = ocp.road.corridor("vehicle")
     eroded = region.polygon.buffer(-(radius - EROSION_SLACK - region.tol))
     pieces = list(getattr(eroded, "geoms", [eroded])) if not eroded.is_empty else []
@@ -287,14 +296,14 @@ def ring_passage(ocp: OCP, rays: int = 720) -> dict | None:
 
     body = ocp.bodies.get("vehicle")
     inner = allowed_inner_radius(ocp, "vehicle") if body is not None else 0.0
-    if body is None or inner <= 0.0 or not all(k in ocp.final for k in ("x", "y", "theta")):
+    if body is None or inner <= 0.0 or not all(k in ocp.final for k in _pose_names(ocp)):
         return None
     rb = ocp.road.roundabout
     c, turn = np.asarray(rb.center), rb.circulation
     px, py = ocp.vehicle.position
     ends = []
     for pose in (ocp.initial, ocp.final):
-        mid, radius = _midpoint(body, pose["x"], pose["y"], pose["theta"])
+        mid, radius = _midpoint(body, *(pose[k] for k in _pose_names(ocp)))
         ref = math.atan2(pose[py] - c[1], pose[px] - c[0])
         offset = (math.atan2(mid[1] - c[1], mid[0] - c[0]) - ref + math.pi) % (2 * math.pi) - math.pi
         ends.append((ref, offset))

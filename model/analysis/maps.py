@@ -79,6 +79,7 @@ def corridor_diagnosis(ocp: OCP, states: Mapping[str, np.ndarray]) -> list[dict]
         where, s, gap, k = worst
         x, y, h = v.state_function(list(poses[name]))({n: np.atleast_1d(a[k]) for n, a in s.items()})
         corners = ocp.bodies[name].corners(x[0], y[0], h[0])
-        out.append({"body": name, "where": where, "t": float(s["t"][k]), "x": float(x[0]), "y": float(y[0]),
+        point = {"x": float(x[0]), "y": float(y[0])}  # names: the diagnosis's keys for the body's point
+        out.append({"body": name, "where": where, "t": float(s["t"][k]), **point,
                     "outside": -gap, "lanelets": lanelets_covered(ocp, shapely.Polygon(corners))})  # fmt: skip
     return out

@@ -18,13 +18,14 @@ from model.search.paths import min_turning_radius, reeds_shepp
 
 def reeds_shepp_length(ocp: OCP) -> float | None:
     """Length (m) of the shortest Reeds-Shepp path start to goal at the least turning radius, or None."""
-    if not all(k in ocp.final and k in ocp.initial for k in ("x", "y", "theta")):
+    pose = (*ocp.vehicle.position, ocp.vehicle.roles.heading)
+    if not all(k in ocp.final and k in ocp.initial for k in pose):
         return None
     rho = min_turning_radius(ocp.vehicle, ocp.bounds)
     if rho is None or rho == 0.0 or rho == float("inf"):
         return None
-    start = tuple(ocp.initial[k] for k in ("x", "y", "theta"))
-    goal = tuple(ocp.final[k] for k in ("x", "y", "theta"))
+    start = tuple(ocp.initial[k] for k in pose)
+    goal = tuple(ocp.final[k] for k in pose)
     return float(reeds_shepp(start, goal, rho).length)
 
 
