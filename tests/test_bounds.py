@@ -149,6 +149,6 @@ def test_solve_ocp_refuses_a_proven_infeasible_road_with_the_bound_in_seconds():
 
     t0 = time.perf_counter()
     sol = solve_ocp(ocp_of(road(exit_=2, ring=2.0, intervals=30)), 30)
-    assert time.perf_counter() - t0 < 30.0
+    assert time.perf_counter() - t0 < 60.0  # a 3 s start beside the proof, not a search
     assert not sol.ok and sol.diagnosis["kind"] == "proven bound" and sol.diagnosis["bound"] == "corridor passage"
     assert len(sol.attempts) == 1

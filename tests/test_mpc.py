@@ -146,9 +146,10 @@ def test_disturbed_mpc_halves_the_open_loop_error(request, case, dt, gain, bias)
 
 def delayed_runs(real, plant, delay: int) -> tuple[MPC, Run, Run]:
     """The same dead time against a controller that predicts through ``pending`` and one that ignores it."""
-    aware = MPC(real, ControlSettings(0.1, 40), Disturbance(delay=0.1 * delay))
+    untimed = MPCSettings(budget=100.0)  # what is tested is the prediction, not this machine's speed
+    aware = MPC(real, ControlSettings(0.1, 40), Disturbance(delay=0.1 * delay), untimed)
     with_delay = simulate(aware.make_step, start(real.ocp), lambda: aware.final_time, 0.1, plant, delay=delay)
-    blind = MPC(real, ControlSettings(0.1, 40))
+    blind = MPC(real, ControlSettings(0.1, 40), settings=untimed)
 
     def ignoring(t, y, _pending):
         return blind.make_step(t, y, np.zeros((0, 2)))
