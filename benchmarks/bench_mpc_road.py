@@ -79,7 +79,8 @@ from model.simulation.loop import simulate  # noqa: E402
 from model.simulation.mpc import MPC, MPCSettings, TimeLayout  # noqa: E402
 from model.simulation.mpc.horizon import node_fraction  # noqa: E402
 
-CASES = {"truck": "examples/roundabout-truck.toml", "semitrailer": "examples/roundabout-semitrailer.toml"}
+CASES = {"truck": "examples/roundabout-truck.toml", "semitrailer": "examples/roundabout-semitrailer.toml",
+         "crossing-car": "examples/crossing-car.toml"}  # fmt: skip
 SAMPLE, HORIZON = 0.1, 40  # 10 Hz, 4 s
 BIG = 1e20  # Ipopt reads |bound| >= 1e19 as none
 
@@ -226,6 +227,7 @@ def run(case: str, controller: str, reference_intervals: int, peer: bool) -> dic
         "reached": bool(loop.summary["reached_goal"]), "position_error": loop.summary["final_position_error"],
         "heading_error": loop.summary["final_heading_error"], "min_clearance": float(worst.min()),
         "samples_outside": int(np.sum(worst < 0)), "samples": int(worst.size),
+        "min_distance_moving": loop.summary["min_distance_moving"],
         "load": (load_before, load_after),
     }  # fmt: skip
     if peer:
@@ -240,11 +242,13 @@ def run(case: str, controller: str, reference_intervals: int, peer: bool) -> dic
 
 HEAD = ("| case | controller | columns x rows | steps (RTI / fallback / failed) | mean s | max s | CPU mean s | "
         "CPU max s | Opti mean s | Opti max s | Opti iters | ratio mean (max) | du median (max) | goal | "
-        "end error m / rad | exact corridor: min clearance m, samples outside | load |")  # fmt: skip
+        "end error m / rad | exact corridor: min clearance m, samples outside | car: min distance m | "
+        "load |")  # fmt: skip
 
 
 def line(r: dict) -> str:
     peer = " - | - | - | - | - |"
+    car = "-" if r["min_distance_moving"] is None else f"{r['min_distance_moving']:.3f}"
     if "peer_mean" in r:
         ratio = f"{r['mean'] / r['peer_mean']:.3f} ({r['max'] / r['peer_max']:.3f})"
         peer = (f" {r['peer_mean']:.4f} | {r['peer_max']:.4f} | {r['peer_it']:.1f} "
@@ -253,7 +257,8 @@ def line(r: dict) -> str:
             f"{r['fallback']} / {r['failed']}) | {r['mean']:.4f} | {r['max']:.4f} | {r['cpu_mean']:.4f} | "
             f"{r['cpu_max']:.4f} |{peer} {'yes' if r['reached'] else 'no'} | "
             f"{r['position_error']:.2g} / {r['heading_error']:.2g} | {r['min_clearance']:.3f}, "
-            f"{r['samples_outside']} of {r['samples']} | {r['load'][0]:.1f} -> {r['load'][1]:.1f} |")  # fmt: skip
+            f"{r['samples_outside']} of {r['samples']} | {car} | "
+            f"{r['load'][0]:.1f} -> {r['load'][1]:.1f} |")  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
