@@ -53,8 +53,13 @@ SETTLE_LIMIT = 20  # re-solves at most
 TRUST = 0.2  # Tf may move by this share of Tf_ref in one solve of the fixed point
 
 
-def add_moving_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
+def add_moving_obstacles(m: pyo.ConcreteModel, ocp: OCP, soft: bool = False) -> None:
     """The Params and keep-out rows of the module docstring (nothing without moving obstacles).
+
+    ``soft`` (``TranscriptionOptions.soft_penalty``): each row's margin r is lowered by a slack
+    0 <= s <= r (metres), |c_body - c|^2 >= (r - s)^2, one slack Var per node for each obstacle (and
+    body), ``m.moving_<body>_<i>_slack``, joining ``m.slacks``: the list the soft cost prices and the
+    real-time iteration holds, as the road's body rows (``model.direct.bodies``).
 
     Every rule uses only Pyomo components indexed by the rows' own indices, so that each row family
     is one CasADi template (``model.nlp.pyomo_sx``), not one expression walk per row.
@@ -72,9 +77,9 @@ def add_moving_obstacles(m: pyo.ConcreteModel, ocp: OCP) -> None:
     fill_moving(m, ocp)
     centre = _centre(m)
     if ocp.bodies:
-        _body_rows(m, ocp, centre)
+        _body_rows(m, ocp, centre, soft)
     else:
-        _point_rows(m, ocp, centre)
+        _point_rows(m, ocp, centre, soft)
 
 
 def _centre(m: pyo.ConcreteModel) -> Callable:
@@ -90,18 +95,33 @@ def _centre(m: pyo.ConcreteModel) -> Callable:
     return centre
 
 
-def _point_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable) -> None:
+def _margin_slacks(m: pyo.ConcreteModel, ocp: OCP, tag: str, r_body: float, soft: bool) -> Callable:
+    """``(i, t) -> s``: the slack lowering obstacle i's margin r_body + R_i at node t (zero if not ``soft``)."""
+    if not soft:
+        return lambda i, t: 0.0
+    slacks = []
+    for i, ob in enumerate(ocp.moving_obstacles):
+        top = r_body + ob.cover()[1] + ob.safety
+        var = pyo.Var(m.tau, bounds=(0.0, top), initialize=0.0)
+        m.add_component(f"{tag}_{i}_slack", var)
+        m.slacks = [*getattr(m, "slacks", []), var]
+        slacks.append(var)
+    return lambda i, t: slacks[i][t]
+
+
+def _point_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable, soft: bool) -> None:
     px, py = ocp.vehicle.position
     X, Y = m.component(px), m.component(py)
+    slack = _margin_slacks(m, ocp, "moving", 0.0, soft)
 
     def rule(_m, i, j, t):
         cx, cy = centre(i, j, t)
-        return (X[t] - cx) ** 2 + (Y[t] - cy) ** 2 >= m.moving_R[i] ** 2
+        return (X[t] - cx) ** 2 + (Y[t] - cy) ** 2 >= (m.moving_R[i] - slack(i, t)) ** 2
 
     _register(m, "moving", "moving_keep_out", pyo.Constraint(m.moving_discs, m.tau, rule=rule))
 
 
-def _body_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable) -> None:
+def _body_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable, soft: bool) -> None:
     """Per body: its cover discs' offsets ahead of the axle (``m.moving_<body>_ahead[b]``) and the rows."""
     v = ocp.vehicle
     poses = v.body_poses()
@@ -110,12 +130,13 @@ def _body_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable) -> None:
         offsets, r_body = body.cover(disc_count(body.length, body.width))
         ahead = pyo.Param(pyo.RangeSet(0, len(offsets) - 1), initialize=dict(enumerate(map(float, offsets))))
         m.add_component(f"moving_{name}_ahead", ahead)
+        slack = _margin_slacks(m, ocp, f"moving_{name}", float(r_body), soft)
 
-        def rule(_m, i, j, b, t, pose=poses[name], ahead=ahead, r_body=r_body):
+        def rule(_m, i, j, b, t, pose=poses[name], ahead=ahead, r_body=r_body, slack=slack):
             x, y, h = (sympy_to_pyomo(e, {sym(s): m.component(s)[t] for s in v.states} | params) for e in pose)
             cx, cy = centre(i, j, t)
             bx, by = x + ahead[b] * pyo.cos(h), y + ahead[b] * pyo.sin(h)
-            return (bx - cx) ** 2 + (by - cy) ** 2 >= (r_body + m.moving_R[i]) ** 2
+            return (bx - cx) ** 2 + (by - cy) ** 2 >= (r_body + m.moving_R[i] - slack(i, t)) ** 2
 
         rows = pyo.Constraint(m.moving_discs, ahead.index_set(), m.tau, rule=rule)
         _register(m, f"{name}_moving", f"moving_{name}_keep_out", rows)
@@ -142,10 +163,26 @@ def fill_moving(
         return
     tf = float(pyo.value(m.tf)) if final_time is None else float(final_time)
     t0 = float(pyo.value(m.moving_t0)) if start_time is None else float(start_time)
-    m.moving_tf_ref.set_value(tf)
+    fill_moving_at(m, ocp, t0 + np.array(m.nodes, dtype=float) * tf)
+    m.moving_tf_ref.set_value(tf)  # exactly (the span of the times may differ in the last bit)
     m.moving_t0.set_value(t0)
+
+
+def fill_moving_at(m: pyo.ConcreteModel, ocp: OCP, times: np.ndarray) -> None:
+    """Set the centre and velocity Params at the given absolute node times (uniform, one per node).
+
+    ``moving_t0`` becomes ``times[0]`` and ``moving_tf_ref`` the span ``times[-1] - times[0]``: a
+    receding horizon's filler (``m.node_parameters``), called with the node times of every step.
+    No-op without moving obstacles.
+    """
+    if not ocp.moving_obstacles:
+        return
+    times = np.asarray(times, dtype=float)
+    if len(times) != len(m.nodes):
+        raise ValueError(f"{len(times)} node times for {len(m.nodes)} nodes")
+    m.moving_t0.set_value(float(times[0]))
+    m.moving_tf_ref.set_value(float(times[-1] - times[0]))
     nodes = list(m.nodes)
-    times = t0 + np.array(nodes, dtype=float) * tf
     for i, ob in enumerate(ocp.moving_obstacles):
         centres, _ = ob.discs(times)
         speeds = ob.disc_velocities(times)

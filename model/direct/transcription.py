@@ -68,7 +68,7 @@ def build_model(
     if not soft:
         _add_obstacle_rows(m, ocp)
     add_body_constraints(m, ocp, relax or soft, formulation)
-    add_moving_obstacles(m, ocp)
+    add_moving_obstacles(m, ocp, soft)
     if passing in ("ccw", "cw") and ocp.obstacles:
         _add_pass_direction(m, ocp, passing)
     if opts.horizon is not None:

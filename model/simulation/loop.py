@@ -35,6 +35,7 @@ SUMMARY_KEYS = (
     "min_clearance", "solve_seconds_mean", "solve_seconds_max", "realtime_factor", "failed_steps",
     "reached_goal", "goal_tolerance",
 )  # fmt: skip
+MOVING_KEYS = ("min_distance_moving", "min_clearance_moving")  # extensions, at their worst over several runs
 
 
 @dataclass
@@ -215,6 +216,22 @@ def min_clearance(scenario: Scenario, columns: dict[str, np.ndarray]) -> float |
     return None
 
 
+def moving_distances(scenario: Scenario, columns: dict[str, np.ndarray]) -> dict:
+    """Least distance (m) over the samples from the vehicle (its bodies' exact rectangles, else its
+    reference point) to every moving obstacle's exact rectangle (negative: the overlap's depth),
+    ``min_distance_moving``, and that minus the obstacle's safety, ``min_clearance_moving``; None
+    without moving obstacles. A distance <= 0 is a collision (``collided``)."""
+    ocp = scenario.ocp
+    if not ocp.moving_obstacles:
+        return {"min_distance_moving": None, "min_clearance_moving": None, "collided": False}
+    from model.analysis.bodies import moving_clearances
+
+    clear = moving_clearances(ocp, {k: columns[k] for k in ("t", *ocp.vehicle.states)})
+    safety = np.array([ob.safety for ob in ocp.moving_obstacles])[:, None]
+    distance = float(np.min(clear + safety))
+    return {"min_distance_moving": distance, "min_clearance_moving": float(np.min(clear)), "collided": distance <= 0.0}
+
+
 def zoh_energy(columns: dict[str, np.ndarray], controls) -> float:
     """1/2 integral of the sum of the squared applied controls under the zero-order hold."""
     dt = np.diff(columns["t"])
@@ -233,6 +250,7 @@ def _summary(scenario, solution, controller, columns, seconds, failed: int, h: f
     tol = goal_tolerance(scenario)
     errors = final_errors(scenario, columns)
     seconds = np.asarray(seconds, dtype=float)
+    moving = moving_distances(scenario, columns)
     return {
         "controller": controller.name,
         "steps": len(seconds),
@@ -241,12 +259,13 @@ def _summary(scenario, solution, controller, columns, seconds, failed: int, h: f
         "energy": zoh_energy(columns, v.controls),
         "final_time": float(columns["t"][-1]),
         "min_clearance": min_clearance(scenario, columns),
+        **moving,
         "solve_seconds_mean": float(np.mean(seconds)),
         "solve_seconds_max": float(np.max(seconds)),
         "realtime_factor": float(np.max(seconds) / h),
         "failed_steps": int(failed),
         "truncated_steps": sum(bool(step.get("truncated")) for step in getattr(controller, "steps", [])),
-        "reached_goal": failed == 0 and reached(errors, tol),
+        "reached_goal": failed == 0 and not moving["collided"] and reached(errors, tol),
         "goal_tolerance": tol,
         "final_errors": errors,
         "sample_time": h,
@@ -285,7 +304,7 @@ def simulate_runs(
     return ClosedLoop(columns=results[0].columns, summary=summary, runs=rows)
 
 
-WORST_IS_SMALLEST = {"min_clearance"}
+WORST_IS_SMALLEST = {"min_clearance", "min_distance_moving", "min_clearance_moving"}
 
 
 def _scalars(summary: dict) -> dict:
@@ -305,7 +324,8 @@ def _runs_summary(summaries: list[dict], seeds: list[int]) -> dict:
     worst["failed_steps"] = int(sum(s["failed_steps"] for s in summaries))
     rate = float(np.mean([s["reached_goal"] for s in summaries]))
     summary = {k: v for k, v in summaries[0].items() if k != "final_errors"}
-    summary |= {k: worst[k] for k in SUMMARY_KEYS if k in worst}
+    summary |= {k: worst[k] for k in (*SUMMARY_KEYS, *MOVING_KEYS) if k in worst}
+    summary["collided"] = any(bool(s.get("collided")) for s in summaries)
     return summary | {
         "reached_goal": rate == 1.0,
         "runs": len(summaries),
@@ -330,4 +350,6 @@ def runs_csv(rows: list[dict]) -> str:
     return "\n".join([",".join(names), *(",".join(cell(r[n]) for n in names) for r in rows)]) + "\n"
 
 
-__all__ = ["ClosedLoop", "goal_tolerance", "make_controller", "min_clearance", "simulate", "simulate_runs"]
+__all__ = [
+    "ClosedLoop", "goal_tolerance", "make_controller", "min_clearance", "moving_distances", "simulate", "simulate_runs",
+]  # fmt: skip

@@ -15,10 +15,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import pyomo.environ as pyo
 
+from model.direct.moving import fill_moving_at
 from model.direct.options import Horizon, TranscriptionOptions
 from model.direct.resolve import WARM_OPTIONS
 from model.direct.solve import paused_gc
@@ -92,6 +94,8 @@ class HorizonModel:
         with paused_gc():
             self.model = build_model(ocp, intervals, passing=None, options=options)
             self.nlp = CasadiNLP(self.model)
+        if ocp.moving_obstacles:  # their disc centres at the horizon's absolute node times, every step
+            self.model.node_parameters.append(partial(fill_moving_at, self.model, ocp))
         self._layout()
 
     def _layout(self) -> None:
