@@ -34,6 +34,7 @@ TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf gue
 # on the 12 routes of benchmarks/bench_road_suite.py x1, x1.5 and x2 reached the same optimum on 9,
 # x1 failed on one (the semitrailer U-turn: x1.5 and x2 equal) and all three reversed on the other two
 ROAD_TIME_STARTS = ((1.0, "arc"),)
+ROAD_RUN_SHARE = 0.35  # with a time limit, no one Ipopt run on a road with bodies takes more than this share of it
 CURVE_TF_SCALES = (1.0, 2.0)  # Tf guesses of a smooth route's start (free final time)
 CURVE_MARGIN = 0.02  # a route's coarse optimum is refined if below (1 + this) x the objective so far
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
@@ -95,6 +96,8 @@ def solve_ocp(
         raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
     ctx = Search(ocp, intervals, verbose, dict(options or {}), check_formulation(formulation), reporter(progress),
                  time_limit)  # fmt: skip
+    if time_limit is not None and ocp.road is not None and ocp.bodies:  # room for the geometry continuation
+        ctx.run_cap = ROAD_RUN_SHARE * time_limit
     # (the problem's bounds before any start, model.search.bounds, belong here: the search's first step)
     best = _search(ctx, guess, starts, screen, search)
     if not best.ok and best.diagnosis is None:

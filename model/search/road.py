@@ -15,18 +15,27 @@
    is solved again from it. Otherwise ``model.search.diagnosis.road_diagnosis`` names the body,
    the edge and the metres that must give way.
 
+4. **Geometry continuation.** Before step 3, a road problem with bodies that no start validated
+   is solved on a relaxed road shrunk to its own in steps (``model.search.geometry_continuation``),
+   the first step from the search's arc start and, for a U-turn, also from a forward-reverse-forward
+   start (``three_point_start``).
+
 Each step is skipped once the search's time limit has passed (``Search.skip``).
 """
 
 from __future__ import annotations
 
+import dataclasses
+
 import pyomo.environ as pyo
 
 from model.direct.solution import Solution
 from model.direct.solve import Start
-from model.search.context import Search, clearly_better, cold_starts
+from model.search.context import Search, better, clearly_better, cold_starts
 from model.search.diagnosis import finite, road_diagnosis
+from model.search.geometry_continuation import shrink_road
 from model.search.road_polish import reverses
+from model.search.starts import THREE_POINT
 
 ROAD_FALLBACK_STARTS = ((2.0, "arc"),)  # tried where the first fails
 ZERO_VIOLATION = 1e-6  # m, summed slack below which the relaxed solution is a feasible trajectory
@@ -51,6 +60,9 @@ def road_steps(search: Search, best: Solution, fallback: bool) -> Solution:
     if best.ok and reverses(best) and search.formulation != CORNERS and not search.skip("second opinion", 2):
         search.progress("the answer reverses: a second opinion from the arc start with the rectangles' corners")
         best = second_opinion(search, best)
+    if not best.ok and not search.skip("geometry continuation", 1):
+        search.progress("no start validated: continuation in the geometry from a relaxed road")
+        best = geometry_continuation(search, best)
     if not best.ok and not search.skip("failed road: corners, minimal violation", 2):
         guess_from = best.columns if finite(best.columns) else None
         search.progress("no start validated: the corners formulation, then a minimal-violation diagnosis")
@@ -59,6 +71,42 @@ def road_steps(search: Search, best: Solution, fallback: bool) -> Solution:
         search.attempts.append({"pass": "none", "route": route, "status": best.status, "valid": best.ok,
                                 "objective": best.objective})  # fmt: skip
     return best
+
+
+def geometry_continuation(search: Search, best: Solution) -> Solution:
+    """The scenario's road reached from a relaxed one (``shrink_road``); the better of that and ``best``.
+
+    Each step is one solve of the step's problem in the search's formulation, sharing the search's
+    clock and record; the answer on the scenario's road carries the walk in ``diagnosis`` ("recovered").
+    """
+    def step(problem, last):
+        inner = dataclasses.replace(search, ocp=problem)
+        routes = ["warm"] if last is not None else ["arc"] + ([THREE_POINT] if u_turn(problem) else [])
+        starts = [inner.values("none", last.columns if last is not None else None, 1.0, r if r != "warm" else "arc")
+                  for r in routes]  # fmt: skip
+        sols = inner.solve(search.intervals, "none", starts)
+        search.stopped = search.stopped or inner.stopped
+        search.starts_skipped = inner.starts_skipped
+        found = None
+        for route, sol in zip(routes, sols, strict=False):
+            search.record(sol, "none", 1.0, f"geometry continuation, {route} start ({problem.name})")
+            found = sol if found is None or better(sol, found) else found
+        return found
+
+    found, record = shrink_road(search.ocp, step, search.progress, search.expired)
+    if found is not None and found.ok and clearly_better(found, best):
+        scales = ", ".join(f"x{s['scale']:g}" for s in record["scales"])
+        found.diagnosis = {"kind": "recovered", "via": "geometry continuation", "walk": record,
+                           "message": f"solved on the scenario's road from relaxed roads ({scales})"}  # fmt: skip
+        return found
+    search.attempts.append({"pass": "none", "route": "geometry continuation", "status": "failed", "valid": False,
+                            "objective": None, "walk": record})  # fmt: skip
+    return best
+
+
+def u_turn(ocp) -> bool:
+    """Whether the road route is a U-turn (exit k of k legs: back out by the leg it came in by)."""
+    return ocp.road.route.exit == len(ocp.road.roundabout.legs)
 
 
 def second_opinion(search: Search, best: Solution) -> Solution:
@@ -101,4 +149,5 @@ def failed_road(search: Search, best: Solution, start: Start) -> Solution:
     return best
 
 
-__all__ = ["ROAD_FALLBACK_STARTS", "ZERO_VIOLATION", "failed_road", "road_steps", "second_opinion"]
+__all__ = ["ROAD_FALLBACK_STARTS", "ZERO_VIOLATION", "failed_road", "geometry_continuation", "road_steps",
+           "second_opinion"]  # fmt: skip
