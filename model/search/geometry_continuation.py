@@ -5,9 +5,11 @@ its ``Roundabout``: the outer curb ``RELAX_OUTER`` m further out, the inner edge
 ``RELAX_INNER`` m further in (never closer than ``MIN_ISLAND`` m to the centre), the apron open
 to every body and each lane ``RELAX_LANE`` m wider. The start and goal poses stay the
 scenario's (only the corridor changes). That road is solved from the search's start; then the
-relaxation is scaled down by ``SCALES`` (1 -> 0.5 -> 0.25 -> 0), each step warm-started from the
-last step's trajectory (resampled); the last step is the scenario's own road. A step that does
-not validate is tried once more halfway between it and the last step that did; the walk stops
+relaxation is scaled down by ``SCALES`` (1 -> 0.5 -> 0), each step warm-started from the last
+step's trajectory (resampled); the last step is the scenario's own road. A relaxed step only has
+to converge (its answer is a guess, not validated: ``step`` may skip the analysis); the scenario's
+own road has to validate. A step that fails is tried again halfway between it and the last step
+that did (down to MIN_STEP); the walk stops
 when the time budget is spent or the steps get too small, and the best answer of the scenario's
 own road is returned (or None), the relaxation it got to in ``record``.
 """
@@ -27,7 +29,7 @@ RELAX_OUTER = 3.0  # m the outer curb moves out at scale 1
 RELAX_INNER = 3.0  # m the ring's inner edge moves in at scale 1
 RELAX_LANE = 1.0  # m each lane widens at scale 1
 MIN_ISLAND = 0.5  # m: the relaxed island keeps at least this radius
-SCALES = (1.0, 0.5, 0.25, 0.0)
+SCALES = (1.0, 0.5, 0.0)
 MIN_STEP = 0.05  # a halved step below this ends the walk
 
 
@@ -87,33 +89,35 @@ def shrink_road(
     Returns
     -------
     (Solution or None, dict)
-        The answer on the scenario's own road (validated or not; None if never reached) and the
+        The answer on the scenario's own road (validated, or the last one tried, or None if never
+        reached) and the
         record: the scales tried with their outcome, and the least relaxation that validated.
     """
     record: dict = {"scales": [], "least_validated_scale": None}
     last: Solution | None = None
+    own: Solution | None = None
     todo, done = list(SCALES), None
     while todo and not out_of_time():
         scale = todo.pop(0)
         sol = step(relaxed_ocp(ocp, scale), last)
-        ok = sol is not None and sol.ok
+        ok = sol is not None and (sol.ok if scale == 0.0 else sol.status == "optimal")
         record["scales"].append({"scale": scale, "status": None if sol is None else sol.status, "valid": ok,
                                  "objective": None if sol is None else sol.objective})  # fmt: skip
-        outcome = f"validated, objective {sol.objective:.6g}" if ok else "not validated"
+        outcome = f"{'validated' if scale == 0.0 else 'converged'}, objective {sol.objective:.6g}" if ok else "failed"
         progress(f"geometry continuation: road relaxed x{scale:g}: {outcome}")
+        if scale == 0.0 and ok:
+            return sol, record | {"least_validated_scale": 0.0}
         if scale == 0.0 and sol is not None:
-            return sol, record | {"least_validated_scale": 0.0 if ok else done}
+            own = sol  # the scenario's road answered, not validated: kept unless a later try validates
         if ok:
             last, done = sol, scale
         elif done is not None and (done - scale) / 2 >= MIN_STEP:
             todo.insert(0, scale)
             todo.insert(0, (done + scale) / 2)
-        elif done is None and scale == SCALES[0]:
-            break  # not even the roomiest road: nothing to shrink from
         else:
-            break
+            break  # not even the roomiest road, or the steps got too small
         record["least_validated_scale"] = done
-    return None, record
+    return own, record
 
 
 __all__ = ["MIN_ISLAND", "RELAX_INNER", "RELAX_LANE", "RELAX_OUTER", "SCALES", "relaxed_ocp", "relaxed_roundabout",

@@ -34,7 +34,7 @@ TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf gue
 # on the 12 routes of benchmarks/bench_road_suite.py x1, x1.5 and x2 reached the same optimum on 9,
 # x1 failed on one (the semitrailer U-turn: x1.5 and x2 equal) and all three reversed on the other two
 ROAD_TIME_STARTS = ((1.0, "arc"),)
-ROAD_RUN_SHARE = 0.35  # with a time limit, no one Ipopt run on a road with bodies takes more than this share of it
+ROAD_RUN_SHARE = 0.25  # with a time limit, no one Ipopt run on a road with bodies takes more than this share of it
 CURVE_TF_SCALES = (1.0, 2.0)  # Tf guesses of a smooth route's start (free final time)
 CURVE_MARGIN = 0.02  # a route's coarse optimum is refined if below (1 + this) x the objective so far
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))

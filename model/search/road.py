@@ -15,10 +15,12 @@
    is solved again from it. Otherwise ``model.search.diagnosis.road_diagnosis`` names the body,
    the edge and the metres that must give way.
 
-4. **Geometry continuation.** Before step 3, a road problem with bodies that no start validated
-   is solved on a relaxed road shrunk to its own in steps (``model.search.geometry_continuation``),
-   the first step from the search's arc start and, for a U-turn, also from a forward-reverse-forward
-   start (``three_point_start``).
+0. **Geometry continuation** (with a time limit first, before step 1; without one after step 1,
+   so the searches without a budget keep their answers). A road problem with bodies that no start
+   validated is solved on a relaxed road shrunk to its own in steps
+   (``model.search.geometry_continuation``): the first step from the failed start's last iterate
+   where it is finite (on the roomier road it is nearly feasible), else from the arc start and, for a
+   U-turn, a forward-reverse-forward start (``model.search.guess.three_point_guess``).
 
 Each step is skipped once the search's time limit has passed (``Search.skip``).
 """
@@ -52,17 +54,19 @@ def road_steps(search: Search, best: Solution, fallback: bool) -> Solution:
     if ocp.road is None:
         return best
     fallback = fallback and ocp.cost.free_final_time
+    first = search.time_limit is not None  # within a budget the continuation before the slower fallback start
+    if first:
+        best = _geometry_step(search, best)
     if not best.ok and fallback and not search.skip("road fallback starts", len(ROAD_FALLBACK_STARTS)):
         search.progress("no start validated: the road's fallback starts")
         best = cold_starts(search, ROAD_FALLBACK_STARTS, None, best)
     if not ocp.bodies:
         return best
+    if not first:
+        best = _geometry_step(search, best)
     if best.ok and reverses(best) and search.formulation != CORNERS and not search.skip("second opinion", 2):
         search.progress("the answer reverses: a second opinion from the arc start with the rectangles' corners")
         best = second_opinion(search, best)
-    if not best.ok and not search.skip("geometry continuation", 1):
-        search.progress("no start validated: continuation in the geometry from a relaxed road")
-        best = geometry_continuation(search, best)
     if not best.ok and not search.skip("failed road: corners, minimal violation", 2):
         guess_from = best.columns if finite(best.columns) else None
         search.progress("no start validated: the corners formulation, then a minimal-violation diagnosis")
@@ -73,24 +77,36 @@ def road_steps(search: Search, best: Solution, fallback: bool) -> Solution:
     return best
 
 
+def _geometry_step(search: Search, best: Solution) -> Solution:
+    """Step 0 where the problem has bodies, no start validated and the budget is not spent."""
+    if best.ok or not search.ocp.bodies or search.skip("geometry continuation", 1):
+        return best
+    search.progress("no start validated: continuation in the geometry from a relaxed road")
+    return geometry_continuation(search, best)
+
+
 def geometry_continuation(search: Search, best: Solution) -> Solution:
     """The scenario's road reached from a relaxed one (``shrink_road``); the better of that and ``best``.
 
     Each step is one solve of the step's problem in the search's formulation, sharing the search's
     clock and record; the answer on the scenario's road carries the walk in ``diagnosis`` ("recovered").
     """
+    failed = best.columns if finite(best.columns) else None
+
     def step(problem, last):
         inner = dataclasses.replace(search, ocp=problem)
-        routes = ["warm"] if last is not None else ["arc"] + ([THREE_POINT] if u_turn(problem) else [])
-        starts = [inner.values("none", last.columns if last is not None else None, 1.0, r if r != "warm" else "arc")
-                  for r in routes]  # fmt: skip
-        sols = inner.solve(search.intervals, "none", starts)
+        if last is not None or failed is not None:
+            routes, starts = ["warm"], [inner.values("none", last.columns if last is not None else failed)]
+        else:
+            routes = ["arc"] + ([THREE_POINT] if u_turn(problem) else [])
+            starts = [inner.values("none", None, 1.0, route) for route in routes]
+        sols = inner.solve(search.intervals, "none", starts, analyse=problem is search.ocp)  # relaxed: a guess
         search.stopped = search.stopped or inner.stopped
         search.starts_skipped = inner.starts_skipped
         found = None
         for route, sol in zip(routes, sols, strict=False):
             search.record(sol, "none", 1.0, f"geometry continuation, {route} start ({problem.name})")
-            found = sol if found is None or better(sol, found) else found
+            found = sol if found is None or _converged_first(sol, found) else found
         return found
 
     found, record = shrink_road(search.ocp, step, search.progress, search.expired)
@@ -102,6 +118,13 @@ def geometry_continuation(search: Search, best: Solution) -> Solution:
     search.attempts.append({"pass": "none", "route": "geometry continuation", "status": "failed", "valid": False,
                             "objective": None, "walk": record})  # fmt: skip
     return best
+
+
+def _converged_first(a: Solution, b: Solution) -> bool:
+    """``a`` before ``b`` among a step's answers: validated, then converged, then the lower objective."""
+    if a.ok != b.ok or (a.status == "optimal") != (b.status == "optimal"):
+        return a.ok > b.ok or (a.ok == b.ok and a.status == "optimal")
+    return better(a, b)
 
 
 def u_turn(ocp) -> bool:
