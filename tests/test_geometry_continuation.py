@@ -109,3 +109,9 @@ def test_a_run_cap_is_no_stop_of_the_search(ocp):
     """A run ended by run_cap with time left leaves the search running (the time limit did not pass)."""
     search = Search(ocp, 10, time_limit=1000.0, run_cap=1.0)
     assert not search.expired() and search.remaining() > 900
+
+
+def test_the_reserve_ends_the_search_early_but_the_limit_is_reported(ocp):
+    search = Search(ocp, 10, time_limit=100.0, reserve=20.0)
+    assert search.deadline == pytest.approx(search.started + 80.0)
+    assert search.record_of_search("default")["time_limit"] == 100.0

@@ -66,6 +66,8 @@ class Search:
     time_limit : seconds for the whole search from ``started`` (None: no limit).
     run_cap : seconds one Ipopt run may take at most (None: the time left); set by ``solve_ocp`` on a
         tight road so that a first start cannot spend the whole budget before the geometry continuation.
+    reserve : seconds at the end of the time limit no run begins or continues in (``deadline`` is that
+        much earlier): the last run's analysis and the output files of a road with bodies take them.
     """
 
     ocp: OCP
@@ -82,11 +84,12 @@ class Search:
     steps_skipped: list[str] = field(default_factory=list)
     stopped: bool = False  # the time limit cut something short
     run_cap: float | None = None  # s: no one Ipopt run of the search takes longer (None: only the time limit)
+    reserve: float = 0.0  # s of the time limit kept for analysing the last run and writing the results
 
     @property
     def deadline(self) -> float | None:
-        """The ``time.monotonic()`` instant the budget ends (None: no limit)."""
-        return None if self.time_limit is None else self.started + self.time_limit
+        """The ``time.monotonic()`` instant the budget ends, ``reserve`` before the limit (None: no limit)."""
+        return None if self.time_limit is None else self.started + self.time_limit - self.reserve
 
     def remaining(self) -> float | None:
         """Seconds left (negative once over; None: no limit)."""

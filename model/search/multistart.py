@@ -35,6 +35,7 @@ TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf gue
 # x1 failed on one (the semitrailer U-turn: x1.5 and x2 equal) and all three reversed on the other two
 ROAD_TIME_STARTS = ((1.0, "arc"),)
 ROAD_RUN_SHARE = 0.25  # with a time limit, no one Ipopt run on a road with bodies takes more than this share of it
+ROAD_FINISH_SHARE = 0.2  # and the search's runs end this share of it early: analysis and files (~20 s at 120 s)
 CURVE_TF_SCALES = (1.0, 2.0)  # Tf guesses of a smooth route's start (free final time)
 CURVE_MARGIN = 0.02  # a route's coarse optimum is refined if below (1 + this) x the objective so far
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
@@ -97,7 +98,7 @@ def solve_ocp(
     ctx = Search(ocp, intervals, verbose, dict(options or {}), check_formulation(formulation), reporter(progress),
                  time_limit)  # fmt: skip
     if time_limit is not None and ocp.road is not None and ocp.bodies:  # room for the geometry continuation
-        ctx.run_cap = ROAD_RUN_SHARE * time_limit
+        ctx.run_cap, ctx.reserve = ROAD_RUN_SHARE * time_limit, ROAD_FINISH_SHARE * time_limit
     # (the problem's bounds before any start, model.search.bounds, belong here: the search's first step)
     best = _search(ctx, guess, starts, screen, search)
     if not best.ok and best.diagnosis is None:
