@@ -62,7 +62,8 @@ def run_one(path: Path, time_limit: float) -> dict:
         "diagnosis": f"{diagnosis.get('kind', '')}: {diagnosis.get('message', '')}"[:400] if diagnosis else "",
         "stopped": search.get("stopped_by_time_limit"),
         "steps_skipped": ", ".join(search.get("steps_skipped", [])),
-        "progress": [line for line in proc.stderr.splitlines() if line.strip()][-6:],
+        "progress": [line for line in proc.stderr.splitlines()
+                     if line.strip() and not line.strip().startswith(("...", "Ipopt iteration"))][-16:],
         "load": f"{load_before} -> {uptime()}",
     }
 

@@ -20,7 +20,9 @@
    validated is solved on a relaxed road shrunk to its own in steps
    (``model.search.geometry_continuation``): the first step from the failed start's last iterate
    where it is finite (on the roomier road it is nearly feasible), else from the arc start and, for a
-   U-turn, a forward-reverse-forward start (``model.search.guess.three_point_guess``).
+   U-turn, a forward-reverse-forward start (``model.search.guess.three_point_guess``). The step on
+   the scenario's own road uses the rectangles' corners (on the EU annulus they converge in 90
+   iterations where the discs take 187), and the search's formulation if that fails.
 
 Each step is skipped once the search's time limit has passed (``Search.skip``).
 """
@@ -100,7 +102,11 @@ def geometry_continuation(search: Search, best: Solution) -> Solution:
         else:
             routes = ["arc"] + ([THREE_POINT] if u_turn(problem) else [])
             starts = [inner.values("none", None, 1.0, route) for route in routes]
-        sols = inner.solve(search.intervals, "none", starts, analyse=problem is search.ocp)  # relaxed: a guess
+        own_road = problem is search.ocp
+        sols = inner.solve(search.intervals, "none", starts, analyse=own_road,  # relaxed: a guess
+                           formulation=CORNERS if own_road else None)  # fmt: skip
+        if own_road and sols and not sols[0].ok and not inner.expired():  # the corners failed: the search's own
+            sols = inner.solve(search.intervals, "none", starts)
         search.stopped = search.stopped or inner.stopped
         search.starts_skipped = inner.starts_skipped
         found = None
