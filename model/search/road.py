@@ -22,7 +22,8 @@
    where it is finite (on the roomier road it is nearly feasible), else from the arc start and, for a
    U-turn, a forward-reverse-forward start (``model.search.guess.three_point_guess``). The step on
    the scenario's own road uses the rectangles' corners (on the EU annulus they converge in 90
-   iterations where the discs take 187), and the search's formulation if that fails.
+   iterations where the discs take 187), from the arc start and then from the last step's answer,
+   and the search's formulation from that answer if both fail.
 
 Each step is skipped once the search's time limit has passed (``Search.skip``).
 """
@@ -99,19 +100,23 @@ def geometry_continuation(search: Search, best: Solution) -> Solution:
         inner = dataclasses.replace(search, ocp=problem)
         if last is not None or failed is not None:
             routes, starts = ["warm"], [inner.values("none", last.columns if last is not None else failed)]
+            if problem is search.ocp:  # the corners from the arc start first: cheap where they converge at all
+                routes, starts = ["arc", *routes], [inner.values("none"), *starts]
         else:
             routes = ["arc"] + ([THREE_POINT] if u_turn(problem) else [])
             starts = [inner.values("none", None, 1.0, route) for route in routes]
         own_road = problem is search.ocp
         sols = inner.solve(search.intervals, "none", starts, analyse=own_road,  # relaxed: a guess
                            formulation=CORNERS if own_road else None)  # fmt: skip
-        if own_road and sols and not sols[0].ok and not inner.expired():  # the corners failed: the search's own
-            sols = inner.solve(search.intervals, "none", starts)
+        tried = list(zip(routes, sols, strict=False))
+        if own_road and sols and not any(sol.ok for sol in sols) and not inner.expired():  # the search's own
+            tried += list(zip(routes[-1:], inner.solve(search.intervals, "none", starts[-1:]), strict=False))
         search.stopped = search.stopped or inner.stopped
         search.starts_skipped = inner.starts_skipped
         found = None
-        for route, sol in zip(routes, sols, strict=False):
-            search.record(sol, "none", 1.0, f"geometry continuation, {route} start ({problem.name})")
+        for route, sol in tried:
+            bodies = getattr(sol.model, "body_formulation", search.formulation)
+            search.record(sol, "none", 1.0, f"geometry continuation, {route} start ({problem.name}, {bodies})")
             found = sol if found is None or _converged_first(sol, found) else found
         return found
 
