@@ -24,6 +24,7 @@ from model.problem.ocp import OCP
 from model.search.starts import passes_to_try, start_values
 
 MIN_WALL_TIME = 0.1  # s: the first start of a search runs at least this long whatever the budget left
+CAP_SLACK = 1.0  # s: a timed-out run with less than this left was ended by the time limit, not by run_cap
 TIMED_OUT = ("time_limit", "wall_time_limit")  # Ipopt's words for a run its time limit ended
 
 
@@ -63,6 +64,10 @@ class Search:
     formulation : the bodies' NLP formulation on a road (``model.direct.bodies.FORMULATIONS``).
     progress : the progress lines.
     time_limit : seconds for the whole search from ``started`` (None: no limit).
+    run_cap : seconds one Ipopt run may take at most (None: the time left); set by ``solve_ocp`` on a
+        tight road so that a first start cannot spend the whole budget before the geometry continuation.
+    reserve : seconds at the end of the time limit no run begins or continues in (``deadline`` is that
+        much earlier): the last run's analysis and the output files of a road with bodies take them.
     """
 
     ocp: OCP
@@ -78,11 +83,13 @@ class Search:
     starts_skipped: int = 0
     steps_skipped: list[str] = field(default_factory=list)
     stopped: bool = False  # the time limit cut something short
+    run_cap: float | None = None  # s: no one Ipopt run of the search takes longer (None: only the time limit)
+    reserve: float = 0.0  # s of the time limit kept for analysing the last run and writing the results
 
     @property
     def deadline(self) -> float | None:
-        """The ``time.monotonic()`` instant the budget ends (None: no limit)."""
-        return None if self.time_limit is None else self.started + self.time_limit
+        """The ``time.monotonic()`` instant the budget ends, ``reserve`` before the limit (None: no limit)."""
+        return None if self.time_limit is None else self.started + self.time_limit - self.reserve
 
     def remaining(self) -> float | None:
         """Seconds left (negative once over; None: no limit)."""
@@ -134,13 +141,15 @@ class Search:
         ``formulation``: another body formulation than the search's for this call.
         """
         first = MIN_WALL_TIME if analyse and not self.answered() else None  # the search's first answer always comes
-        sols = solve_starts(self.ocp, intervals, passing, starts, self.verbose, {**(extra or {}), **self.options},
-                            relax, analyse, formulation or self.formulation, self.deadline, first)  # fmt: skip
+        capped = {"max_wall_time": self.run_cap} if self.run_cap is not None else {}
+        sols = solve_starts(self.ocp, intervals, passing, starts, self.verbose,
+                            {**capped, **(extra or {}), **self.options}, relax, analyse,
+                            formulation or self.formulation, self.deadline, first)  # fmt: skip
         if len(sols) < len(starts):
             self.starts_skipped += len(starts) - len(sols)
             self.stop()
-        if any(sol.status in TIMED_OUT for sol in sols):
-            self.stop()
+        if any(sol.status in TIMED_OUT for sol in sols) and (self.run_cap is None or self.remaining() < CAP_SLACK):
+            self.stop()  # (a run ended by run_cap alone is no stop of the search)
         self.solutions.extend(sols)
         return sols
 

@@ -131,6 +131,52 @@ def _road_path(ocp: OCP, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.interp(at, length, points[:, 0]), np.interp(at, length, points[:, 1])
 
 
+THREE_POINT = (0.45, 0.6, 0.55, 0.4)  # time fractions where the reverse leg begins and ends, path fractions there
+THREE_POINT_OFFSET = 0.25  # of the ring's width: how far outwards the reverse leg swings at its middle
+THREE_POINT_SLOWER = 2.0  # the Tf guess over the forward route's (longer, with two stops)
+
+
+def three_point_guess(ocp: OCP, n: int, tf_scale: float = 1.0) -> tuple[dict[str, np.ndarray], float]:
+    """A forward-reverse-forward (three-point) start through the ring of a road problem, and its Tf guess.
+
+    The reference point drives the road route (in, round the ring, out) forwards to THREE_POINT's
+    path fraction 0.55, reverses to 0.4 swinging outwards by THREE_POINT_OFFSET of the ring's width,
+    and drives on forwards to the goal; the heading is the route's tangent throughout (the vehicle
+    reverses, it does not turn round), the steering follows the route's curvature and the trailer
+    is integrated along the motion with its direction.
+    """
+    v, r = ocp.vehicle, ocp.vehicle.roles
+    rb = ocp.road.roundabout
+    tau = np.linspace(0.0, 1.0, n + 1)
+    t_a, t_b, p_a, p_b = THREE_POINT
+    p = np.interp(tau, [0.0, t_a, t_b, 1.0], [0.0, p_a, p_b, 1.0])
+    fine = np.linspace(0.0, 1.0, 801)
+    fx, fy = _road_path(ocp, fine)
+    length = float(np.sum(np.hypot(np.diff(fx), np.diff(fy))))
+    heading = np.unwrap(np.arctan2(np.gradient(fy, fine), np.gradient(fx, fine)))
+    heading += 2 * math.pi * round((ocp.initial.get(r.heading, heading[0]) - heading[0]) / (2 * math.pi))
+    swing = THREE_POINT_OFFSET * rb.circulatory_width * np.sin(math.pi * np.clip((tau - t_a) / (t_b - t_a), 0, 1))
+    x, y = np.interp(p, fine, fx), np.interp(p, fine, fy)
+    radial = np.arctan2(y - rb.center[1], x - rb.center[0])
+    guess = {r.x: x + swing * np.cos(radial), r.y: y + swing * np.sin(radial), r.heading: np.interp(p, fine, heading)}
+    tf = tf_scale * THREE_POINT_SLOWER * guess_final_time(ocp, "none")
+    speed = np.gradient(p, tau) * length / tf
+    d = v.parameter_values().get("wheelbase")
+    if d is not None and r.steering is not None:
+        curvature = np.gradient(heading, fine) / max(length, 1e-9)
+        guess[r.steering] = np.arctan(np.interp(p, fine, curvature) * d)
+    direction = np.where(speed < 0, -1.0, 1.0)
+    for trailer in r.trailers:
+        guess[trailer] = trailer_heading(ocp, guess[r.heading], np.abs(np.gradient(p)) * length, direction)
+    for name in v.states:
+        if name not in guess:
+            a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])
+            guess[name] = a + (b - a) * tau
+        guess[name] = _clip(guess[name], ocp.bounds.get(name))
+    guess.update(_controls(ocp, guess, speed, tau, tf))
+    return guess, tf
+
+
 def _clip(values: np.ndarray, bounds: tuple[float, float] | None) -> np.ndarray:
     return values if bounds is None else np.clip(values, bounds[0], bounds[1])
 

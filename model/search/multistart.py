@@ -35,6 +35,8 @@ TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf gue
 # on the 12 routes of benchmarks/bench_road_suite.py x1, x1.5 and x2 reached the same optimum on 9,
 # x1 failed on one (the semitrailer U-turn: x1.5 and x2 equal) and all three reversed on the other two
 ROAD_TIME_STARTS = ((1.0, "arc"),)
+ROAD_RUN_SHARE = 0.25  # with a time limit, no one Ipopt run on a road with bodies takes more than this share of it
+ROAD_FINISH_SHARE = 0.2  # and the search's runs end this share of it early: analysis and files (~20 s at 120 s)
 CURVE_TF_SCALES = (1.0, 2.0)  # Tf guesses of a smooth route's start (free final time)
 PROOF_SECONDS = 3.0  # the one start solved beside a proven bound, for the trajectory it reports
 CURVE_MARGIN = 0.02  # a route's coarse optimum is refined if below (1 + this) x the objective so far
@@ -97,6 +99,8 @@ def solve_ocp(
         raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
     ctx = Search(ocp, intervals, verbose, dict(options or {}), check_formulation(formulation), reporter(progress),
                  time_limit)  # fmt: skip
+    if time_limit is not None and ocp.road is not None and ocp.bodies:  # room for the geometry continuation
+        ctx.run_cap, ctx.reserve = ROAD_RUN_SHARE * time_limit, ROAD_FINISH_SHARE * time_limit
     proof = refusal_from_bounds(ocp) if guess is None and starts is None else None
     if proof is not None:
         refused = _refuse(ctx, proof)

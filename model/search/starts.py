@@ -12,7 +12,9 @@ from model.analysis.columns import Columns, as_arrays
 from model.direct.solve import Start
 from model.problem.ocp import OCP
 from model.search.curves import curve_guess, curve_routes
-from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess
+from model.search.guess import guess_final_time, initial_guess, reeds_shepp_guess, three_point_guess
+
+THREE_POINT = "three-point"  # the forward-reverse-forward route through a road's ring (``three_point_guess``)
 
 
 def passes_to_try(ocp: OCP) -> list[str]:
@@ -37,6 +39,9 @@ def start_values(
     if route.startswith("reeds-shepp"):
         values, tf = reeds_shepp_guess(ocp, intervals, scale, reeds_shepp_ends((scale, route)))
         return Start(values, tf if free else None)
+    if route == THREE_POINT:
+        values, tf = three_point_guess(ocp, intervals, scale)
+        return Start(values, tf if free else None)
     if route not in ("arc", "line"):
         values, tf = curve_guess(ocp, curve_routes(ocp)[route], intervals, scale)
         return Start(values, tf if free else None)
@@ -53,4 +58,4 @@ def resample(ocp: OCP, traj: Columns, intervals: int) -> dict[str, np.ndarray]:
     return {n: np.interp(s_new, s_old, cols[n]) for n in names}
 
 
-__all__ = ["passes_to_try", "reeds_shepp_ends", "resample", "start_values"]
+__all__ = ["THREE_POINT", "passes_to_try", "reeds_shepp_ends", "resample", "start_values"]
