@@ -14,7 +14,7 @@ LAYERS = {
     "model.errors": set(),
     "model.outputs": set(),
     "model.vehicles": {"model.errors"},
-    "model.scene": {"model.errors"},
+    "model.scene": {"model.errors", "model.vehicles"},  # another vehicle is placed as a body is
     "model.problem": {"model.errors", "model.vehicles", "model.scene"},
     "derivations": {"model.errors", "model.vehicles", "model.scene", "model.problem"},
     "model.nlp": set(),

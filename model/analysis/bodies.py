@@ -57,8 +57,13 @@ def road_measures(ocp: OCP, states: Mapping[str, np.ndarray]) -> dict:
         return measures | {"min_clearance": None, "min_clearance_dense": None}
     nodes = clearances(ocp, states)
     dense = clearances(ocp, substeps(states, v.states))
+    return measures | clearance_measures(nodes, dense)
+
+
+def clearance_measures(nodes: dict[str, np.ndarray], dense: dict[str, np.ndarray]) -> dict:
+    """The summary's corridor clearances from each body's clearances at the nodes and between them."""
     worst = min(nodes, key=lambda b: float(np.min(nodes[b])))
-    return measures | {
+    return {
         "min_clearance": float(min(np.min(c) for c in nodes.values())),
         "min_clearance_dense": float(min(np.min(c) for c in dense.values())),
         "min_clearance_body": worst,

@@ -12,7 +12,7 @@ from collections.abc import Mapping
 import numpy as np
 import shapely
 
-from model.analysis.bodies import body_corners, substeps
+from model.analysis.bodies import body_corners, clearance_measures, substeps
 from model.problem.ocp import OCP
 from model.scene.geometry import clearance
 
@@ -35,14 +35,8 @@ def map_measures(ocp: OCP, states: Mapping[str, np.ndarray]) -> dict:
     v = ocp.vehicle
     nodes = map_clearances(ocp, states)
     dense = map_clearances(ocp, substeps(states, v.states))
-    worst = min(nodes, key=lambda b: float(np.min(nodes[b])))
     rectangles = [shapely.polygons(c) for c in body_corners(ocp, states).values()]
-    return measures | {
-        "min_clearance": float(min(np.min(c) for c in nodes.values())),
-        "min_clearance_dense": float(min(np.min(c) for c in dense.values())),
-        "min_clearance_body": worst,
-        "min_clearance_node": int(np.argmin(nodes[worst])),
-        "body_clearance": {b: float(np.min(c)) for b, c in nodes.items()},
+    return measures | clearance_measures(nodes, dense) | {
         "lanelets_used": lanelets_covered(ocp, shapely.union_all(np.concatenate(rectangles))),
     }
 

@@ -28,6 +28,7 @@ import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
 from model.errors import InputError
+from model.vehicles.body import place_points
 
 COVER_SLACK = 0.1  # as model.direct.bodies.COVER_SLACK: a disc reaches at most 10 % of the half-width beyond the sides
 
@@ -180,7 +181,7 @@ class MovingVehicle:
         x, y, h = self.pose(t)
         half_l, half_w = self.length / 2, self.width / 2
         local = np.array([[-half_l, -half_w], [half_l, -half_w], [half_l, half_w], [-half_l, half_w]])
-        return _place(local, x, y, h)
+        return place_points(local, x, y, h)
 
     def rectangle(self, t: float):
         """The exact rectangle at time ``t``: a shapely Polygon."""
@@ -202,7 +203,7 @@ class MovingVehicle:
         """World-frame centres of the cover discs at ``t`` (shape S), shape S + (n, 2), and their radius."""
         offsets, radius = self.cover()
         x, y, h = self.pose(t)
-        return _place(np.column_stack([offsets, np.zeros(len(offsets))]), x, y, h), radius
+        return place_points(np.column_stack([offsets, np.zeros(len(offsets))]), x, y, h), radius
 
     def disc_velocities(self, t: ArrayLike) -> NDArray[np.float64]:
         """d/dt of the disc centres at ``t``, shape S + (n, 2) (``rate`` carried along the axis)."""
@@ -263,12 +264,3 @@ def _piecewise_linear(t: sp.Expr, s: list[float], values: list[float]) -> sp.Exp
         pieces.append((values[i] + slope * (t - s[i]), t < s[i + 1]))
     pieces.append((sp.Float(values[-1]), True))
     return sp.Piecewise(*pieces)
-
-
-def _place(local: NDArray[np.float64], x: ArrayLike, y: ArrayLike, heading: ArrayLike) -> NDArray[np.float64]:
-    """Rotate body-frame points (k, 2) by heading and translate them to (x, y): shape S + (k, 2)."""
-    x, y, heading = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, heading)))
-    c, s = np.cos(heading)[..., None], np.sin(heading)[..., None]
-    px = x[..., None] + c * local[:, 0] - s * local[:, 1]
-    py = y[..., None] + s * local[:, 0] + c * local[:, 1]
-    return np.stack([px, py], axis=-1)

@@ -43,13 +43,7 @@ def initial_guess(ocp: OCP, passing: str, n: int, tf: float, route: str = "arc")
         guess[r.steering] = np.arctan(curvature * d)
     for trailer in r.trailers:
         guess[trailer] = trailer_heading(ocp, heading, np.hypot(dx, dy) * np.gradient(s))
-    for name in v.states:
-        if name not in guess:
-            a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])
-            guess[name] = a + (b - a) * s
-        guess[name] = _clip(guess[name], ocp.bounds.get(name))
-    guess.update(_controls(ocp, guess, speed, s, tf))
-    return guess
+    return _complete(ocp, guess, speed, s, tf)
 
 
 def trailer_heading(
@@ -168,13 +162,19 @@ def three_point_guess(ocp: OCP, n: int, tf_scale: float = 1.0) -> tuple[dict[str
     direction = np.where(speed < 0, -1.0, 1.0)
     for trailer in r.trailers:
         guess[trailer] = trailer_heading(ocp, guess[r.heading], np.abs(np.gradient(p)) * length, direction)
-    for name in v.states:
+    return _complete(ocp, guess, speed, tau, tf), tf
+
+
+def _complete(ocp: OCP, guess: dict, speed: np.ndarray, s: np.ndarray, tf: float) -> dict:
+    """``guess`` with its missing states linear in ``s`` from start to goal, every state clipped to its
+    bounds, and the controls that drive it at ``speed`` over ``tf``."""
+    for name in ocp.vehicle.states:
         if name not in guess:
             a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])
-            guess[name] = a + (b - a) * tau
+            guess[name] = a + (b - a) * s
         guess[name] = _clip(guess[name], ocp.bounds.get(name))
-    guess.update(_controls(ocp, guess, speed, tau, tf))
-    return guess, tf
+    guess.update(_controls(ocp, guess, speed, s, tf))
+    return guess
 
 
 def _clip(values: np.ndarray, bounds: tuple[float, float] | None) -> np.ndarray:

@@ -112,7 +112,7 @@ class Body:
         ndarray, shape S + (4, 2)
             Counter-clockwise from the rear right corner.
         """
-        return _place(self.outline(), x, y, heading)
+        return place_points(self.outline(), x, y, heading)
 
     def cover(self, n: int) -> Cover:
         """n equal discs along the axis whose union contains the rectangle.
@@ -130,10 +130,10 @@ class Body:
         """World-frame centres of the n discs of ``cover(n)``, shape S + (n, 2), and their common radius."""
         cover = self.cover(n)
         local = np.column_stack([cover.offsets, np.zeros(n)])
-        return _place(local, x, y, heading), cover.radius
+        return place_points(local, x, y, heading), cover.radius
 
 
-def _place(local: NDArray[np.float64], x: ArrayLike, y: ArrayLike, heading: ArrayLike) -> NDArray[np.float64]:
+def place_points(local: NDArray[np.float64], x: ArrayLike, y: ArrayLike, heading: ArrayLike) -> NDArray[np.float64]:
     """Rotate body-frame points (k, 2) by heading and translate them to (x, y): shape S + (k, 2)."""
     x, y, heading = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, heading)))
     c, s = np.cos(heading)[..., None], np.sin(heading)[..., None]
