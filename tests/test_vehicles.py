@@ -383,3 +383,5 @@ def test_expressions_are_never_parsed_from_strings():
     truck.dynamics = lambda: {name: "__import__('os').getcwd()" for name in truck.states}
     with pytest.raises(sp.SympifyError):
         plant_rhs(truck, Disturbance())
+    with pytest.raises(AttributeError):  # a string has no .subs: reference_speed never parses one
+        truck.reference_speed()

@@ -225,4 +225,4 @@ class Vehicle:
 @lru_cache(maxsize=64)
 def _speed_norm(fx: sp.Expr, fy: sp.Expr, speed: sp.Symbol) -> sp.Expr:
     """sqrt(fx^2 + fy^2) at ``speed`` = 1, simplified (cached: simplify takes tens of ms)."""
-    return sp.simplify(sp.sqrt(sp.sympify(fx) ** 2 + sp.sympify(fy) ** 2).subs(speed, 1))
+    return sp.simplify(sp.sqrt(fx**2 + fy**2).subs(speed, 1))  # SymPy expressions (``.subs`` made them): no parsing
