@@ -386,8 +386,8 @@ def _export_commonroad(scenario, args) -> int:
     print(f"wrote {xml} ({len(done.network.lanelets)} lanelets; route {' '.join(map(str, route.lanelets))}) and "
           f"{toml} (roundabout solve {toml}); the corridor differs from the parametric one by "
           f"{worst['difference']:.4f} m^2 ({100 * worst['fraction']:.4f} % of {worst['area']:.1f} m^2); start "
-          f"{1000 * done.pose_error['start']['distance']:.2f} mm, goal {1000 * done.pose_error['goal']['distance']:.2f} mm "
-          "from the parametric poses")  # fmt: skip
+          f"{1000 * done.pose_error['start']['distance']:.2f} mm, goal "
+          f"{1000 * done.pose_error['goal']['distance']:.2f} mm from the parametric poses")  # fmt: skip
     return 0
 
 

@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import InputError
 from model.problem.scenario import parse_scenario
 from model.problem.tables import toml_text
 from model.scene.lanelet_map import CentreLine, LaneletMap, MapRoute, read_map

@@ -214,7 +214,7 @@ def roundabout_lanelets(roundabout: Roundabout, ring_lanes: int = 1, tolerance: 
     ring = _ring(roundabout, ring_lanes, offset, tolerance, lanelets)
     _legs(roundabout, ring_lanes, offset, tolerance, lanelets, entry, exits)
     _link_junctions(roundabout, offset, lanelets, entry, exits, ring[0])
-    apron = _apron(roundabout, tolerance, lanelets) if roundabout.apron_width > 0 else None
+    apron = _apron(roundabout, offset, tolerance, lanelets) if roundabout.apron_width > 0 else None
     return RoundaboutNetwork(lanelets, entry, exits, ring, apron)
 
 
@@ -231,22 +231,35 @@ def _junctions(roundabout: Roundabout, offset: float) -> list[tuple[float, str, 
     return sorted(found)
 
 
+def ring_angles(roundabout: Roundabout, offset: float, tol: float) -> list[np.ndarray]:
+    """The absolute angles (rad) at which each ring arc is sampled, the arcs from junction to junction in
+    the circulation direction; every ring lane and the apron use them, so their shared bounds share vertices."""
+    c, cuts = roundabout.circulation, [a for a, _, _ in _junctions(roundabout, offset)]
+    out = []
+    for j, a0 in enumerate(cuts):
+        a1 = cuts[(j + 1) % len(cuts)] + (2 * math.pi if j + 1 == len(cuts) else 0.0)
+        out.append(c * np.linspace(a0, a1, arc_points(roundabout.outer_radius, a1 - a0, tol)))
+    return out
+
+
+def _circle(center, radius: float, angles: np.ndarray) -> np.ndarray:
+    return np.asarray(center, float) + radius * np.stack([np.cos(angles), np.sin(angles)], -1)
+
+
 def _ring(roundabout: Roundabout, lanes: int, offset: float, tol: float,
           lanelets: dict[int, LaneletData]) -> list[list[int]]:  # fmt: skip
     """The ring's arcs per lane, linked in the circulation direction and to their neighbour lanes."""
-    c, ro, centre = roundabout.circulation, roundabout.outer_radius, roundabout.center
+    ro, centre = roundabout.outer_radius, roundabout.center
     width = roundabout.circulatory_width / lanes
-    cuts = [a for a, _, _ in _junctions(roundabout, offset)]
-    ids = [[1000 * (lane + 1) + j for j in range(len(cuts))] for lane in range(lanes)]
+    arcs = ring_angles(roundabout, offset, tol)
+    ids = [[1000 * (lane + 1) + j for j in range(len(arcs))] for lane in range(lanes)]
     for lane in range(lanes):
         r_out, r_in = ro - lane * width, ro - (lane + 1) * width
-        for j, a0 in enumerate(cuts):
-            a1 = cuts[(j + 1) % len(cuts)] + (2 * math.pi if j + 1 == len(cuts) else 0.0)
-            n = arc_points(r_out, a1 - a0, tol)
-            outer, inner = _arc(centre, r_out, c * a0, c * a1, n), _arc(centre, r_in, c * a0, c * a1, n)
+        for j, angles in enumerate(arcs):
+            outer, inner = _circle(centre, r_out, angles), _circle(centre, r_in, angles)
             left, right = _by_side(roundabout, outer, inner)
             item = LaneletData(ids[lane][j], left, right, predecessors=[ids[lane][j - 1]],
-                               successors=[ids[lane][(j + 1) % len(cuts)]])  # fmt: skip
+                               successors=[ids[lane][(j + 1) % len(arcs)]])  # fmt: skip
             outer_side = (ids[lane - 1][j], True) if lane > 0 else None
             inner_side = (ids[lane + 1][j], True) if lane + 1 < lanes else None
             marks = ("dashed" if lane > 0 else "solid", "dashed" if lane + 1 < lanes else "solid")
@@ -293,13 +306,14 @@ def _link_junctions(roundabout: Roundabout, offset: float, lanelets: dict[int, L
             lanelets[exits[leg]].predecessors.append(before)
 
 
-def _apron(roundabout: Roundabout, tol: float, lanelets: dict[int, LaneletData]) -> int:
-    """The apron: one closed border lanelet round the island, in the circulation direction."""
-    c, centre = roundabout.circulation, roundabout.center
-    n = arc_points(roundabout.inner_radius, 2 * math.pi, tol)
-    outer = _arc(centre, roundabout.inner_radius, 0.0, c * 2 * math.pi, n)
-    inner = _arc(centre, roundabout.island_radius, 0.0, c * 2 * math.pi, n)
-    outer[-1], inner[-1] = outer[0], inner[0]
+def _apron(roundabout: Roundabout, offset: float, tol: float, lanelets: dict[int, LaneletData]) -> int:
+    """The apron: one closed border lanelet round the island, in the circulation direction, its outer bound
+    on the inner ring lane's vertices (so that their union has no crack along the circle Ri)."""
+    arcs = ring_angles(roundabout, offset, tol)
+    angles = np.concatenate([arcs[0], *(a[1:] for a in arcs[1:])])
+    outer = _circle(roundabout.center, roundabout.inner_radius, angles)
+    inner = _circle(roundabout.center, roundabout.island_radius, angles)
+    outer[-1], inner[-1] = outer[0], inner[0]  # closed: the same point, not one 2 pi on
     left, right = _by_side(roundabout, outer, inner)
     lanelets[APRON_ID] = LaneletData(APRON_ID, left, right, kind="border", predecessors=[APRON_ID],
                                      successors=[APRON_ID], marking_left="solid", marking_right="solid")  # fmt: skip
@@ -309,8 +323,8 @@ def _apron(roundabout: Roundabout, tol: float, lanelets: dict[int, LaneletData])
 # --------------------------------------------------------------------------- writing and checking
 
 
-def commonroad_xml(network: RoundaboutNetwork, map_name: str = "Roundabout", source: str = "roundabout export-commonroad",
-                   dt: float = 0.1) -> bytes:  # fmt: skip
+def commonroad_xml(network: RoundaboutNetwork, map_name: str = "Roundabout",
+                   source: str = "roundabout export-commonroad", dt: float = 0.1) -> bytes:  # fmt: skip
     """The network as a CommonRoad scenario file (XML bytes, format 2020a, no obstacles), by commonroad-io.
 
     The scenario id is ``ZAM_<map_name>-1`` (ZAM: an artificial map); ``dt`` its time step (s).
