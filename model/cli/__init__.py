@@ -1,5 +1,6 @@
 """The ``roundabout`` command: solve a scenario file, simulate it in closed loop, print its
-Pontryagin system, check it, or plot a results folder.
+Pontryagin system, check it, plot a results folder, or export its roundabout (SUMO network,
+CommonRoad map with a map scenario of the same manoeuvre).
 
 Exit codes of ``roundabout solve``: 0 solved and validated (with ``--time-limit``, the best
 validated answer when the budget stopped the search); 1 the solver ran and failed, or no start
