@@ -382,6 +382,9 @@ def _export_commonroad(scenario, args) -> int:
         if not existed:
             xml.unlink(missing_ok=True)
         raise
+    if data.get("moving_obstacles"):
+        print("roundabout: note: the map scenario keeps [[moving_obstacles]], which the map search does not "
+              "handle yet (docs/map-format.md)", file=sys.stderr)  # fmt: skip
     worst = max(done.mismatch.values(), key=lambda m: m["fraction"])
     route = done.route
     print(f"wrote {xml} ({len(done.network.lanelets)} lanelets; route {' '.join(map(str, route.lanelets))}) and "
