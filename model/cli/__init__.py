@@ -1,5 +1,6 @@
 """The ``roundabout`` command: solve a scenario file, simulate it in closed loop, print its
-Pontryagin system, check it, or plot a results folder.
+Pontryagin system, check it, plot a results folder, or export its roundabout (SUMO network,
+CommonRoad map with a map scenario of the same manoeuvre).
 
 Exit codes of ``roundabout solve``: 0 solved and validated (with ``--time-limit``, the best
 validated answer when the budget stopped the search); 1 the solver ran and failed, or no start
@@ -31,6 +32,7 @@ EPILOG = """examples:
   roundabout derive workflows/scenarios/s1.toml --latex
   roundabout simulate examples/closed-loop-truck.toml --out out/cl --controller tracking --runs 5
   roundabout traffic examples/traffic-roundabout.toml --out out/traffic --driver autopilot
+  roundabout export-commonroad examples/roundabout-truck.toml --out maps/truck.xml   # and maps/truck.toml
   roundabout plot out/ --out figure.png
 
 scenario files: see docs/scenario-format.md (TOML, SI units, radians);
@@ -98,6 +100,15 @@ def parser() -> argparse.ArgumentParser:
     x = sub.add_parser("export-sumo", help="write the scenario's SUMO network, routes and run.sumocfg into DIR")
     x.add_argument("scenario", type=Path, help="scenario file (TOML) with [traffic] (docs/traffic-format.md)")
     x.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (opens in sumo-gui)")
+    e = sub.add_parser("export-commonroad", help="write the scenario's roundabout as a CommonRoad lanelet map, and a "
+                       "map scenario of the same manoeuvre beside it")  # fmt: skip
+    e.add_argument("scenario", type=Path, help="scenario file (TOML) with a [roundabout]")
+    e.add_argument("--out", type=Path, required=True, metavar="FILE", help="the CommonRoad XML file to write")
+    e.add_argument("--scenario-out", type=Path, metavar="FILE",
+                   help="the map scenario (TOML) to write (default: FILE with the suffix .toml)")  # fmt: skip
+    e.add_argument("--ring-lanes", type=int, default=1, metavar="K", help="lanes the ring is split into (default 1)")
+    e.add_argument("--tolerance", type=float, default=1e-3, metavar="M",
+                   help="m: the largest gap between a sampled circle and its chords (default 0.001)")  # fmt: skip
     c = sub.add_parser("check", help="validate a scenario file only, as solve would (exit 0 or 2)")
     c.add_argument("scenario", type=Path, help="scenario file (TOML)")
     g = sub.add_parser("plot", help="draw a results folder of solve or simulate as a PNG (or PDF, SVG)")
@@ -141,6 +152,8 @@ def _main(argv: list[str] | None) -> int:
             check_output_folder(args.out)
         if args.command in ("traffic", "export-sumo"):
             sumo = check_traffic(args, scenario)
+        if args.command == "export-commonroad":
+            return _export_commonroad(scenario, args)
         check_grid(getattr(args, "intervals", None), scenario)
         if args.command == "simulate":
             check_simulate(args, scenario)
@@ -327,6 +340,58 @@ def _export_sumo(scenario, args, sumo) -> int:
     with run_folder(args.out) as stage:
         write_sumo_files(scenario, stage, sumo, scenario.traffic.seed)
     print(f"wrote {args.out}: net.net.xml, routes.rou.xml, run.sumocfg (sumo-gui -c {args.out / 'run.sumocfg'})")
+    return 0
+
+
+def export_paths(args, scenario) -> tuple[Path, Path]:
+    """The map and map-scenario files of ``export-commonroad``: a roundabout scenario, two distinct files."""
+    if scenario.ocp.road is None:
+        raise InputError("roundabout", "missing: export-commonroad writes a scenario's parametric [roundabout] "
+                         "as a map, and this scenario has none")  # fmt: skip
+    xml = args.out
+    toml = args.scenario_out or xml.with_suffix(".toml")
+    for key, path in (("--out", xml), ("--scenario-out", toml)):
+        if path.is_dir():
+            raise InputError(key, f"{path} is a folder; give a file")
+        parent = next((p for p in path.absolute().parents if p.exists()), Path("."))
+        if not os.access(parent, os.W_OK):
+            raise InputError(key, f"cannot write under {parent}")
+    if xml.absolute() == toml.absolute() or xml.absolute() == Path(args.scenario).absolute():
+        raise InputError("--out", f"{xml} would overwrite the map scenario or the scenario itself")
+    if toml.absolute() == Path(args.scenario).absolute():
+        raise InputError("--scenario-out", f"{toml} would overwrite the scenario itself")
+    return xml, toml
+
+
+def _export_commonroad(scenario, args) -> int:
+    """``export-commonroad``: the map and its scenario, both checked by reading them back before either is written."""
+    import tomllib
+
+    from model.outputs import write_atomically
+    from model.problem.map_export import export_commonroad
+
+    xml, toml = export_paths(args, scenario)
+    data = tomllib.loads(Path(args.scenario).read_bytes().decode("utf-8"))
+    map_file = os.path.relpath(xml.absolute(), toml.absolute().parent)
+    done = export_commonroad(data, scenario.ocp.road, map_file, args.ring_lanes, args.tolerance)
+    existed = xml.exists()
+    write_atomically(xml, done.xml)
+    try:
+        write_atomically(toml, done.toml)
+    except BaseException:
+        if not existed:
+            xml.unlink(missing_ok=True)
+        raise
+    if data.get("moving_obstacles"):
+        print("roundabout: note: the map scenario keeps [[moving_obstacles]], which the map search does not "
+              "handle yet (docs/map-format.md)", file=sys.stderr)  # fmt: skip
+    worst = max(done.mismatch.values(), key=lambda m: m["fraction"])
+    route = done.route
+    print(f"wrote {xml} ({len(done.network.lanelets)} lanelets; route {' '.join(map(str, route.lanelets))}) and "
+          f"{toml} (roundabout solve {toml}); the corridor differs from the parametric one by "
+          f"{worst['difference']:.4f} m^2 ({100 * worst['fraction']:.4f} % of {worst['area']:.1f} m^2); start "
+          f"{1000 * done.pose_error['start']['distance']:.2f} mm, goal "
+          f"{1000 * done.pose_error['goal']['distance']:.2f} mm from the parametric poses")  # fmt: skip
     return 0
 
 

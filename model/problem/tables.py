@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Any
 
@@ -99,3 +100,52 @@ def toml_key(key: str) -> str:
         return key
     body = "".join("\\" + c if c in '"\\' else c if c.isprintable() else f"\\U{ord(c):08X}" for c in key)
     return f'"{body}"'
+
+
+def toml_value(value: Any, where: str = "") -> str:
+    """One TOML value (string, boolean, number, array of them) as it is written on a line."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        return repr(value) if math.isfinite(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, str):
+        return '"' + "".join(_escaped(c) for c in value) + '"'
+    if isinstance(value, list) and not any(isinstance(v, dict) for v in value):
+        return "[" + ", ".join(toml_value(v, where) for v in value) + "]"
+    raise ValueError(f"{where}: cannot write {type(value).__name__} as a TOML value")
+
+
+def _escaped(c: str) -> str:
+    if c in '"\\':
+        return "\\" + c
+    return c if c.isprintable() else f"\\U{ord(c):08X}"
+
+
+def toml_text(document: dict[str, Any]) -> str:
+    """A TOML document (nested dicts, arrays of tables) as text that ``tomllib`` reads back equal."""
+    lines: list[str] = []
+    _toml_table(document, "", lines)
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def _is_tables(value: Any) -> bool:
+    return isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
+
+
+def _toml_table(table: dict[str, Any], prefix: str, lines: list[str]) -> None:
+    for key, value in table.items():
+        if not isinstance(value, dict) and not _is_tables(value):
+            lines.append(f"{toml_key(key)} = {toml_value(value, prefix + key)}")
+    for key, value in table.items():
+        name = f"{prefix}{toml_key(key)}"
+        if isinstance(value, dict):
+            lines += ["", f"[{name}]"]
+            _toml_table(value, name + ".", lines)
+        elif _is_tables(value):
+            for item in value:
+                lines += ["", f"[[{name}]]"]
+                _toml_table(item, name + ".", lines)
