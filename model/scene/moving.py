@@ -28,7 +28,7 @@ import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
 from model.errors import InputError
-from model.vehicles.body import place_points
+from model.vehicles.body import centred_rectangle, place_points
 
 COVER_SLACK = 0.1  # as model.direct.bodies.COVER_SLACK: a disc reaches at most 10 % of the half-width beyond the sides
 
@@ -179,9 +179,7 @@ class MovingVehicle:
     def corners(self, t: ArrayLike) -> NDArray[np.float64]:
         """The rectangle's corners at ``t`` (shape S), shape S + (4, 2), counter-clockwise from rear right."""
         x, y, h = self.pose(t)
-        half_l, half_w = self.length / 2, self.width / 2
-        local = np.array([[-half_l, -half_w], [half_l, -half_w], [half_l, half_w], [-half_l, half_w]])
-        return place_points(local, x, y, h)
+        return centred_rectangle(x, y, h, self.length, self.width)
 
     def rectangle(self, t: float):
         """The exact rectangle at time ``t``: a shapely Polygon."""

@@ -31,6 +31,7 @@ from model.traffic.cosim import (
     write_sumo_files,
 )
 from model.traffic.sumo import Sumo
+from model.vehicles.body import centred_rectangle
 
 TRAFFIC_COLUMNS = ("t", "id", "type", "x", "y", "heading", "speed", "length", "width")  # names: contract columns
 DRIVERS = ("autopilot", "sumo")
@@ -39,10 +40,7 @@ DRIVERS = ("autopilot", "sumo")
 def other_corners(row: tuple) -> np.ndarray:
     """Corners (4, 2) of another vehicle's rectangle from its traffic.csv row."""
     _, _, _, x, y, heading, _, length, width = row
-    u = np.array([math.cos(heading), math.sin(heading)])
-    n = np.array([-u[1], u[0]])
-    c = np.array([x, y])
-    return np.array([c + sa * length / 2 * u + sn * width / 2 * n for sa, sn in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
+    return centred_rectangle(x, y, heading, length, width)
 
 
 def encounter(scenario: Scenario, cols: dict[str, np.ndarray], scored: Pass) -> dict:

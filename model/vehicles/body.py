@@ -140,3 +140,16 @@ def place_points(local: NDArray[np.float64], x: ArrayLike, y: ArrayLike, heading
     px = x[..., None] + c * local[:, 0] - s * local[:, 1]
     py = y[..., None] + s * local[:, 0] + c * local[:, 1]
     return np.stack([px, py], axis=-1)
+
+
+def centred_rectangle(
+    x: ArrayLike, y: ArrayLike, heading: ArrayLike, length: float, width: float
+) -> NDArray[np.float64]:
+    """Corners, shape S + (4, 2), counter-clockwise from rear right, of a rectangle centred at (x, y).
+
+    Another vehicle's rectangle (a moving obstacle, a traffic.csv row), ``length`` x ``width``.
+    """
+    half_l, half_w = length / 2, width / 2
+    local = np.array([[-half_l, -half_w], [half_l, -half_w], [half_l, half_w], [-half_l, half_w]])
+    return place_points(local, x, y, heading)
+
