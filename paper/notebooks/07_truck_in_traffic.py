@@ -77,7 +77,8 @@ scenario = parse_scenario(doc)
 ocp, traffic = scenario.ocp, scenario.traffic
 ring = ocp.road.roundabout
 print(ocp.title)
-print(f"ICD {ring.inscribed_diameter:g} m, ring {ring.circulatory_width:g} m, {len(ring.legs)} legs, {ring.traffic}-hand")
+print(f"ICD {ring.inscribed_diameter:g} m, ring {ring.circulatory_width:g} m, {len(ring.legs)} legs, "
+      f"{ring.traffic}-hand traffic")
 print(f"route: enter leg {ocp.road.route.enter}, exit {ocp.road.route.exit}; seed {traffic.seed}, "
       f"warm-up {traffic.warmup:g} s, step {traffic.step:g} s, safety distance {traffic.safety_distance:g} m")
 for f in traffic.flows:
@@ -106,7 +107,8 @@ print("edges:", ", ".join(e.get("id") for e in edges))
 print("roundabout edges:", net.find("roundabout").get("edges"))
 routes = ET.parse(net_dir / "routes.rou.xml").getroot()
 for flow in list(routes.iter("flow"))[:3]:
-    print(f"flow {flow.get('id')}: period {flow.get('period')}, route {flow.get('route') or flow.find('route').get('edges')}")
+    edges = flow.get("route") or flow.find("route").get("edges")
+    print(f"flow {flow.get('id')}: period {flow.get('period')}, route {edges}")
 
 # %% [markdown]
 # ## 3. One run with each driver
