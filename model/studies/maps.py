@@ -284,6 +284,18 @@ def simplified(collection: dict, tolerance: float = DRAWN) -> dict:
     return {**collection, "features": features}
 
 
+def apron_gap(route: MapRoute) -> float | None:
+    """The least distance (m) from the corridor's lanes to its apron lanelets; None without apron lanelets.
+
+    0 where they touch; more where the map leaves a strip between them that no lanelet covers (at
+    Kackertstrasse the border lanelet 50 lies 2.1 m inside the ring's inner edge), which no body
+    may cross, so that such an apron cannot be reached.
+    """
+    if not route.apron_lanelets:
+        return None
+    return float(shapely.union_all([route.map.polygon(i) for i in route.apron_lanelets]).distance(route.lanes))
+
+
 def cell_measures(ocp: OCP, solution) -> dict:
     """A cell's record of a solve: status, valid, Tf, clearances, apron used, lanelets, diagnosis if not valid.
 
@@ -308,6 +320,7 @@ def cell_measures(ocp: OCP, solution) -> dict:
         "corridor_lanelets": list(route.corridor_lanelets),
         "lanelets_used": measures.get("lanelets_used"),
         "solves": len((solution.search or {}).get("solves", [])),
+        "apron_gap_m": apron_gap(route),
     }
     if solution.ok:
         states = {k: np.asarray(solution.columns[k]) for k in ("t", *ocp.vehicle.states)}

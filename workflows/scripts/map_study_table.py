@@ -59,6 +59,7 @@ def flat(c: dict) -> dict:
         "min_clearance_dense": c.get("min_clearance_dense"),
         "apron_used_m": c.get("apron_used_m") if valid else None,
         "apron_area_m2": c.get("apron_area_m2") if valid else None,
+        "apron_gap_m": c.get("apron_gap_m"),
         "lanelets_used": " ".join(map(str, c.get("lanelets_used") or [])),
         "diagnosis": None if valid else (c.get("diagnosis") or {}).get("message"),
         "seconds": c.get("seconds"),
@@ -128,10 +129,22 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         "",
         table(df.to_dict("records"), COLUMNS),
         "",
+        *gap_note(df, template),
     ]
     for path, caption in figures:
         lines += [f"![{caption}]({path})", ""]
     return "\n".join(lines)
+
+
+def gap_note(df: pd.DataFrame, template: dict) -> list[str]:
+    """A paragraph on how far the apron lanelets lie from the lanes (nothing where they touch or are not used)."""
+    gaps = df.apron_gap_m.dropna()
+    if gaps.empty or float(gaps.min()) <= 1e-3:
+        return []
+    return [f"The apron lanelets {template['route'].get('apron_lanelets')} do not touch the corridor's lanes: they lie"
+            f" {float(gaps.min()):.2f} m from them (a strip no lanelet covers, which no body may cross), so on this"
+            " map the apron cannot be reached, and a cell with it poses the problem of the cell without it.",
+            ""]  # fmt: skip
 
 
 def main() -> None:
