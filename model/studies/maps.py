@@ -16,6 +16,7 @@ for an articulated vehicle, "all" for a single-unit truck, "none" for the passen
 the apron no apron lanelets at all. ``cell_measures`` reads what a designer reports from a solved
 trajectory: the least exact clearance (nodes, sub-steps), the apron used (the area the bodies sweep
 on the apron lanelets outside the lanes, and how deep they reach into it), the lanelets used.
+``solve_cell`` solves a cell again on 2N where it fails only between the nodes.
 """
 
 from __future__ import annotations
@@ -294,6 +295,26 @@ def apron_gap(route: MapRoute) -> float | None:
     if not route.apron_lanelets:
         return None
     return float(shapely.union_all([route.map.polygon(i) for i in route.apron_lanelets]).distance(route.lanes))
+
+
+def solve_cell(ocp: OCP, intervals: int):
+    """The cell's minimum-time solve: on ``intervals``, and once more on twice as many where it fails only
+    between the nodes (every body inside at the nodes, a corner cut between two of them: the grid is too
+    coarse, not the road too narrow).
+
+    Returns
+    -------
+    tuple
+        The last Solution and the list of (N, status, valid, failed checks) of each solve.
+    """
+    solution, tried = None, []
+    for n in (intervals, 2 * intervals):
+        solution = ocp.solve(intervals=n)
+        failed = [k for k, c in solution.validation.get("checks", {}).items() if not c["passed"]]
+        tried.append({"intervals": n, "status": solution.status, "valid": bool(solution.ok), "failed_checks": failed})
+        if solution.ok or failed != ["body_clearance_dense"]:
+            break
+    return solution, tried
 
 
 def cell_measures(ocp: OCP, solution) -> dict:

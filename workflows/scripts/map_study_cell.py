@@ -3,7 +3,8 @@
 The cell's scenario is the template (workflows/scenarios/maps/kackertstrasse.toml) with the preset,
 the movement's route and the apron set (model.studies.maps.cell_document). Solves the minimum time
 (the map corridor strips, model.search.maps) and records what a designer reads
-(model.studies.maps.cell_measures). A failed solve, or a movement where no start or goal pose of the
+(model.studies.maps.cell_measures); a cell that fails only between the nodes is solved again on
+2N (model.studies.maps.solve_cell). A failed solve, or a movement where no start or goal pose of the
 vehicle fits the corridor, is written as failed with its diagnosis; it is never a solution.
 An unknown preset or movement, or a bad cell name: one line, exit 2, nothing written.
 """
@@ -25,11 +26,18 @@ from studies_common import write_json  # noqa: E402
 from model.errors import InputError  # noqa: E402
 from model.problem.maps import map_of  # noqa: E402
 from model.problem.scenario import parse_scenario  # noqa: E402
-from model.studies.maps import apron_use, cell_document, cell_measures, find_movement, parse_cell  # noqa: E402
+from model.studies.maps import (  # noqa: E402
+    apron_use,
+    cell_document,
+    cell_measures,
+    find_movement,
+    parse_cell,
+    solve_cell,
+)
 from model.vehicles import preset  # noqa: E402
 
 
-def solve_cell(template: Path, cell: str, intervals: int) -> dict:
+def run_cell(template: Path, cell: str, intervals: int) -> dict:
     """The cell's record: its route keys, and the solve's measures or why it was not solved."""
     started = time.perf_counter()
     preset_name, movement, apron = parse_cell(cell)
@@ -47,8 +55,9 @@ def solve_cell(template: Path, cell: str, intervals: int) -> dict:
                          "seconds": time.perf_counter() - started}  # fmt: skip
     record["route"] = doc["route"]
     ocp = parse_scenario(doc, path=template).ocp
-    sol = ocp.solve(intervals=intervals)
-    return record | cell_measures(ocp, sol) | {"seconds": time.perf_counter() - started}
+    sol, tried = solve_cell(ocp, intervals)
+    return record | cell_measures(ocp, sol) | {"intervals_solved": sol.intervals, "tried": tried,
+                                               "seconds": time.perf_counter() - started}  # fmt: skip
 
 
 def main() -> None:
@@ -59,7 +68,7 @@ def main() -> None:
     ap.add_argument("--out", type=Path, required=True, help="the cell's JSON file")
     args = ap.parse_args()
     try:
-        record = solve_cell(args.template, args.cell, args.intervals)
+        record = run_cell(args.template, args.cell, args.intervals)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         raise SystemExit(2) from None

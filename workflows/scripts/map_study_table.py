@@ -28,6 +28,7 @@ COLUMNS = {
     "apron_use": "apron use",
     "result": "result",
     "final_time": "Tf (s)",
+    "intervals_solved": "N",
     "min_clearance": "clearance nodes (m)",
     "min_clearance_dense": "clearance between (m)",
     "apron_used_m": "apron depth (m)",
@@ -51,6 +52,7 @@ def flat(c: dict) -> dict:
         "start_offset": route.get("start_offset"),
         "goal_offset": route.get("goal_offset"),
         "intervals": c["intervals"],
+        "intervals_solved": c.get("intervals_solved"),
         "status": c.get("status"),
         "valid": valid,
         "result": "passes" if valid else "FAILS",
@@ -73,7 +75,8 @@ def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: lis
     fig, axes = plt.subplots(1, len(settings), figsize=(6.2 * len(settings), 7.2), squeeze=False,
                              constrained_layout=True)  # fmt: skip
     names = sorted({c["movement"] for c in mine})
-    colours = {m: f"C{k % 10}" for k, m in enumerate(names)}
+    palette = plt.get_cmap("tab20").colors
+    colours = {m: palette[k % len(palette)] for k, m in enumerate(names)}
     swept = [shapely_of(f) for c in mine if c.get("valid") for f in c["swept_path"]["features"]]
     corridor = sorted({i for c in mine for i in c.get("corridor_lanelets") or []})
     xlim, ylim = map_limits(swept or [lanelet_map.polygon(i) for i in corridor or lanelet_map.ids])
@@ -96,6 +99,18 @@ def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: lis
     save(fig, stem, formats)
     return (f"{preset}: the swept paths (all bodies, exact rectangles) of every movement that passes, on the"
             " map's lanelets drawn by type; the movements that fail are listed under each panel, not drawn")
+
+
+def matrix(df: pd.DataFrame) -> str:
+    """Movement rows x vehicle columns: Tf with / without the apron, "fails" where a cell fails."""
+    rows = []
+    for movement in dict.fromkeys(df.movement):
+        row = {"movement": movement}
+        for preset in dict.fromkeys(df.preset):
+            g = df[(df.movement == movement) & (df.preset == preset)].sort_values("apron", ascending=False)
+            row[preset] = " / ".join(f"{r.final_time:.1f}" if r.valid else "fails" for r in g.itertuples())
+        rows.append(row)
+    return table(rows, {"movement": "movement", **{p: p for p in dict.fromkeys(df.preset)}})
 
 
 def shapely_of(feature: dict):
@@ -122,10 +137,19 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         "Per cell (model/studies/maps.py): the minimum-time manoeuvre by the map corridor strips, forward only;"
         " start and goal on the route's centre line where every body's exact rectangle stands inside the corridor;"
         " *passes* only if the solve converged and every body stays inside its corridor at the nodes and on 4"
-        " sub-steps between them. The apron may be mounted by the trailer of an articulated vehicle, by the whole"
+        " sub-steps between them (a cell that fails only between the nodes is solved again on 2N: column N)."
+        " The apron may be mounted by the trailer of an articulated vehicle, by the whole"
         " of a single-unit truck and not by the passenger car P; *apron depth* is how far the swept area reaches"
         " from the lanes into the apron lanelets, *apron area* the part of it on the apron. A failing cell gives"
         " the diagnosis (which body leaves the corridor where, by how much); it is never drawn as a solution.",
+        "",
+        "The turning-path table: minimum time Tf in seconds, " + " / ".join(
+            "with the apron" if a else "without it" for a in sorted(set(df.apron), reverse=True))
+        + " (fails: no valid trajectory, the diagnosis below):",
+        "",
+        matrix(df),
+        "",
+        "Every cell (`table.csv` has the route's lanelets and offsets too):",
         "",
         table(df.to_dict("records"), COLUMNS),
         "",
@@ -161,7 +185,8 @@ def main() -> None:
     cells = [json.loads(p.read_text()) for p in args.cells]
     order = {n: k for k, n in enumerate(args.vehicles)}
     df = pd.DataFrame([flat(c) for c in cells])
-    df = df.sort_values(["preset", "movement", "apron"], key=lambda s: s.map(order) if s.name == "preset" else s)
+    df = df.sort_values(["preset", "movement", "apron"], ascending=[True, True, False],
+                        key=lambda s: s.map(order) if s.name == "preset" else s)  # fmt: skip
     args.out.mkdir(parents=True, exist_ok=True)
     df.to_csv(args.out / "table.csv", index=False)
     write_text(args.out / "table.md", table(df.to_dict("records"), COLUMNS))
