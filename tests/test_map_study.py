@@ -25,6 +25,7 @@ from model.studies.maps import (
     movements,
     parse_cell,
     ring_lanelets,
+    solve_cell,
     straight_state,
 )
 from model.studies.roads import preset_vehicle
@@ -166,3 +167,35 @@ def test_the_template_names_a_map_with_its_apron(template):
     assert template["route"]["apron_lanelets"] == [50] and 50 in lanelet_map.ids
     with pytest.raises(InputError, match="map"):
         map_of({"route": {}})
+
+
+class FakeSolution:
+    """What solve_cell reads of a Solution: ok, status, the validation's checks."""
+
+    def __init__(self, intervals: int, failed: list[str]):
+        self.intervals, self.status = intervals, "validation_failed" if failed else "optimal"
+        self.validation = {"checks": {k: {"passed": k not in failed} for k in ("body_clearance", "body_clearance_dense",
+                                                                                 *failed)}}  # fmt: skip
+        self.ok = not failed
+
+
+class FakeOCP:
+    def __init__(self, outcomes: dict[int, list[str]]):
+        self.outcomes, self.asked = outcomes, []
+
+    def solve(self, intervals: int):
+        self.asked.append(intervals)
+        return FakeSolution(intervals, self.outcomes[intervals])
+
+
+@pytest.mark.parametrize(("outcomes", "asked", "ok"), [
+    ({100: []}, [100], True),                                                    # passes: one solve
+    ({100: ["body_clearance_dense"], 200: []}, [100, 200], True),                # only between nodes: 2N
+    ({100: ["body_clearance_dense"], 200: ["body_clearance_dense"]}, [100, 200], False),  # and no further
+    ({100: ["body_clearance", "body_clearance_dense"]}, [100], False),           # at the nodes too: no re-solve
+])  # fmt: skip
+def test_a_cell_is_solved_again_on_2n_only_where_it_fails_between_the_nodes(outcomes, asked, ok):
+    ocp = FakeOCP(outcomes)
+    solution, tried = solve_cell(ocp, 100)
+    assert ocp.asked == asked and [t["intervals"] for t in tried] == asked and solution.ok == ok
+    assert tried[-1]["valid"] == ok and tried[0]["failed_checks"] == outcomes[100]
