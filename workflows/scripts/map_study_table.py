@@ -26,6 +26,7 @@ COLUMNS = {
     "preset": "vehicle",
     "movement": "movement",
     "apron_use": "apron use",
+    "to_lanelet": "goal on",
     "result": "result",
     "final_time": "Tf (s)",
     "intervals_solved": "N",
@@ -135,7 +136,10 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         + f" {len(df)} cells, {int((~df.valid).sum())} failing; {fmt(cpu, 3)} s of job time in all.",
         "",
         "Per cell (model/studies/maps.py): the minimum-time manoeuvre by the map corridor strips, forward only;"
-        " start and goal on the route's centre line where every body's exact rectangle stands inside the corridor;"
+        " start and goal on the route's centre line where every body's exact rectangle stands inside the corridor (the"
+        " goal on the last lanelet after the ring where the vehicle, standing straight, fits: column *goal on*; where"
+        " that is not the movement's exit lanelet the lanes beyond it are too narrow for the vehicle, and a"
+        " movement where no such lanelet exists is *not posed*);"
         " *passes* only if the solve converged and every body stays inside its corridor at the nodes and on 4"
         " sub-steps between them (a cell that fails only between the nodes is solved again on 2N: column N)."
         " The apron may be mounted by the trailer of an articulated vehicle, by the whole"
