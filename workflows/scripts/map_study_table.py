@@ -75,8 +75,9 @@ def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: lis
     settings = sorted({bool(c["apron"]) for c in mine}, reverse=True)
     fig, axes = plt.subplots(1, len(settings), figsize=(6.2 * len(settings), 7.2), squeeze=False,
                              constrained_layout=True)  # fmt: skip
-    names = sorted({c["movement"] for c in mine})
-    palette = plt.get_cmap("tab20").colors
+    names = sorted({c["movement"] for c in mine}, key=movement_key)
+    tab20 = plt.get_cmap("tab20").colors
+    palette = tab20[::2] + tab20[1::2]  # the ten strong colours first, then their light pairs
     colours = {m: palette[k % len(palette)] for k, m in enumerate(names)}
     swept = [shapely_of(f) for c in mine if c.get("valid") for f in c["swept_path"]["features"]]
     corridor = sorted({i for c in mine for i in c.get("corridor_lanelets") or []})
@@ -84,7 +85,7 @@ def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: lis
     for ax, apron in zip(axes[0], settings, strict=True):
         handles = draw_lanelets(ax, lanelet_map)
         failed = []
-        for c in sorted((c for c in mine if bool(c["apron"]) == apron), key=lambda c: c["movement"]):
+        for c in sorted((c for c in mine if bool(c["apron"]) == apron), key=lambda c: movement_key(c["movement"])):
             if c.get("valid"):
                 geoms = [f["geometry"] for f in c["swept_path"]["features"]]
                 draw_swept(ax, geoms, colours[c["movement"]], f"{c['movement']}: Tf {c['final_time']:.1f} s")
@@ -102,10 +103,16 @@ def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: lis
             " map's lanelets drawn by type; the movements that fail are listed under each panel, not drawn")
 
 
+def movement_key(name: str) -> tuple[int, int]:
+    """``"90-102"`` -> (90, 102): movements by entry, then exit."""
+    entry, exit_ = name.split("-")
+    return int(entry), int(exit_)
+
+
 def matrix(df: pd.DataFrame) -> str:
     """Movement rows x vehicle columns: Tf with / without the apron, "fails" where a cell fails."""
     rows = []
-    for movement in dict.fromkeys(df.movement):
+    for movement in sorted(set(df.movement), key=movement_key):
         row = {"movement": movement}
         for preset in dict.fromkeys(df.preset):
             g = df[(df.movement == movement) & (df.preset == preset)].sort_values("apron", ascending=False)
@@ -145,7 +152,9 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         " The apron may be mounted by the trailer of an articulated vehicle, by the whole"
         " of a single-unit truck and not by the passenger car P; *apron depth* is how far the swept area reaches"
         " from the lanes into the apron lanelets, *apron area* the part of it on the apron. A failing cell gives"
-        " the diagnosis (which body leaves the corridor where, by how much); it is never drawn as a solution.",
+        " the diagnosis (which body leaves the corridor where, by how much); it is never drawn as a solution. A"
+        " failure is that of a local solve started from the route's centre line (the map search has no multi-start"
+        " yet, docs/map-format.md): evidence, not a proof, that the vehicle cannot make the movement.",
         "",
         "The turning-path table: minimum time Tf in seconds, " + " / ".join(
             "with the apron" if a else "without it" for a in sorted(set(df.apron), reverse=True))
@@ -189,8 +198,9 @@ def main() -> None:
     cells = [json.loads(p.read_text()) for p in args.cells]
     order = {n: k for k, n in enumerate(args.vehicles)}
     df = pd.DataFrame([flat(c) for c in cells])
+    keys = {"preset": order.get, "movement": movement_key}
     df = df.sort_values(["preset", "movement", "apron"], ascending=[True, True, False],
-                        key=lambda s: s.map(order) if s.name == "preset" else s)  # fmt: skip
+                        key=lambda s: s.map(keys[s.name]) if s.name in keys else s)  # fmt: skip
     args.out.mkdir(parents=True, exist_ok=True)
     df.to_csv(args.out / "table.csv", index=False)
     write_text(args.out / "table.md", table(df.to_dict("records"), COLUMNS))
