@@ -63,7 +63,7 @@ def flat(c: dict) -> dict:
         "apron_used_m": c.get("apron_used_m") if valid else None,
         "apron_area_m2": c.get("apron_area_m2") if valid else None,
         "apron_gap_m": c.get("apron_gap_m"),
-        "lanelets_used": " ".join(map(str, c.get("lanelets_used") or [])),
+        "lanelets_used": " ".join(map(str, c.get("lanelets_used") or [])) if valid else None,  # of a solution only
         "diagnosis": None if valid else (c.get("diagnosis") or {}).get("message"),
         "seconds": c.get("seconds"),
     }
