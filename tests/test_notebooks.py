@@ -14,8 +14,8 @@ NOTEBOOKS = sorted((Path(__file__).resolve().parents[1] / "paper" / "notebooks")
 
 def test_there_are_notebooks():
     names = {p.stem for p in NOTEBOOKS}
-    assert {"04_roads_and_bodies", "05_closed_loop"} <= names  # issue 18: roads and bodies, closed loop
-    assert len(NOTEBOOKS) >= 5
+    assert {"04_roads_and_bodies", "05_closed_loop", "06_real_roundabout"} <= names  # issues 18, 21
+    assert len(NOTEBOOKS) >= 6
 
 
 @pytest.mark.parametrize("notebook", NOTEBOOKS, ids=lambda p: p.stem)

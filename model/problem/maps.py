@@ -64,6 +64,21 @@ def parse_map(data: dict[str, Any], base: Path | None = None) -> MapRoute | None
     )
 
 
+def map_of(data: dict[str, Any], base: Path | None = None):
+    """The LaneletMap that a scenario document's ``[map]`` names (its ``[route]`` not read).
+
+    Raises
+    ------
+    InputError
+        ``map``, ``map.file`` or ``map.dataset``, as ``parse_map``.
+    """
+    table = data.get("map")
+    if not isinstance(table, dict):
+        raise InputError("map", "missing or not a table ([map] with file or dataset)")
+    no_unknown(table, MAP_KEYS, "map.")
+    return _read(table, base or Path("."))
+
+
 def check_route_format(data: dict[str, Any]) -> None:
     """A [route] has the keys of one format only: a map's with a [map], a roundabout's without."""
     route = data.get("route")

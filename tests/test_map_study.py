@@ -1,0 +1,201 @@
+"""The map study's model side (model/studies/maps.py): movements from a lanelet graph, a cell, its measures."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pytest
+import shapely
+
+from model.cli import main
+from model.errors import InputError
+from model.problem.maps import map_of, pose_clearances
+from model.problem.scenario import parse_scenario
+from model.scene.lanelet_map import dataset_file, read_map
+from model.studies.maps import (
+    apron_gap,
+    apron_use_measures,
+    cell_document,
+    cell_name,
+    entries_and_exits,
+    find_movement,
+    movements,
+    parse_cell,
+    ring_lanelets,
+    solve_cell,
+    straight_state,
+)
+from model.studies.roads import preset_vehicle
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")  # commonroad-io's protobuf modules
+
+ROOT = Path(__file__).resolve().parents[1]
+TEMPLATE = ROOT / "workflows" / "scenarios" / "maps" / "kackertstrasse.toml"
+
+
+@pytest.fixture(scope="module")
+def kackertstrasse():
+    return read_map(dataset_file("rounD/DEU_Kackertstrasse-1"))
+
+
+@pytest.fixture(scope="module")
+def template():
+    return tomllib.loads(TEMPLATE.read_text())
+
+
+def drivable_digraph(lanelet_map) -> nx.DiGraph:
+    """The drivable lanelets and their successors, built here from commonroad-io's objects."""
+    g = nx.DiGraph()
+    for lanelet in lanelet_map.network.lanelets:
+        if lanelet_map.drivable(lanelet.lanelet_id):
+            g.add_node(lanelet.lanelet_id)
+    for i in list(g.nodes):
+        g.add_edges_from((i, j) for j in lanelet_map.lanelet(i).successor if j in g)
+    return g
+
+
+def test_kackertstrasse_movements_agree_with_networkx(kackertstrasse):
+    g = drivable_digraph(kackertstrasse)
+    ring = {i for c in nx.strongly_connected_components(g) if len(c) > 1 for i in c}
+    entries = sorted(i for i in g if g.in_degree(i) == 0)
+    exits = sorted(i for i in g if g.out_degree(i) == 0)
+    assert ring_lanelets(kackertstrasse) == sorted(ring) and len(ring) == 8
+    assert entries_and_exits(kackertstrasse) == (entries, exits)
+    found = {m.name: m for m in movements(kackertstrasse)}
+    expected = {f"{a}-{b}" for a in entries for b in exits
+                if a != b and nx.has_path(g, a, b) and any(ring & set(p) for p in nx.all_simple_paths(g, a, b))}
+    assert set(found) == expected and len(found) == 20  # 4 entries x 5 exits; 18 -> 13 bypasses the ring
+    assert "18-13" not in found and {"90-102", "11-19", "104-84"} <= set(found)
+    for m in found.values():  # each a chain of successors from its entry to its exit through the ring
+        assert m.lanelets[0] == m.entry and m.lanelets[-1] == m.exit and ring & set(m.lanelets)
+        assert all(g.has_edge(a, b) for a, b in zip(m.lanelets, m.lanelets[1:], strict=False))
+
+
+def test_an_exported_roundabout_has_every_entry_exit_pair(tmp_path):
+    xml = tmp_path / "map.xml"
+    assert main(["export-commonroad", str(ROOT / "examples" / "roundabout-truck.toml"), "--out", str(xml)]) == 0
+    lanelet_map = read_map(xml)
+    legs = range(4)
+    assert {m.name for m in movements(lanelet_map)} == {f"{100 + a}-{200 + b}" for a in legs for b in legs}
+    assert ring_lanelets(lanelet_map) == sorted(i for i in lanelet_map.ids if 1000 <= i < 2000)
+
+
+def test_a_map_without_a_ring_has_no_movements():
+    lanelet_map = read_map(ROOT / "tests" / "data" / "maps" / "two-lanes.xml")
+    assert ring_lanelets(lanelet_map) == [] and movements(lanelet_map) == []
+
+
+def test_cell_names_round_trip_and_bad_ones_are_refused(kackertstrasse):
+    for preset, movement, apron in (("EU-semitrailer", "90-102", True), ("SU-30", "11-19", False)):
+        assert parse_cell(cell_name(preset, movement, apron)) == (preset, movement, apron)
+    for bad in ("SU-30_90-102", "SU-30_90102_apron", "SU-30_90-102_yes"):
+        with pytest.raises(InputError, match="cell"):
+            parse_cell(bad)
+    with pytest.raises(InputError, match="movement.*90-90.*movements: 11-19"):
+        find_movement(kackertstrasse, "90-90")
+
+
+@pytest.mark.parametrize(("preset", "apron", "use", "articulation"), [
+    ("SU-30", True, "all", False), ("EU-semitrailer", True, "trailer", True), ("P", True, "none", False),
+    ("EU-semitrailer", False, "none", True),
+])  # fmt: skip
+def test_a_cell_document_poses_the_movement_with_every_body_inside(kackertstrasse, template, preset, apron, use,
+                                                                    articulation):  # fmt: skip
+    doc = cell_document(template, kackertstrasse, preset, "90-102", apron, 40)
+    route = doc["route"]
+    movement = find_movement(kackertstrasse, "90-102")
+    assert route["from_lanelet"] == 90 and route["to_lanelet"] in movement.lanelets[-3:]
+    assert route["apron_use"] == use and route["apron_lanelets"] == ([50] if apron else [])
+    assert doc["vehicle"] == {"preset": preset}
+    assert ("phi" in doc["bounds"]) == (preset_vehicle(preset)[2] is None)  # the template's only without the preset's
+    assert ("articulation" in doc["bounds"]) == articulation
+    assert doc["problem"]["intervals"] == 40 and doc["name"] == cell_name(preset, "90-102", apron)
+    ocp = parse_scenario(doc, path=TEMPLATE).ocp  # refuses a start or goal with a body outside the corridor
+    assert ocp.map_route.lanelets[0] == 90 and ocp.map_route.apron_use == use
+    # the start is the least offset (in 1 m steps) at which the vehicle fits: 1 m less leaves the corridor
+    back = {**doc, "route": {**route, "start_offset": route["start_offset"] - 1.0}}
+    if back["route"]["start_offset"] >= 0:
+        with pytest.raises(InputError, match="route.start_offset"):
+            parse_scenario(back, path=TEMPLATE)
+
+
+def test_a_vehicle_that_cannot_stand_on_the_exit_is_refused(kackertstrasse, template):
+    with pytest.raises(InputError, match="movement.*11-19.*no goal pose of the WB-62"):
+        cell_document(template, kackertstrasse, "WB-62", "11-19", True, 40)
+
+
+def test_the_apron_measures_bound_what_is_on_the_apron(kackertstrasse, template):
+    doc = cell_document(template, kackertstrasse, "SU-30", "90-102", True, 40)
+    ocp = parse_scenario(doc, path=TEMPLATE).ocp
+    route = ocp.map_route
+    gap = apron_gap(route)
+    centre = shapely.centroid(kackertstrasse.polygon(50))  # lanelet 50: a narrow ring inside the ring's inner edge
+    outer = max(centre.distance(shapely.Point(p)) for p in kackertstrasse.polygon(50).exterior.coords)
+    assert gap > 1.0 and gap == pytest.approx(centre.distance(route.lanes) - outer, abs=0.05)
+    vehicle, bodies, _ = preset_vehicle("SU-30")
+    r = vehicle.roles
+
+    def at(x, y, heading):
+        state = straight_state("SU-30", heading) | {r.x: x, r.y: y}
+        return {"t": np.array([0.0, 1.0]), **{k: np.full(2, v) for k, v in state.items()}}
+
+    x, y, heading = route.start()
+    assert apron_use_measures(ocp, at(x, y, heading), route.apron_lanelets) == {"apron_area_m2": 0.0,
+                                                                                "apron_used_m": 0.0}
+    apron = kackertstrasse.polygon(50)
+    cx, cy = np.asarray(kackertstrasse.lanelet(50).center_vertices)[0]
+    across = at(cx, cy, 0.3)  # a truck parked across the apron ring
+    got = apron_use_measures(ocp, across, route.apron_lanelets)
+    corners = bodies["vehicle"].corners(cx, cy, 0.3)
+    rect = shapely.Polygon(corners)
+    assert got["apron_area_m2"] == pytest.approx(rect.intersection(apron.difference(route.lanes)).area, rel=0.02)
+    on_apron = rect.intersection(apron.difference(route.lanes))  # sampled on a 2 cm grid inside it
+    x0, y0, x1, y1 = on_apron.bounds
+    grid = shapely.points(np.stack(np.meshgrid(np.arange(x0, x1, 0.02), np.arange(y0, y1, 0.02)), -1).reshape(-1, 2))
+    inside = grid[shapely.contains(on_apron, grid)]
+    deepest = float(np.max(shapely.distance(inside, route.lanes)))
+    assert got["apron_used_m"] >= gap and got["apron_used_m"] == pytest.approx(deepest, abs=0.03)
+    assert apron_use_measures(ocp, across, ()) == {"apron_area_m2": 0.0, "apron_used_m": 0.0}
+    assert min(pose_clearances(route, vehicle, bodies, {k: v[0] for k, v in across.items()}).values()) < 0
+
+
+def test_the_template_names_a_map_with_its_apron(template):
+    lanelet_map = map_of(template, TEMPLATE.parent)
+    assert template["route"]["apron_lanelets"] == [50] and 50 in lanelet_map.ids
+    with pytest.raises(InputError, match="map"):
+        map_of({"route": {}})
+
+
+class FakeSolution:
+    """What solve_cell reads of a Solution: ok, status, the validation's checks."""
+
+    def __init__(self, intervals: int, failed: list[str]):
+        self.intervals, self.status = intervals, "validation_failed" if failed else "optimal"
+        self.validation = {"checks": {k: {"passed": k not in failed} for k in ("body_clearance", "body_clearance_dense",
+                                                                                 *failed)}}  # fmt: skip
+        self.ok = not failed
+
+
+class FakeOCP:
+    def __init__(self, outcomes: dict[int, list[str]]):
+        self.outcomes, self.asked = outcomes, []
+
+    def solve(self, intervals: int):
+        self.asked.append(intervals)
+        return FakeSolution(intervals, self.outcomes[intervals])
+
+
+@pytest.mark.parametrize(("outcomes", "asked", "ok"), [
+    ({100: []}, [100], True),                                                    # passes: one solve
+    ({100: ["body_clearance_dense"], 200: []}, [100, 200], True),                # only between nodes: 2N
+    ({100: ["body_clearance_dense"], 200: ["body_clearance_dense"]}, [100, 200], False),  # and no further
+    ({100: ["body_clearance", "body_clearance_dense"]}, [100], False),           # at the nodes too: no re-solve
+])  # fmt: skip
+def test_a_cell_is_solved_again_on_2n_only_where_it_fails_between_the_nodes(outcomes, asked, ok):
+    ocp = FakeOCP(outcomes)
+    solution, tried = solve_cell(ocp, 100)
+    assert ocp.asked == asked and [t["intervals"] for t in tried] == asked and solution.ok == ok
+    assert tried[-1]["valid"] == ok and tried[0]["failed_checks"] == outcomes[100]

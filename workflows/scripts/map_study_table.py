@@ -1,0 +1,217 @@
+"""Map study: the turning-path table of a real roundabout (vehicles x movements x apron) from the cells' JSON files.
+
+Writes table.csv and table.md (one row per cell: passes or fails, the diagnosis, least clearance at
+the nodes and between them, apron used, lanelets used, Tf), one figure per vehicle (the map's
+lanelets drawn by type; the swept paths of every passing movement, with and without the apron side by
+side; the failed movements listed under the panel, never drawn as solutions) and the paper section,
+which says which grid ran.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from pathlib import Path
+
+import pandas as pd
+from studies_common import fmt, parser, plt, table, write_text
+
+from model.plotting.figures import save
+from model.plotting.maps import draw_lanelets, draw_swept, map_limits
+from model.plotting.roads import draw_scale_bar
+from model.problem.maps import map_of
+from model.studies.maps import movements
+
+COLUMNS = {
+    "preset": "vehicle",
+    "movement": "movement",
+    "apron_use": "apron use",
+    "to_lanelet": "goal on",
+    "result": "result",
+    "final_time": "Tf (s)",
+    "intervals_solved": "N",
+    "min_clearance": "clearance nodes (m)",
+    "min_clearance_dense": "clearance between (m)",
+    "apron_used_m": "apron depth (m)",
+    "apron_area_m2": "apron area (m^2)",
+    "lanelets_used": "lanelets used",
+    "diagnosis": "diagnosis",
+}
+
+
+def flat(c: dict) -> dict:
+    """A cell as a table row."""
+    valid = bool(c.get("valid"))
+    route = c.get("route") or {}
+    return {
+        "preset": c["preset"],
+        "movement": c["movement"],
+        "apron": bool(c["apron"]),
+        "apron_use": c["apron_use"],
+        "from_lanelet": route.get("from_lanelet"),
+        "to_lanelet": route.get("to_lanelet"),
+        "start_offset": route.get("start_offset"),
+        "goal_offset": route.get("goal_offset"),
+        "intervals": c["intervals"],
+        "intervals_solved": c.get("intervals_solved"),
+        "status": c.get("status"),
+        "valid": valid,
+        "result": "passes" if valid else "FAILS",
+        "final_time": c.get("final_time") if valid else None,
+        "min_clearance": c.get("min_clearance"),
+        "min_clearance_dense": c.get("min_clearance_dense"),
+        "apron_used_m": c.get("apron_used_m") if valid else None,
+        "apron_area_m2": c.get("apron_area_m2") if valid else None,
+        "apron_gap_m": c.get("apron_gap_m"),
+        "lanelets_used": " ".join(map(str, c.get("lanelets_used") or [])) if valid else None,  # of a solution only
+        "diagnosis": None if valid else (c.get("diagnosis") or {}).get("message"),
+        "seconds": c.get("seconds"),
+    }
+
+
+def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: list[str]) -> str:
+    """One vehicle: a panel per apron setting with the passing movements' swept paths; returns the caption."""
+    mine = [c for c in cells if c["preset"] == preset]
+    settings = sorted({bool(c["apron"]) for c in mine}, reverse=True)
+    fig, axes = plt.subplots(1, len(settings), figsize=(6.2 * len(settings), 7.2), squeeze=False,
+                             constrained_layout=True)  # fmt: skip
+    names = sorted({c["movement"] for c in mine}, key=movement_key)
+    tab20 = plt.get_cmap("tab20").colors
+    palette = tab20[::2] + tab20[1::2]  # the ten strong colours first, then their light pairs
+    colours = {m: palette[k % len(palette)] for k, m in enumerate(names)}
+    swept = [shapely_of(f) for c in mine if c.get("valid") for f in c["swept_path"]["features"]]
+    corridor = sorted({i for c in mine for i in c.get("corridor_lanelets") or []})
+    xlim, ylim = map_limits(swept or [lanelet_map.polygon(i) for i in corridor or lanelet_map.ids])
+    for ax, apron in zip(axes[0], settings, strict=True):
+        handles = draw_lanelets(ax, lanelet_map)
+        failed = []
+        for c in sorted((c for c in mine if bool(c["apron"]) == apron), key=lambda c: movement_key(c["movement"])):
+            if c.get("valid"):
+                geoms = [f["geometry"] for f in c["swept_path"]["features"]]
+                draw_swept(ax, geoms, colours[c["movement"]], f"{c['movement']}: Tf {c['final_time']:.1f} s")
+            else:
+                failed.append(f"{c['movement']} ({c.get('status')})")
+        ax.set(xlim=xlim, ylim=ylim, aspect="equal", xticks=[], yticks=[])
+        draw_scale_bar(ax)
+        use = next((c["apron_use"] for c in mine if bool(c["apron"]) == apron), "none")
+        ax.set_title(f"{preset}, {'with the apron (use: ' + use + ')' if apron else 'without the apron'}",
+                     fontsize=9)  # fmt: skip
+        ax.legend(handles=[*handles, *ax.get_legend_handles_labels()[0]], fontsize=6, loc="upper left", ncol=2)
+        ax.set_xlabel("fails (not drawn): " + (", ".join(failed) if failed else "none"), fontsize=8, wrap=True)
+    save(fig, stem, formats)
+    return (f"{preset}: the swept paths (all bodies, exact rectangles) of every movement that passes, on the"
+            " map's lanelets drawn by type; the movements that fail are listed under each panel, not drawn")
+
+
+def movement_key(name: str) -> tuple[int, int]:
+    """``"90-102"`` -> (90, 102): movements by entry, then exit."""
+    entry, exit_ = name.split("-")
+    return int(entry), int(exit_)
+
+
+def matrix(df: pd.DataFrame) -> str:
+    """Movement rows x vehicle columns: Tf with / without the apron, "fails" where a cell fails."""
+    rows = []
+    for movement in sorted(set(df.movement), key=movement_key):
+        row = {"movement": movement}
+        for preset in dict.fromkeys(df.preset):
+            g = df[(df.movement == movement) & (df.preset == preset)].sort_values("apron", ascending=False)
+            row[preset] = " / ".join(f"{r.final_time:.1f}" if r.valid else "fails" for r in g.itertuples())
+        rows.append(row)
+    return table(rows, {"movement": "movement", **{p: p for p in dict.fromkeys(df.preset)}})
+
+
+def shapely_of(feature: dict):
+    import shapely
+
+    return shapely.geometry.shape(feature["geometry"])
+
+
+def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements: int, figures: list[tuple]) -> str:
+    cpu = df.seconds.sum()
+    lines = [
+        "## A real roundabout: turning paths of the design vehicles",
+        "",
+        f"Every movement (entry lanelet x exit lanelet that a route connects through the ring) of the rounD"
+        f" roundabout {template['map'].get('dataset', template['map'].get('file'))} (CommonRoad map; {n_movements}"
+        f" movements in the map's lanelet graph), for each design vehicle, with and without the apron lanelets"
+        f" {template['route'].get('apron_lanelets', [])}. **This is the `map_study: {mode}` run**: vehicles"
+        f" {', '.join(grid['vehicles'])}; movements {', '.join(grid['movements'])}; apron"
+        f" {', '.join('with' if a else 'without' for a in grid['apron'])}; N = {grid['intervals']}"
+        + (" (`map_study: full` in workflows/config.yaml runs P, SU-30, WB-40, WB-62 and the EU-semitrailer on"
+           " every movement)." if mode != "full" else ".")  # fmt: skip
+        + f" {len(df)} cells, {int((~df.valid).sum())} failing; {fmt(cpu, 3)} s of job time in all.",
+        "",
+        "Per cell (model/studies/maps.py): the minimum-time manoeuvre by the map corridor strips, forward only;"
+        " start and goal on the route's centre line where every body's exact rectangle stands inside the corridor (the"
+        " goal on the last lanelet after the ring where the vehicle, standing straight, fits: column *goal on*; where"
+        " that is not the movement's exit lanelet the lanes beyond it are too narrow for the vehicle, and a"
+        " movement where no such lanelet exists is *not posed*);"
+        " *passes* only if the solve converged and every body stays inside its corridor at the nodes and on 4"
+        " sub-steps between them (a cell that fails only between the nodes is solved again on 2N: column N)."
+        " The apron may be mounted by the trailer of an articulated vehicle, by the whole"
+        " of a single-unit truck and not by the passenger car P; *apron depth* is how far the swept area reaches"
+        " from the lanes into the apron lanelets, *apron area* the part of it on the apron. A failing cell gives"
+        " the diagnosis (which body leaves the corridor where, by how much); it is never drawn as a solution. A"
+        " failure is that of a local solve started from the route's centre line (the map search has no multi-start"
+        " yet, docs/map-format.md): evidence, not a proof, that the vehicle cannot make the movement.",
+        "",
+        "The turning-path table: minimum time Tf in seconds, " + " / ".join(
+            "with the apron" if a else "without it" for a in sorted(set(df.apron), reverse=True))
+        + " (fails: no valid trajectory, the diagnosis below):",
+        "",
+        matrix(df),
+        "",
+        "Every cell (`table.csv` has the route's lanelets and offsets too):",
+        "",
+        table(df.to_dict("records"), COLUMNS),
+        "",
+        *gap_note(df, template),
+    ]
+    for path, caption in figures:
+        lines += [f"![{caption}]({path})", ""]
+    return "\n".join(lines)
+
+
+def gap_note(df: pd.DataFrame, template: dict) -> list[str]:
+    """A paragraph on how far the apron lanelets lie from the lanes (nothing where they touch or are not used)."""
+    gaps = df.apron_gap_m.dropna()
+    if gaps.empty or float(gaps.min()) <= 1e-3:
+        return []
+    return [f"The apron lanelets {template['route'].get('apron_lanelets')} do not touch the corridor's lanes: they lie"
+            f" {float(gaps.min()):.2f} m from them (a strip no lanelet covers, which no body may cross), so on this"
+            " map the apron cannot be reached, and a cell with it poses the problem of the cell without it.",
+            ""]  # fmt: skip
+
+
+def main() -> None:
+    ap = parser(__doc__)
+    ap.add_argument("--cells", type=Path, nargs="+", required=True)
+    ap.add_argument("--template", type=Path, required=True)
+    ap.add_argument("--mode", required=True)
+    ap.add_argument("--vehicles", nargs="+", required=True)
+    ap.add_argument("--movements", nargs="+", required=True)
+    ap.add_argument("--apron", nargs="+", required=True, choices=["true", "false"])
+    ap.add_argument("--intervals", type=int, required=True)
+    ap.add_argument("--formats", nargs="+", default=["pdf", "png"])
+    args = ap.parse_args()
+    cells = [json.loads(p.read_text()) for p in args.cells]
+    order = {n: k for k, n in enumerate(args.vehicles)}
+    df = pd.DataFrame([flat(c) for c in cells])
+    keys = {"preset": order.get, "movement": movement_key}
+    df = df.sort_values(["preset", "movement", "apron"], ascending=[True, True, False],
+                        key=lambda s: s.map(keys[s.name]) if s.name in keys else s)  # fmt: skip
+    args.out.mkdir(parents=True, exist_ok=True)
+    df.to_csv(args.out / "table.csv", index=False)
+    write_text(args.out / "table.md", table(df.to_dict("records"), COLUMNS))
+    template = tomllib.loads(args.template.read_text())
+    lanelet_map = map_of(template, args.template.parent)
+    drawn = [(args.out / f"{v}.png", figure(lanelet_map, cells, v, args.out / v, args.formats))
+             for v in args.vehicles]  # fmt: skip
+    grid = {"vehicles": args.vehicles, "movements": args.movements, "apron": [a == "true" for a in args.apron],
+            "intervals": args.intervals}  # fmt: skip
+    write_text(args.section, section(df, args.mode, grid, template, len(movements(lanelet_map)), drawn))
+
+
+if __name__ == "__main__":
+    main()
