@@ -160,21 +160,21 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     The loop is the contract's replay loop with the poses made online, so replaying ``DIR/sumo``
     with ``trajectory.csv`` gives this pass's ``traffic.csv``. ``Pass.states`` holds the rows.
     """
-    from model.traffic.autopilot import Autopilot, predict
+    from model.traffic.autopilot import YAW_WINDOW, Autopilot, predict
 
     traffic, v = scenario.traffic, scenario.ocp.vehicle
     geo = truck_geometry(scenario)
     pilot = Autopilot(scenario, plan, geo["front"])
     traci = _start(sumo, folder, routes)
     out, t_end = Pass(), traffic.warmup + traffic.time_limit
-    headings: dict[str, float] = {}
+    seen: dict[str, list[tuple[float, float]]] = {}  # id -> (t, heading) over the last YAW_WINDOW seconds
     last: list[tuple] = []
     try:
         while traci.simulation.getTime() < t_end - 1e-9:
             t_next = round(traci.simulation.getTime() + traffic.step, TIME_DIGITS)
             if t_next >= traffic.warmup - 1e-9 and "truck" in traci.vehicle.getIDList():
                 if out.states:
-                    others = [predict(r, headings.get(r[1]), traffic.step) for r in last]
+                    others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
                     name, _ = pilot.decide(others, traffic.step)
                     out.decisions.append(name)
                 row = pilot.state()
@@ -184,12 +184,12 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
                 traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)
                 out.truck[t_next] = (x, y, a, row[v.roles.speed])
                 out.states[t_next] = row
-            previous = {r[1]: r[5] for r in last}
             traci.simulationStep()
             t = round(traci.simulation.getTime(), TIME_DIGITS)
             n = len(out.rows)
             _record(traci, t, out)
-            last, headings = out.rows[n:], previous
+            last = out.rows[n:]
+            seen = {r[1]: [*(h for h in seen.get(r[1], []) if h[0] >= t - YAW_WINDOW - 1e-9), (t, r[5])] for r in last}
             if out.states and pilot.s >= plan.duration - 1e-12:
                 out.arrived = True
                 break
@@ -198,6 +198,14 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     out.end = max(out.truck) if out.truck else t_end
     out.decision_seconds = pilot.decision_seconds
     return out
+
+
+def _earlier(history: list[tuple[float, float]], t: float) -> tuple[float | None, float]:
+    """The oldest (heading, seconds before ``t``) of a vehicle's recent headings other than the one at ``t``."""
+    for when, heading in history:
+        if when < t - 1e-9:
+            return heading, t - when
+    return None, 1.0
 
 
 def states_of(scenario: Scenario, driven: Pass) -> dict[str, np.ndarray]:
