@@ -78,7 +78,7 @@ def table(results: list[dict]) -> str:
     """Markdown: per cell and driver the median delay, travel time, entry wait, worst cases."""
     lines = ["| vehicle | turn | veh/h | driver | arrived | median delay s | median travel s | mean entry wait s |"
              " collisions | least distance m | max braking caused m/s^2 (without truck) | min clearance m |"
-             " max decision s |",
+             " max decision s (CPU s) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     cells: dict[tuple, list[dict]] = {}
     for r in results:
@@ -100,9 +100,10 @@ def table(results: list[dict]) -> str:
         alone = max(vals("max_braking_without_truck"), default=None)
         clear = min(vals("min_clearance"), default=None)
         decide = max(vals("solve_seconds_max"), default=None)
+        cpu = max(vals("solve_cpu_seconds_max"), default=None)
         lines.append(f"| {vehicle} | {turn} | {rate:g} | {driver} | {arrived}/{len(runs)} | {fmt(delay)} | "
                      f"{fmt(travel)} | {fmt(wait)} | {sum(r['collisions'] for r in runs)} | {fmt(dist)} | "
-                     f"{fmt(brake)} ({fmt(alone)}) | {fmt(clear)} | {fmt(decide, 3)} |")  # fmt: skip
+                     f"{fmt(brake)} ({fmt(alone)}) | {fmt(clear)} | {fmt(decide, 3)} ({fmt(cpu, 3)}) |")  # fmt: skip
     return "\n".join(lines)
 
 

@@ -89,6 +89,7 @@ class Autopilot:
     s: float = 0.0
     rate: float = 1.0
     decision_seconds: list[float] = field(default_factory=list)
+    decision_cpu_seconds: list[float] = field(default_factory=list)  # the same decisions in CPU seconds
     give_way: float = field(init=False)
     body_poses: dict = field(init=False, repr=False)
     reach: float = field(init=False)
@@ -163,7 +164,7 @@ class Autopilot:
 
     def decide(self, others: list[MovingVehicle], step: float) -> tuple[str, float]:
         """Choose the profile for the next step; advance s and rate; return (name, least predicted distance)."""
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         tau = self.instants(step)
         theirs = self.predicted(others, tau)
         best, best_gap = None, -math.inf
@@ -182,6 +183,7 @@ class Autopilot:
         self.s = min(self.s + advance, self.plan.duration)
         self.rate = new_rate
         self.decision_seconds.append(time.perf_counter() - t0)
+        self.decision_cpu_seconds.append(time.process_time() - c0)
         return name, best_gap
 
     def expect(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:

@@ -47,6 +47,7 @@ class Pass:
     states: dict[float, dict[str, float]] = field(default_factory=dict)  # autopilot: t -> states and controls
     decisions: list[str] = field(default_factory=list)
     decision_seconds: list[float] = field(default_factory=list)
+    decision_cpu_seconds: list[float] = field(default_factory=list)
 
 
 def truck_geometry(scenario: Scenario) -> dict:
@@ -197,6 +198,7 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
         traci.close()
     out.end = max(out.truck) if out.truck else t_end
     out.decision_seconds = pilot.decision_seconds
+    out.decision_cpu_seconds = pilot.decision_cpu_seconds
     return out
 
 
