@@ -107,6 +107,24 @@ def table(results: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def compare(columns: dict[str, list[dict]]) -> str:
+    """Markdown: per cell the median delay (and median travel time) of each labelled set of runs."""
+    labels = list(columns)
+    lines = ["| vehicle | turn | veh/h | " + " | ".join(f"{k}: median delay s (travel s)" for k in labels) + " |",
+             "|---|---|---|" + "---|" * len(labels)]  # fmt: skip
+    cells = sorted({(r["vehicle"], r["turn"], r["rate"]) for runs in columns.values() for r in runs},
+                   key=lambda c: (list(EXAMPLES).index(c[0]), list(TURNS).index(c[1]), c[2]))  # fmt: skip
+    for cell in cells:
+        out = []
+        for k in labels:
+            runs = [r for r in columns[k] if (r["vehicle"], r["turn"], r["rate"]) == cell]
+            delay = [r["delay"] for r in runs if r.get("delay") is not None]
+            travel = [r["travel_time"] for r in runs if r.get("travel_time") is not None]
+            out.append(f"{np.median(delay):.2f} ({np.median(travel):.1f})" if delay else "-")
+        lines.append(f"| {cell[0]} | {cell[1]} | {cell[2]:g} | " + " | ".join(out) + " |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--vehicles", nargs="+", default=list(EXAMPLES), choices=list(EXAMPLES))
@@ -116,7 +134,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--drivers", nargs="+", default=["sumo", "autopilot"], choices=["sumo", "autopilot"])
     ap.add_argument("--out", default="traffic-runs.jsonl", help="JSON lines, one run each (appended)")
     ap.add_argument("--table", help="only print the table of an existing --out file")
+    ap.add_argument("--compare", nargs="+", metavar="LABEL=FILE:DRIVER",
+                    help="only print the median delays of labelled runs side by side")  # fmt: skip
     args = ap.parse_args(argv)
+    if args.compare:
+        columns = {}
+        for item in args.compare:
+            label, rest = item.split("=", 1)
+            path, driver = rest.rsplit(":", 1)
+            runs = [json.loads(line) for line in Path(path).read_text().splitlines() if line.strip()]
+            columns[label] = [r for r in runs if r["driver"] == driver]
+        print(compare(columns))
+        return 0
     if args.table:
         results = [json.loads(line) for line in Path(args.table).read_text().splitlines() if line.strip()]
     else:

@@ -20,7 +20,8 @@ predictions, no fixed critical gap or time margin. The profiles, fastest first:
   stays before the line over the horizon: the truck enters the ring at the plan's pace, never
   creeping in (a crawl would hold the ring past the horizon);
 - ``approach`` (only before the give-way line, the plan time where the front bumper first comes
-  within ``Ro + GIVE_WAY_MARGIN`` of the centre): r moves to 1 for one step, then falls at
+  within ``line_radius`` of the centre: ``LINE_SLACK`` before the end of SUMO's entry lane, where
+  the junction begins, or ``Ro + GIVE_WAY_MARGIN`` without a network): r moves to 1 for one step, then falls at
   ``RATE_SLOPE`` per second to a stop no later than the line, if that stop is still possible. The
   truck keeps its planned speed while it could still stop at the line safely, and slows only when
   the last such moment comes with no safe gap (it never slows for a conflict it can still wait out);
@@ -47,7 +48,8 @@ from model.scene.moving import MovingVehicle
 HORIZON = 5.0  # s looked ahead
 SAMPLE = 0.25  # s between the predicted instants (plus the first step's end)
 RATE_SLOPE = 0.5  # 1/s: the largest change of the progress rate per second (up or down)
-GIVE_WAY_MARGIN = 1.0  # m: the truck stops with its front bumper this far outside the outer curb
+GIVE_WAY_MARGIN = 1.0  # m: without a network, the truck stops with its front bumper this far outside the outer curb
+LINE_SLACK = 0.5  # m: with SUMO's network, the front bumper stops this far before the entry lane's end
 TARGETS = (1.0, 0.875, 0.75, 0.625, 0.5, 0.375, 0.25, 0.125)
 YAW_WINDOW = 0.5  # s: the others' yaw rate is their heading change over this long, divided by it
 YIELD_DECEL = 4.5  # m/s^2: an entering vehicle that can stop at its line braking at most this hard yields
@@ -86,6 +88,7 @@ class Autopilot:
     scenario: Scenario
     plan: Plan
     front: float
+    line_radius: float | None = None  # the give-way line's distance from the centre; None: Ro + GIVE_WAY_MARGIN
     s: float = 0.0
     rate: float = 1.0
     decision_seconds: list[float] = field(default_factory=list)
@@ -115,14 +118,15 @@ class Autopilot:
         return far, float(np.abs(st[v.roles.speed]).max())
 
     def _give_way_time(self) -> float:
-        """Plan time at which the front bumper first comes within Ro + GIVE_WAY_MARGIN of the centre."""
+        """Plan time at which the front bumper first comes within ``line_radius`` (or Ro + GIVE_WAY_MARGIN)."""
         ra, v = self.scenario.ocp.road.roundabout, self.scenario.ocp.vehicle
         s = np.linspace(0.0, self.plan.duration, 2001)
         st = self.plan.at(s)
         px, py = v.position
         h = st[v.roles.heading]
         r = np.hypot(st[px] + self.front * np.cos(h) - ra.center[0], st[py] + self.front * np.sin(h) - ra.center[1])
-        inside = np.nonzero(r <= ra.outer_radius + GIVE_WAY_MARGIN)[0]
+        line = ra.outer_radius + GIVE_WAY_MARGIN if self.line_radius is None else self.line_radius
+        inside = np.nonzero(r <= line)[0]
         return float(s[inside[0]]) if len(inside) else self.plan.duration
 
     def instants(self, step: float) -> np.ndarray:
@@ -269,5 +273,5 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
     return MovingVehicle(length, width, start=(x, y, heading), speed=speed, yaw_rate=yaw, key=f"traffic {vid}")
 
 
-__all__ = ["GIVE_WAY_MARGIN", "HORIZON", "SAMPLE", "TARGETS", "YAW_WINDOW", "Autopilot", "Plan", "RATE_SLOPE",
-           "plan_of", "predict"]  # fmt: skip
+__all__ = ["GIVE_WAY_MARGIN", "HORIZON", "LINE_SLACK", "RATE_SLOPE", "SAMPLE", "TARGETS", "YAW_WINDOW", "Autopilot",
+           "Plan", "plan_of", "predict"]  # fmt: skip
