@@ -361,6 +361,28 @@ def test_an_entering_car_that_can_stop_is_expected_to_yield_one_that_cannot_goes
     assert pilot.expect(leaving, tau) is leaving
 
 
+def test_the_give_way_line_lies_before_the_junction_sumo_makes(tmp_path):
+    """The line is where SUMO's entry lane ends (its internal junction lane begins there), not the curb."""
+    from model.traffic.autopilot import LINE_SLACK, Autopilot
+    from model.traffic.network import entry_end_radius, write_network
+    from model.traffic.sumo import find_sumo
+
+    pilot = straight_pilot()
+    ra = pilot.scenario.ocp.road.roundabout
+    net = write_network(ra, tmp_path, find_sumo().netconvert)
+    r = entry_end_radius(net, ra, 0)
+    assert ra.outer_radius + 1.0 < r < ra.outer_radius + ra.legs[0].length
+    internal = [lane for lane in sumolib.net.readNet(str(net), withInternal=True).getEdge("in0").getLanes()[0]
+                .getOutgoing()]  # fmt: skip
+    start = internal[0].getViaLaneID()
+    x, y = sumolib.net.readNet(str(net), withInternal=True).getLane(start).getShape()[0]
+    assert math.hypot(x, y) == pytest.approx(r, abs=1e-3)
+    lined = Autopilot(pilot.scenario, pilot.plan, front=6.5, line_radius=r + LINE_SLACK)
+    front = -50.0 + 8.0 * lined.give_way + 6.5  # the straight plan's front bumper at the line (y = -2)
+    assert math.hypot(front, -2.0) == pytest.approx(r + LINE_SLACK, abs=0.05)
+    assert lined.give_way < pilot.give_way
+
+
 def test_export_sumo_writes_a_config_that_sumo_runs(tmp_path):
     import subprocess
 

@@ -21,7 +21,8 @@ predictions, no fixed critical gap or time margin. The profiles, fastest first:
   creeping in (a crawl would hold the ring past the horizon);
 - ``approach`` (only before the give-way line, the plan time where the front bumper first comes
   within ``line_radius`` of the centre: ``LINE_SLACK`` before the end of SUMO's entry lane, where
-  the junction begins, or ``Ro + GIVE_WAY_MARGIN`` without a network): r moves to 1 for one step, then falls at
+  the junction begins, or ``Ro + GIVE_WAY_MARGIN`` without a network): r moves toward q (each q
+  of the ladder in turn, after ``rate q``) for one step, then falls at
   ``RATE_SLOPE`` per second to a stop no later than the line, if that stop is still possible. The
   truck keeps its planned speed while it could still stop at the line safely, and slows only when
   the last such moment comes with no safe gap (it never slows for a conflict it can still wait out);
