@@ -284,11 +284,103 @@ def test_the_autopilot_stands_before_the_line_when_a_car_circulates(tmp_path):
     car = (0.0, "car", "passenger", r * math.cos(a), r * math.sin(a), a + math.pi / 2, 7.0, 4.5, 1.8)
     previous = a + math.pi / 2 - 7.0 / r * 0.1
     name, _ = pilot.decide([predict(car, previous, 0.1)], 0.1)
-    assert name in ("stop at the line", "stand")
+    assert name in ("approach", "stop at the line", "stand")  # each stops before the line
     assert pilot.s <= pilot.give_way
     free = Autopilot(scenario, Plan(t, cols), front=6.5)
     free.s, free.rate = pilot.give_way - 0.05, 0.2
     assert free.decide([], 0.1)[0] == "rate 1"
+
+
+def straight_pilot():
+    """The example's scenario with a straight plan along the entry lane into the ring (x -50 -> -10 at y = -2)."""
+    from model.problem.scenario import load_scenario
+    from model.traffic.autopilot import Autopilot, Plan
+
+    scenario = load_scenario(EXAMPLE)
+    t = np.linspace(0.0, 5.0, 51)
+    cols = {"x": -50.0 + 8.0 * t, "y": np.full_like(t, -2.0), "theta": np.zeros_like(t), "phi": np.zeros_like(t),
+            "u1": np.full_like(t, 8.0), "u2": np.zeros_like(t)}  # fmt: skip
+    return Autopilot(scenario, Plan(t, cols), front=6.5)
+
+
+def ring_car(degrees: float, speed: float = 7.0):
+    """A car on the ring's centre line (r = 17) at ``degrees``, driving counter-clockwise, predicted."""
+    from model.traffic.autopilot import predict
+
+    r, a = 17.0, math.radians(degrees)
+    row = (0.0, "car", "passenger", r * math.cos(a), r * math.sin(a), a + math.pi / 2, speed, 4.5, 1.8)
+    return predict(row, a + math.pi / 2 - speed / r * 0.5, 0.5)
+
+
+@pytest.mark.parametrize("degrees,enters", [(140.0, False), (90.0, True)])
+def test_the_truck_at_its_line_waits_for_a_car_in_its_window_and_enters_a_big_gap(degrees, enters):
+    """Standing at the line: a car 40 degrees upstream crosses the truck's planned occupancy (wait);
+    90 degrees upstream it comes after the truck's bodies have passed (enter at the plan's pace)."""
+    pilot = straight_pilot()
+    pilot.s, pilot.rate = pilot.give_way - 0.01, 0.0
+    name, gap = pilot.decide([ring_car(degrees)], 0.1)
+    assert (name == "rate 1") == enters
+    if enters:
+        assert gap >= 1.0 and pilot.rate > 0.0
+    else:
+        assert name in ("approach", "stop at the line", "stand") and pilot.s <= pilot.give_way  # it stays out
+
+
+def test_the_approach_keeps_the_plan_pace_while_a_stop_at_the_line_stays_possible():
+    """Far from the line with a conflict ahead: full pace ("approach"); too close to stop: it brakes."""
+    pilot = straight_pilot()
+    car = ring_car(120.0)  # arrives at the entry about when the truck would, at full pace
+    pilot.s, pilot.rate = 0.5, 1.0
+    tau = pilot.instants(0.1)
+    name, _, s = next(pilot.profiles(tau))
+    assert name == "rate 1" and pilot.least_distance(s, pilot.predicted([car], tau)) < 1.0  # a conflict ahead
+    assert pilot.decide([car], 0.1)[0] == "approach" and pilot.rate == 1.0
+    late = straight_pilot()
+    late.s, late.rate = late.give_way - 0.3, 1.0  # 2.4 m before the line at 8 m/s: a stop at 4 m/s^2 needs 8 m
+    name, _ = late.decide([ring_car(150.0)], 0.1)
+    assert name == "stop at the line" and late.rate < 1.0 and late.s <= late.give_way
+
+
+def test_an_entering_car_that_can_stop_is_expected_to_yield_one_that_cannot_goes_on():
+    """On leg 1's entry lane (x = 2, heading north): 20 m before the curb at 10 m/s it stops at the curb;
+    3 m before it at 10 m/s (16.7 m/s^2 needed) it keeps its speed."""
+    from model.scene.moving import MovingVehicle
+
+    pilot = straight_pilot()
+    tau = pilot.instants(0.1)
+    far = MovingVehicle(4.5, 1.8, start=(2.0, -42.25, math.pi / 2), speed=10.0)  # front at r = 40
+    stops = pilot.expect(far, tau)
+    x, y, _ = stops.pose(tau)
+    # it brakes along its heading for the distance from its front to the curb (radially), then stands
+    assert y[-1] - y[0] == pytest.approx(math.hypot(2.0, 40.0) - 20.0, abs=1e-6)
+    assert math.hypot(x[-1], y[-1] + 2.25) == pytest.approx(20.0, abs=0.06) and np.all(np.diff(y) >= -1e-12)
+    assert y[-1] == pytest.approx(y[-2])
+    close = MovingVehicle(4.5, 1.8, start=(2.0, -25.25, math.pi / 2), speed=10.0)
+    assert pilot.expect(close, tau) is close
+    leaving = MovingVehicle(4.5, 1.8, start=(-2.0, -42.25, -math.pi / 2), speed=10.0)
+    assert pilot.expect(leaving, tau) is leaving
+
+
+def test_the_give_way_line_lies_before_the_junction_sumo_makes(tmp_path):
+    """The line is where SUMO's entry lane ends (its internal junction lane begins there), not the curb."""
+    from model.traffic.autopilot import LINE_SLACK, Autopilot
+    from model.traffic.network import entry_end_radius, write_network
+    from model.traffic.sumo import find_sumo
+
+    pilot = straight_pilot()
+    ra = pilot.scenario.ocp.road.roundabout
+    net = write_network(ra, tmp_path, find_sumo().netconvert)
+    r = entry_end_radius(net, ra, 0)
+    assert ra.outer_radius + 1.0 < r < ra.outer_radius + ra.legs[0].length
+    internal = [lane for lane in sumolib.net.readNet(str(net), withInternal=True).getEdge("in0").getLanes()[0]
+                .getOutgoing()]  # fmt: skip
+    start = internal[0].getViaLaneID()
+    x, y = sumolib.net.readNet(str(net), withInternal=True).getLane(start).getShape()[0]
+    assert math.hypot(x, y) == pytest.approx(r, abs=1e-3)
+    lined = Autopilot(pilot.scenario, pilot.plan, front=6.5, line_radius=r + LINE_SLACK)
+    front = -50.0 + 8.0 * lined.give_way + 6.5  # the straight plan's front bumper at the line (y = -2)
+    assert math.hypot(front, -2.0) == pytest.approx(r + LINE_SLACK, abs=0.05)
+    assert lined.give_way < pilot.give_way
 
 
 def test_export_sumo_writes_a_config_that_sumo_runs(tmp_path):

@@ -1,27 +1,43 @@
-"""The ``autopilot`` driver: the truck's optimal plan, driven with a speed scaling that gives way.
+"""The ``autopilot`` driver: the truck's optimal plan, driven with a speed profile that gives way.
 
-Strategy ("yield-and-follow by time scaling"): the plan is the scenario's own optimum (solved once,
-before the truck appears, as ``roundabout solve`` solves it). The truck stays on the plan's path
-and only its progress is chosen: the state at time t is the plan's at plan time s(t), with
+Strategy ("latest safe braking along the plan"): the plan is the scenario's own optimum (solved
+once, before the truck appears, as ``roundabout solve`` solves it). The truck stays on the plan's
+path and only its progress is chosen: the state at time t is the plan's at plan time s(t), with
 ds/dt = r(t) in [0, 1]. For the kinematic models here f(x, r u) = r f(x, u), so the states are
 exactly the plan's and the applied controls are the plan's scaled by r: the path, and so every
 body's corridor clearance, is the validated plan's.
 
-Each step the autopilot predicts every other vehicle as a ``MovingVehicle`` at constant speed and
-yaw rate from its current pose (the yaw rate from its last two headings), and tries the progress
-profiles below, from the fastest: keep going at the plan's pace (r -> 1), slow to r = 0.5 and to
-r = 0.25, stop before the give-way line (the plan time where the front bumper first comes within
-``Ro + GIVE_WAY_MARGIN`` of the centre, only while the truck has not passed it), stand still. A
-profile is safe if over the next ``HORIZON`` seconds every body of the truck keeps at least
-``safety_distance`` from every predicted rectangle (exact rectangles, shapely); r changes at most
-by ``RATE_SLOPE`` per second. The first safe profile is taken; if none is, the one with the
-largest least predicted distance. No re-planning: a blocked plan waits (documented as not built).
+Each step (the speed profile is re-planned every step, from the new predictions) every other
+vehicle is predicted as a ``MovingVehicle`` at constant speed and yaw rate from its current pose
+(the yaw rate from its heading change over the last ``YAW_WINDOW`` seconds). A profile is *safe*
+if at the instants 0, step, 0.25, 0.5, ..., ``HORIZON`` s every body of the truck (exact
+rectangle at the plan time the profile reaches) keeps at least ``safety_distance`` from every
+predicted rectangle: the gap acceptance compares the truck's own planned occupancy with the
+predictions, no fixed critical gap or time margin. The profiles, fastest first:
+
+- ``rate q`` for q in ``TARGETS`` (1, 0.875, ..., 0.125): r moves to q at ``RATE_SLOPE`` per second
+  and stays there (r = 1 is the plan's own pace); before the give-way line a slower q only if it
+  stays before the line over the horizon: the truck enters the ring at the plan's pace, never
+  creeping in (a crawl would hold the ring past the horizon);
+- ``approach`` (only before the give-way line, the plan time where the front bumper first comes
+  within ``line_radius`` of the centre: ``LINE_SLACK`` before the end of SUMO's entry lane, where
+  the junction begins, or ``Ro + GIVE_WAY_MARGIN`` without a network): r moves toward q (each q
+  of the ladder in turn, after ``rate q``) for one step, then falls at
+  ``RATE_SLOPE`` per second to a stop no later than the line, if that stop is still possible. The
+  truck keeps its planned speed while it could still stop at the line safely, and slows only when
+  the last such moment comes with no safe gap (it never slows for a conflict it can still wait out);
+- ``stop at the line`` (r falls linearly to 0 exactly at the line), ``stand``.
+
+The first safe profile is taken; if none is, the one with the largest least predicted distance.
+A vehicle too far to come within ``safety_distance`` during the horizon, whatever it and the truck
+do at their speeds, is not checked.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,11 +46,15 @@ from model.analysis.bodies import rectangle_gaps
 from model.problem.scenario import Scenario
 from model.scene.moving import MovingVehicle
 
-HORIZON = 4.0  # s looked ahead
-SAMPLE = 0.25  # s between the predicted instants
-RATE_SLOPE = 0.5  # 1/s: the largest change of the progress rate per second
-GIVE_WAY_MARGIN = 1.0  # m: the truck stops with its front bumper this far outside the outer curb
-TARGETS = (1.0, 0.5, 0.25)
+HORIZON = 5.0  # s looked ahead
+SAMPLE = 0.25  # s between the predicted instants (plus the first step's end)
+RATE_SLOPE = 0.5  # 1/s: the largest change of the progress rate per second (up or down)
+GIVE_WAY_MARGIN = 1.0  # m: without a network, the truck stops with its front bumper this far outside the outer curb
+LINE_SLACK = 0.5  # m: with SUMO's network, the front bumper stops this far before the entry lane's end
+TARGETS = (1.0, 0.875, 0.75, 0.625, 0.5, 0.375, 0.25, 0.125)
+YAW_WINDOW = 0.5  # s: the others' yaw rate is their heading change over this long, divided by it
+YIELD_DECEL = 4.5  # m/s^2: an entering vehicle that can stop at its line braking at most this hard yields
+ENTERING_COS = math.cos(math.radians(30.0))  # heading within 30 degrees of the centre's direction: entering
 
 
 @dataclass
@@ -69,11 +89,15 @@ class Autopilot:
     scenario: Scenario
     plan: Plan
     front: float
+    line_radius: float | None = None  # the give-way line's distance from the centre; None: Ro + GIVE_WAY_MARGIN
     s: float = 0.0
     rate: float = 1.0
     decision_seconds: list[float] = field(default_factory=list)
+    decision_cpu_seconds: list[float] = field(default_factory=list)  # the same decisions in CPU seconds
     give_way: float = field(init=False)
     body_poses: dict = field(init=False, repr=False)
+    reach: float = field(init=False)
+    top_speed: float = field(init=False)
 
     def __post_init__(self) -> None:
         self.give_way = self._give_way_time()
@@ -81,40 +105,76 @@ class Autopilot:
         v = self.scenario.ocp.vehicle
         poses = v.body_poses()
         self.body_poses = {name: v.state_function(list(poses[name])) for name in self.scenario.ocp.bodies}
+        self.reach, self.top_speed = self._reach()
+
+    def _reach(self) -> tuple[float, float]:
+        """Farthest body corner from the reference point along the plan, and the plan's top speed (m, m/s)."""
+        v = self.scenario.ocp.vehicle
+        st = self.plan.at(np.linspace(0.0, self.plan.duration, 201))
+        x, y = (st[n] for n in v.position)
+        far = 0.0
+        for name, body in self.scenario.ocp.bodies.items():
+            c = body.corners(*self.body_poses[name](st))  # (n, 4, 2)
+            far = max(far, float(np.hypot(c[..., 0] - x[:, None], c[..., 1] - y[:, None]).max()))
+        return far, float(np.abs(st[v.roles.speed]).max())
 
     def _give_way_time(self) -> float:
-        """Plan time at which the front bumper first comes within Ro + GIVE_WAY_MARGIN of the centre."""
+        """Plan time at which the front bumper first comes within ``line_radius`` (or Ro + GIVE_WAY_MARGIN)."""
         ra, v = self.scenario.ocp.road.roundabout, self.scenario.ocp.vehicle
         s = np.linspace(0.0, self.plan.duration, 2001)
         st = self.plan.at(s)
         px, py = v.position
         h = st[v.roles.heading]
         r = np.hypot(st[px] + self.front * np.cos(h) - ra.center[0], st[py] + self.front * np.sin(h) - ra.center[1])
-        inside = np.nonzero(r <= ra.outer_radius + GIVE_WAY_MARGIN)[0]
+        line = ra.outer_radius + GIVE_WAY_MARGIN if self.line_radius is None else self.line_radius
+        inside = np.nonzero(r <= line)[0]
         return float(s[inside[0]]) if len(inside) else self.plan.duration
 
-    def profiles(self, step: float) -> list[tuple[str, np.ndarray, np.ndarray]]:
-        """The candidate (name, rates, plan times) over the horizon's instants, fastest first."""
-        tau = np.arange(0.0, HORIZON + 1e-9, SAMPLE)
-        out = []
+    def instants(self, step: float) -> np.ndarray:
+        """The checked instants: now, the end of the step, then every ``SAMPLE`` up to ``HORIZON``."""
+        return np.unique(np.concatenate([[0.0, step], np.arange(SAMPLE, HORIZON + 1e-9, SAMPLE)]))
+
+    def profiles(self, tau: np.ndarray) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
+        """The candidate (name, rates, plan times) at ``tau``, fastest first (made as they are asked for)."""
+        step = tau[1]
         for target in TARGETS:
             r = np.clip(target, self.rate - RATE_SLOPE * tau, self.rate + RATE_SLOPE * tau)
-            out.append((f"rate {target:g}", r, self.s + _integral(r, tau)))
+            s = self.s + _integral(r, tau)
+            if target == 1.0 or s[-1] <= self.give_way or self.s >= self.give_way:  # enter only at the plan's pace
+                yield f"rate {target:g}", r, s
+            if self.s < self.give_way:
+                approach = self.approach(tau, step, target)
+                if approach is not None:
+                    yield "approach", *approach
         if self.s < self.give_way:
             gap = self.give_way - self.s  # plan seconds to the line
             stop_time = 2.0 * gap / max(self.rate, 1e-9)
             r = np.clip(self.rate * (1.0 - tau / stop_time), 0.0, None) if self.rate > 0 else np.zeros_like(tau)
-            out.append(("stop at the line", r, np.minimum(self.s + _integral(r, tau), self.give_way)))
-        out.append(("stand", np.zeros_like(tau), np.full_like(tau, self.s)))
-        return out
+            yield "stop at the line", r, np.minimum(self.s + _integral(r, tau), self.give_way)
+        yield "stand", np.zeros_like(tau), np.full_like(tau, self.s)
+
+    def approach(self, tau: np.ndarray, step: float, target: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """Toward ``target`` for one step, then braking at ``RATE_SLOPE`` to a stop by the line; None if too late."""
+        first = float(np.clip(target, self.rate - RATE_SLOPE * step, self.rate + RATE_SLOPE * step))
+        s1 = self.s + 0.5 * (self.rate + first) * step
+        if s1 + first**2 / (2.0 * RATE_SLOPE) > self.give_way:
+            return None
+        r = np.where(tau <= step, self.rate + (first - self.rate) * tau / step,
+                     np.clip(first - RATE_SLOPE * (tau - step), 0.0, None))  # fmt: skip
+        # exact plan times of the piecewise-linear rate (a trapezoid on the grid would miss the kink at the stop)
+        after = np.clip(tau - step, 0.0, first / RATE_SLOPE)
+        s = np.where(tau <= step, self.s + self.rate * tau + 0.5 * (first - self.rate) * tau**2 / step,
+                     s1 + first * after - 0.5 * RATE_SLOPE * after**2)  # fmt: skip
+        return r, np.minimum(s, self.give_way)
 
     def decide(self, others: list[MovingVehicle], step: float) -> tuple[str, float]:
         """Choose the profile for the next step; advance s and rate; return (name, least predicted distance)."""
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
+        tau = self.instants(step)
+        theirs = self.predicted(others, tau)
         best, best_gap = None, -math.inf
-        tau = np.arange(0.0, HORIZON + 1e-9, SAMPLE)
-        for name, rates, s in self.profiles(step):
-            gap = self.least_distance(s, tau, others)
+        for name, rates, s in self.profiles(tau):
+            gap = self.least_distance(s, theirs)
             if gap >= self.scenario.traffic.safety_distance:
                 best, best_gap = (name, rates), gap
                 break
@@ -123,25 +183,69 @@ class Autopilot:
         name, rates = best
         new_rate = float(np.interp(step, tau, rates))
         advance = 0.5 * (self.rate + new_rate) * step
-        if name in ("stop at the line", "stand") and self.s < self.give_way:
-            advance = min(advance, self.give_way - self.s)  # never past the line when it chose to stop
+        if name in ("approach", "stop at the line", "stand") and self.s < self.give_way:
+            advance = min(advance, self.give_way - self.s)  # never past the line when it chose to stop there
         self.s = min(self.s + advance, self.plan.duration)
         self.rate = new_rate
         self.decision_seconds.append(time.perf_counter() - t0)
+        self.decision_cpu_seconds.append(time.process_time() - c0)
         return name, best_gap
 
-    def least_distance(self, s: np.ndarray, tau: np.ndarray, others: list[MovingVehicle]) -> float:
-        """Least distance between the truck's bodies at plan times ``s`` and the predictions at ``tau``."""
+    def expect(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
+        """``other`` as the roundabout's rule expects it: an entering vehicle that can still stop yields.
+
+        A vehicle outside the outer curb whose heading points within 30 degrees of the centre is
+        entering; if braking at constant deceleration to stop with its front at the curb needs at
+        most ``YIELD_DECEL`` it is predicted to do that (it gives way to the truck on the ring, as
+        the network's ``<roundabout>`` makes it); otherwise (too close, too fast: committed) and
+        for every other vehicle, constant speed and yaw rate.
+        """
+        ra = self.scenario.ocp.road.roundabout
+        x, y, h = other.start
+        half, v = other.length / 2, other.speed
+        fx, fy = x + half * math.cos(h) - ra.center[0], y + half * math.sin(h) - ra.center[1]
+        d = math.hypot(fx, fy) - ra.outer_radius
+        entering = d > 0 and -(fx * math.cos(h) + fy * math.sin(h)) >= ENTERING_COS * math.hypot(fx, fy)
+        if not entering or v <= 0 or v * v > 2.0 * YIELD_DECEL * d:
+            return other
+        a = v * v / (2.0 * d)
+        t = np.minimum(tau, v / a)
+        run = v * t - 0.5 * a * t * t
+        samples = tuple((float(ti), x + r * math.cos(h), y + r * math.sin(h), h)
+                        for ti, r in zip(tau, run, strict=True))  # fmt: skip
+        return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
+
+    def predicted(self, others: list[MovingVehicle], tau: np.ndarray) -> np.ndarray:
+        """The predicted corners (n, len(tau), 4, 2) of the vehicles that can come near within the horizon.
+
+        A vehicle is left out when its distance now (between bounding circles of the truck's reach
+        and of its rectangle) exceeds what both can close in ``tau[-1]`` seconds plus the safety distance.
+        The others are predicted as ``expect`` says.
+        """
         if not others:
+            return np.empty((0, len(tau), 4, 2))
+        here = self.plan.at(self.s)
+        v = self.scenario.ocp.vehicle
+        x, y = (float(here[n][0]) for n in v.position)
+        reach = self.reach + self.top_speed * tau[-1] + self.scenario.traffic.safety_distance
+        near = [o for o in others
+                if math.hypot(o.start[0] - x, o.start[1] - y) <= reach + abs(o.speed) * tau[-1]
+                + 0.5 * math.hypot(o.length, o.width)]  # fmt: skip
+        if not near:
+            return np.empty((0, len(tau), 4, 2))
+        return np.stack([self.expect(o, tau).corners(tau) for o in near])
+
+    def least_distance(self, s: np.ndarray, theirs: np.ndarray) -> float:
+        """Least distance between the truck's bodies at plan times ``s`` and the predicted corners ``theirs``."""
+        if len(theirs) == 0:
             return math.inf
         ocp = self.scenario.ocp
         states = self.plan.at(s)
-        bodies = {name: body.corners(*self.body_poses[name](states)) for name, body in ocp.bodies.items()}
-        theirs = np.concatenate([o.corners(tau) for o in others])  # (len(others) * len(tau), 4, 2)
+        flat = theirs.reshape(-1, 4, 2)  # vehicle-major: (n * len(s), 4, 2)
         least = math.inf
-        for corners in bodies.values():
-            mine = np.tile(corners, (len(others), 1, 1))
-            least = min(least, float(rectangle_gaps(mine, theirs).min()))
+        for name, body in ocp.bodies.items():
+            mine = np.tile(body.corners(*self.body_poses[name](states)), (len(theirs), 1, 1))
+            least = min(least, float(rectangle_gaps(mine, flat).min()))
         return least
 
     def state(self) -> dict[str, float]:
@@ -159,10 +263,16 @@ def _integral(r: np.ndarray, tau: np.ndarray) -> np.ndarray:
 
 
 def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVehicle:
-    """Another vehicle (its traffic.csv row) predicted at constant speed and yaw rate from now."""
+    """Another vehicle (its traffic.csv row) predicted at constant speed and yaw rate from now.
+
+    The yaw rate is the heading change since ``previous_heading``, its heading ``step`` seconds
+    earlier (the driver passes the one ``YAW_WINDOW`` back, or the oldest it saw), over ``step``;
+    0 without one.
+    """
     _, vid, _, x, y, heading, speed, length, width = row
     yaw = 0.0 if previous_heading is None else math.remainder(heading - previous_heading, 2 * math.pi) / step
     return MovingVehicle(length, width, start=(x, y, heading), speed=speed, yaw_rate=yaw, key=f"traffic {vid}")
 
 
-__all__ = ["GIVE_WAY_MARGIN", "HORIZON", "Autopilot", "Plan", "RATE_SLOPE", "plan_of", "predict"]
+__all__ = ["GIVE_WAY_MARGIN", "HORIZON", "LINE_SLACK", "RATE_SLOPE", "SAMPLE", "TARGETS", "YAW_WINDOW", "Autopilot",
+           "Plan", "plan_of", "predict"]  # fmt: skip

@@ -158,6 +158,19 @@ def write_network(roundabout: Roundabout, folder: Path, netconvert: str) -> Path
     return net
 
 
+def entry_end_radius(net: Path, roundabout: Roundabout, leg: int) -> float:
+    """Distance from the centre at which leg ``leg``'s entry lane ends in the converted network ``net``.
+
+    netconvert cuts the entry lane back to the junction's shape: beyond this point a vehicle is on
+    the junction's internal lane, where SUMO's circulating vehicles treat it as having entered.
+    """
+    import xml.etree.ElementTree as ET
+
+    lane = ET.parse(net).getroot().find(f"edge[@id='in{leg}']/lane")
+    x, y = map(float, lane.get("shape").split()[-1].split(","))
+    return math.hypot(x - roundabout.center[0], y - roundabout.center[1])
+
+
 def truck_vtype(vclass: str, length: float, width: float) -> str:
     """The ``<vType>`` of the truck (id ``ego``): its class, overall length and widest body."""
     return f'    <vType id="ego" vClass="{vclass}" length="{length:.4f}" width="{width:.4f}" minGap="2.0"/>'

@@ -100,6 +100,9 @@ def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int
     if driver == "autopilot":
         worst = max(driven.decision_seconds, default=0.0)
         summary |= {"solve_seconds_max": worst, "realtime_factor": worst / traffic.step}
+        # the same decisions in CPU seconds (time.process_time): the computation without the machine's load
+        cpu = max(driven.decision_cpu_seconds, default=0.0)
+        summary |= {"solve_cpu_seconds_max": cpu, "realtime_factor_cpu": cpu / traffic.step}
         summary["decisions"] = {name: driven.decisions.count(name) for name in sorted(set(driven.decisions))}
     summary["wall_seconds"] = wall
     return summary, cols, scored.rows
@@ -183,7 +186,8 @@ def aggregate(runs: list[dict]) -> dict:
     out["collisions"] = int(sum(r["collisions"] for r in runs))
     for key in ("min_distance", "min_clearance"):
         out[key] = min(vals(key)) if vals(key) else None
-    for key in ("max_braking_caused", "solve_seconds_max", "realtime_factor"):
+    for key in ("max_braking_caused", "solve_seconds_max", "realtime_factor", "solve_cpu_seconds_max",
+                "realtime_factor_cpu"):  # fmt: skip
         out[key] = max(vals(key)) if vals(key) else None
     out["ok"] = all(r["ok"] for r in runs)
     for key in ("plan_status", "plan_seconds", "plan_final_time", "plan_valid"):
