@@ -52,3 +52,16 @@ def test_search_finds_the_reversing_optimum():
     assert sol.ok
     assert sol.objective < 1.5713 * 1.001  # the default starts alone stop at 1.8208
     assert any(a["route"].startswith("screening") for a in sol.attempts)
+
+
+def test_a_given_first_guess_of_tf_makes_one_start_per_route_and_none_is_lost():
+    from model.search.curves import TF_SCALES, tf_scales
+
+    free = parse_scenario(SHARP_TURN).ocp
+    guessed = parse_scenario({**SHARP_TURN, "problem": {**SHARP_TURN["problem"], "final_time": 1.5}}).ocp
+    assert tf_scales(free) == TF_SCALES and tf_scales(guessed) == (1.0,)
+    for name, legs in curve_routes(guessed).items():  # the scales it drops would be the same start
+        (a, ta), (b, tb) = (curve_guess(guessed, legs, 40, k) for k in TF_SCALES)
+        assert ta == tb and all(np.array_equal(a[s], b[s]) for s in a), name
+    legs = next(iter(curve_routes(free).values()))
+    assert curve_guess(free, legs, 40, 1.0)[1] != curve_guess(free, legs, 40, 2.0)[1]
