@@ -69,6 +69,8 @@ def distinct_starts(starts: list[Start]) -> tuple[list[Start], list[int]]:
 
 
 def _equal(a: Start, b: Start) -> bool:
+    if not (isinstance(a, Start) and isinstance(b, Start)):  # anything else is never merged
+        return False
     return (a.final_time == b.final_time and a.values.keys() == b.values.keys()
             and all(np.array_equal(a.values[k], b.values[k]) for k in a.values))  # fmt: skip
 
