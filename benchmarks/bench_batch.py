@@ -30,6 +30,7 @@ import argparse
 import json
 import os
 import platform
+import resource
 import statistics
 import subprocess
 import sys
@@ -49,14 +50,29 @@ SOLVE = [sys.executable, "-m", "model.cli", "solve"]
 SINGLE_TARGET, BATCH_TARGET = 1.0, 0.5  # x the peer's median time
 
 
-def timed(cmd: list[str], timeout: float) -> tuple[float, subprocess.CompletedProcess | None]:
-    """(wall seconds, the completed process or None on a timeout) of ``cmd`` run from the root."""
-    t0 = time.perf_counter()
+def children_cpu() -> float:
+    """CPU seconds (user + system) of this process's finished children so far (their own children included)."""
+    use = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return use.ru_utime + use.ru_stime
+
+
+def process_cpu(pid: int) -> float | None:
+    """CPU seconds of a running process and its reaped children (/proc/PID/stat utime + stime + cutime + cstime)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
+    except OSError:
+        return None
+    return sum(int(f) for f in fields[11:15]) / os.sysconf("SC_CLK_TCK")
+
+
+def timed(cmd: list[str], timeout: float) -> tuple[float, float, subprocess.CompletedProcess | None]:
+    """(wall seconds, CPU seconds, the completed process or None on a timeout) of ``cmd`` run from the root."""
+    t0, c0 = time.perf_counter(), children_cpu()
     try:
         proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=timeout, check=False)
     except subprocess.TimeoutExpired:
         proc = None
-    return time.perf_counter() - t0, proc
+    return time.perf_counter() - t0, children_cpu() - c0, proc
 
 
 def project_result(folder: Path) -> dict:
@@ -73,34 +89,37 @@ def project_result(folder: Path) -> dict:
 
 def run_single(path: Path, out: Path, timeout: float) -> dict:
     """One `roundabout solve` process."""
-    seconds, proc = timed([*SOLVE, str(path), "--out", str(out), "--quiet"], timeout)
-    return {"seconds": seconds, "returncode": None if proc is None else proc.returncode, **project_result(out)}
+    seconds, cpu, proc = timed([*SOLVE, str(path), "--out", str(out), "--quiet"], timeout)
+    return {"seconds": seconds, "cpu": cpu, "returncode": None if proc is None else proc.returncode,
+            **project_result(out)}  # fmt: skip
 
 
 def run_batch(paths: list[Path], names: list[str], out: Path) -> tuple[float, list[dict]]:
-    """One batch process over ``paths``: its wall time and one record per scenario (time from its progress line)."""
-    marks: list[float] = []
-    t0 = time.perf_counter()
+    """One batch process over ``paths``: its wall time and one record per scenario (wall and CPU time from its
+    progress line to the next one)."""
+    marks: list[tuple[float, float | None]] = []
+    t0, c0 = time.perf_counter(), children_cpu()
     proc = subprocess.Popen([*SOLVE, *map(str, paths), "--out", str(out)], cwd=ROOT, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True)  # fmt: skip
     assert proc.stderr is not None
     for line in proc.stderr:
         if line.startswith("[") and " of " in line.split("]")[0]:
-            marks.append(time.perf_counter())
+            marks.append((time.perf_counter(), process_cpu(proc.pid)))
     proc.wait()
-    total = time.perf_counter() - t0
-    ends = marks[1:] + [t0 + total]
-    starts = [t0] + marks[1:]
+    total, cpu = time.perf_counter() - t0, children_cpu() - c0
+    ends = [m for m in marks[1:]] + [(t0 + total, cpu)]
+    starts = [(t0, 0.0)] + marks[1:]
     records = []
     for i, name in enumerate(names):
-        seconds = ends[i] - starts[i] if i < len(marks) else None
-        records.append({"seconds": seconds, "returncode": proc.returncode, **project_result(out / name)})
+        wall = ends[i][0] - starts[i][0] if i < len(marks) else None
+        used = ends[i][1] - starts[i][1] if i < len(marks) and None not in (ends[i][1], starts[i][1]) else None
+        records.append({"seconds": wall, "cpu": used, "returncode": proc.returncode, **project_result(out / name)})
     return total, records
 
 
 def run_peer(path: Path, timeout: float) -> dict:
     """One peer process: wall time and its best feasible objective (None: none found)."""
-    seconds, proc = timed([sys.executable, str(PEER), str(path)], timeout)
+    seconds, cpu, proc = timed([sys.executable, str(PEER), str(path)], timeout)
     best = None
     if proc is not None:
         lines = proc.stdout.strip().splitlines()
@@ -108,7 +127,7 @@ def run_peer(path: Path, timeout: float) -> dict:
             best = json.loads(lines[-1]).get("best")
         except (IndexError, ValueError):
             best = None
-    return {"seconds": seconds, "objective": best["objective"] if best else None,
+    return {"seconds": seconds, "cpu": cpu, "objective": best["objective"] if best else None,
             "start": best["label"] if best else None}  # fmt: skip
 
 
@@ -165,27 +184,34 @@ def markdown(rows: list[dict], meta: dict) -> str:
         f"{meta['commit']}; batch process {meta['batch_seconds']:.1f} s in all, singles {meta['single_total']:.1f} s, "
         f"peers {meta['peer_total']:.1f} s.",
         "",
-        "| set | scenario | single s | batch s | peer s | single / peer | objective (on N) | batch objective "
+        "Seconds are wall / CPU (user + system, children included) of the processes.",
+        "",
+        "| set | scenario | single s | batch s | peer s | single / peer (CPU) | objective (on N) | batch objective "
         "| peer objective | gap to peer | agrees |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        ratio = r["single"]["seconds"] / r["peer"]["seconds"] if r["peer"]["seconds"] else None
+        ratio = r["single"]["cpu"] / r["peer"]["cpu"] if r["peer"]["cpu"] else None
         agree = "-" if r["gap"] is None else ("yes" if r["gap"] <= GAP_TOL else "no")
         mine = _o(r["single"]["objective_on_n"]) if r["single"]["valid"] else f"failed ({r['single']['status']})"
-        lines.append(f"| {r['set']} | {r['name']} | {_s(r['single']['seconds'])} | {_s(r['batch']['seconds'])} | "
-                     f"{_s(r['peer']['seconds'])} | {_s(ratio)} | {mine} | {_o(r['batch']['objective_on_n'])} | "
-                     f"{_o(r['peer']['objective'])} | {_s(None if r['gap'] is None else 100 * r['gap'], '+.3f')} % | "
-                     f"{agree} |")  # fmt: skip
+        times = " | ".join(f"{_s(r[k]['seconds'])} / {_s(r[k]['cpu'])}" for k in ("single", "batch", "peer"))
+        gap = _s(None if r["gap"] is None else 100 * r["gap"], "+.3f")
+        lines.append(f"| {r['set']} | {r['name']} | {times} | {_s(ratio)} | {mine} "
+                     f"| {_o(r['batch']['objective_on_n'])} | {_o(r['peer']['objective'])} | {gap} % "
+                     f"| {agree} |")  # fmt: skip
     s = meta["summary"]
     lines += [
         "",
-        "| | median s per scenario | x the peer's median | target |",
-        "|---|---|---|---|",
-        f"| `roundabout solve` per scenario | {s['single_median']:.2f} | {s['single_ratio']:.2f} "
-        f"| <= {SINGLE_TARGET} |",
-        f"| batch (one process) | {s['batch_median']:.2f} | {s['batch_ratio']:.2f} | <= {BATCH_TARGET} |",
-        f"| peer (`multistart_peer.py`) | {s['peer_median']:.2f} | 1.00 | |",
+        "| median per scenario | wall s | x the peer's | CPU s | x the peer's | target |",
+        "|---|---|---|---|---|---|",
+    ]
+    for key, label, target in (("single", "`roundabout solve` per scenario", f"<= {SINGLE_TARGET}"),
+                               ("batch", "batch (one process)", f"<= {BATCH_TARGET}"),
+                               ("peer", "peer (`multistart_peer.py`)", "")):  # fmt: skip
+        wall, cpu = s["median"][key], s["median_cpu"][key]
+        lines.append(f"| {label} | {wall:.2f} | {wall / s['median']['peer']:.2f} | {cpu:.2f} | "
+                     f"{cpu / s['median_cpu']['peer']:.2f} | {target} |")  # fmt: skip
+    lines += [
         "",
         f"Both solve {s['both']} scenarios; the project's objective is within 0.1 % of the peer's or better in "
         f"{s['agree']} of them ({100 * s['agree'] / max(1, s['both']):.0f} %; target 95 %). The batch's objectives "
@@ -196,12 +222,14 @@ def markdown(rows: list[dict], meta: dict) -> str:
 
 
 def summarise(rows: list[dict]) -> dict:
-    """Medians, ratios to the peer's median and the agreement counts."""
-    med = {k: statistics.median(r[k]["seconds"] for r in rows if r[k]["seconds"] is not None)
-           for k in ("single", "batch", "peer")}  # fmt: skip
+    """Medians of wall and CPU seconds per scenario and the agreement counts."""
+
+    def median(kind: str, key: str) -> float:
+        return statistics.median(r[kind][key] for r in rows if r[kind][key] is not None)
+
     both = [r for r in rows if r["gap"] is not None]
-    return {"single_median": med["single"], "batch_median": med["batch"], "peer_median": med["peer"],
-            "single_ratio": med["single"] / med["peer"], "batch_ratio": med["batch"] / med["peer"],
+    return {"median": {k: median(k, "seconds") for k in ("single", "batch", "peer")},
+            "median_cpu": {k: median(k, "cpu") for k in ("single", "batch", "peer")},
             "both": len(both), "agree": sum(r["gap"] <= GAP_TOL for r in both),
             "batch_same": sum(r["batch"]["objective"] == r["single"]["objective"] for r in rows),
             "single_ok": sum(r["single"]["valid"] for r in rows), "batch_ok": sum(r["batch"]["valid"] for r in rows),
@@ -233,8 +261,8 @@ def main(argv: list[str] | None = None) -> int:
             mine = single["objective_on_n"] if single["valid"] else None
             rows.append({"set": group, "name": name, "file": str(path), "single": single, "peer": peer,
                          "gap": gap(mine, peer["objective"])})  # fmt: skip
-            print(f"[{i}/{len(items)}] {group} {name}: single {single['seconds']:.2f} s, peer {peer['seconds']:.2f} s",
-                  file=sys.stderr, flush=True)  # fmt: skip
+            print(f"[{i}/{len(items)}] {group} {name}: single {single['seconds']:.2f} s ({single['cpu']:.2f} CPU), "
+                  f"peer {peer['seconds']:.2f} s ({peer['cpu']:.2f} CPU)", file=sys.stderr, flush=True)  # fmt: skip
         files, names = [Path(r["file"]) for r in rows], [r["name"] for r in rows]
         batch_seconds, batch = run_batch(files, names, Path(tmp) / "batch")
         for row, rec in zip(rows, batch, strict=True):
