@@ -2,7 +2,7 @@
 
 The public API, re-exported from the layers (see docs/architecture.md)::
 
-    from model import OCP, Truck, Energy, Circle, MovingVehicle, Resolver, load_scenario
+    from model import OCP, Truck, Energy, Circle, MovingVehicle, Resolver, load_scenario, solve_many
 
 Names are imported on first use (PEP 562), so ``import model`` stays cheap and a
 command that only reads a scenario file never loads the solver.
@@ -33,6 +33,7 @@ _PUBLIC = {
     "Solution": "model.direct",
     "Resolver": "model.direct",
     "solve_ocp": "model.search",
+    "solve_many": "model.search.batch",
 }
 
 __all__ = sorted(_PUBLIC)

@@ -38,3 +38,24 @@ def test_a_bad_file_in_a_batch_stops_it_before_anything_is_written(tmp_path):
         res = cli("solve", *args, "--out", tmp_path / "out")
         assert res.returncode == 2 and key in res.stderr and len(res.stderr.strip().splitlines()) == 1, res.stderr
         assert not (tmp_path / "out").exists()
+
+
+def test_solve_many_from_python_writes_the_folders_the_command_writes(tmp_path):
+    from model import InputError, solve_many
+
+    seen = []
+    sols = solve_many([A, B], tmp_path / "py", intervals=30, on_solved=lambda sc, sol: seen.append(sc.ocp.name))
+    assert seen == ["format-example", "time-s1"] and all(sol.ok for sol in sols)
+    for sol, name in zip(sols, seen, strict=True):
+        folder = tmp_path / "py" / name
+        assert sorted(p.name for p in folder.iterdir()) == ["scenario.toml", "summary.json", "trajectory.csv"]
+        assert json.loads((folder / "summary.json").read_text())["objective"] == sol.objective
+    bad = tmp_path / "bad.toml"
+    bad.write_text(A.read_text().replace("wheelbase = ", "wheelbase = -"))
+    try:
+        solve_many([A, bad], tmp_path / "none", intervals=30)
+    except InputError as err:
+        assert str(bad) in str(err)
+    else:
+        raise AssertionError("a bad file was accepted")
+    assert not (tmp_path / "none").exists()

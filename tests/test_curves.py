@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -52,3 +53,38 @@ def test_search_finds_the_reversing_optimum():
     assert sol.ok
     assert sol.objective < 1.5713 * 1.001  # the default starts alone stop at 1.8208
     assert any(a["route"].startswith("screening") for a in sol.attempts)
+
+
+def test_a_given_first_guess_of_tf_makes_one_start_per_route_and_none_is_lost():
+    from model.search.curves import TF_SCALES, tf_scales
+
+    free = parse_scenario(SHARP_TURN).ocp
+    guessed = parse_scenario({**SHARP_TURN, "problem": {**SHARP_TURN["problem"], "final_time": 1.5}}).ocp
+    assert tf_scales(free) == TF_SCALES and tf_scales(guessed) == (1.0,)
+    for name, legs in curve_routes(guessed).items():  # the scales it drops would be the same start
+        (a, ta), (b, tb) = (curve_guess(guessed, legs, 40, k) for k in TF_SCALES)
+        assert ta == tb and all(np.array_equal(a[s], b[s]) for s in a), name
+    legs = next(iter(curve_routes(free).values()))
+    assert curve_guess(free, legs, 40, 1.0)[1] != curve_guess(free, legs, 40, 2.0)[1]
+
+
+def test_equal_starts_are_solved_once_and_each_gets_the_answer(monkeypatch):
+    from model.direct.solve import Start
+    from model.search import context
+    from model.search.starts import distinct_starts, start_values
+
+    ocp = parse_scenario(SHARP_TURN).ocp
+    a, b = (start_values(ocp, 40, "none", None, 1.0, r) for r in ("arc", "reeds-shepp"))
+    assert not np.array_equal(a.values["x"], b.values["x"])
+    same_as_a = Start({k: v.copy() for k, v in a.values.items()}, a.final_time)
+    kept, index = distinct_starts([a, b, same_as_a])
+    assert kept == [a, b] and index == [0, 1, 0]
+    moved = Start({**a.values, "x": a.values["x"] + 1e-12}, a.final_time)
+    assert distinct_starts([a, moved])[1] == [0, 1]
+    solved, answers = [], [SimpleNamespace(status="optimal"), SimpleNamespace(status="infeasible")]
+    monkeypatch.setattr(context, "solve_starts", lambda ocp, n, p, starts, *rest: solved.append(starts) or
+                        answers[: len(starts)])  # fmt: skip
+    search = context.Search(ocp, 40)
+    got = search.solve(40, "none", [a, b, same_as_a])
+    assert solved == [[a, b]] and [id(s) for s in got] == [id(answers[0]), id(answers[1]), id(answers[0])]
+    assert search.solutions == answers  # each run counted once (the phase timings)

@@ -385,3 +385,19 @@ def test_expressions_are_never_parsed_from_strings():
         plant_rhs(truck, Disturbance())
     with pytest.raises(AttributeError):  # a string has no .subs: reference_speed never parses one
         truck.reference_speed()
+
+
+def test_reference_speed_is_the_simplified_norm_of_every_vehicle_model():
+    import sympy as sp
+
+    from model.vehicles import VEHICLES
+    from model.vehicles.base import sym
+
+    for cls in dict.fromkeys(VEHICLES.values()):
+        vehicle = cls()
+        f, r = vehicle.dynamics(), vehicle.roles
+        others = {sym(c): 0 for c in vehicle.controls if c != r.speed}
+        norm = sp.sqrt(f[r.x].subs(others) ** 2 + f[r.y].subs(others) ** 2).subs(sym(r.speed), 1)
+        assert sp.simplify(vehicle.reference_speed() - norm) == 0, cls
+    assert VEHICLES["truck"]().reference_speed() == 1
+    assert VEHICLES["tricycle"]().reference_speed() == sp.Abs(sp.cos(sym("phi")))

@@ -21,6 +21,8 @@ as the integrated motion itself stays in the corridor.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import sympy as sp
 
@@ -36,11 +38,21 @@ INTEGRATION_TOL = 0.02  # m: a body may end an interval this far from its node w
 DENSE_CLEARANCE_TOL = 0.02  # m: between the nodes a body may leave its corridor by this much at most
 
 
+def rhs_lambdified(ocp: OCP, module: str):
+    """The dynamics f(*states, *controls) (parameters substituted) as a ``module`` ("numpy", "math") function."""
+    v = ocp.vehicle
+    return _lambdified(tuple(v.state_symbols() + v.control_symbols()), tuple(v.rhs(numeric=True)), module)
+
+
+@lru_cache(maxsize=64)
+def _lambdified(args: tuple, exprs: tuple, module: str):
+    """``sp.lambdify`` of the same expressions once (tens of ms each; every start's validation needs two)."""
+    return sp.lambdify(list(args), list(exprs), module)
+
+
 def dynamics_function(ocp: OCP):
     """Numpy f(X, U) from the SymPy dynamics: arrays of shape (n_states, ...) out."""
-    v = ocp.vehicle
-    args = v.state_symbols() + v.control_symbols()
-    fn = sp.lambdify(args, v.rhs(numeric=True), "numpy")
+    fn = rhs_lambdified(ocp, "numpy")
 
     def f(states: np.ndarray, controls: np.ndarray) -> np.ndarray:
         out = fn(*states, *controls)
@@ -268,7 +280,7 @@ def _reintegration_drift(
     from scipy.integrate import solve_ivp  # here, not at import: see model/nlp/imports.py
 
     v = ocp.vehicle
-    fn = sp.lambdify(v.state_symbols() + v.control_symbols(), v.rhs(numeric=True), "math")
+    fn = rhs_lambdified(ocp, "math")
     path = np.empty_like(X)
     path[:, 0] = X[:, 0]
     share = np.linspace(0.0, 1.0, DENSE_STEPS + 1)

@@ -143,6 +143,8 @@ def _main(argv: list[str] | None) -> int:
         if args.command == "solve":
             args.time_limit = checked_time_limit(args.time_limit)
         if batch:
+            from model.search.batch import load_batch
+
             return _solve_batch(load_batch(args.scenario), args)
         if args.command == "solve":
             args.scenario = args.scenario[0]
@@ -443,27 +445,6 @@ def failure_reason(sol) -> str:
     return sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
 
 
-def load_batch(paths: list[Path]) -> list:
-    """Every scenario of a batch, each checked as a single solve would be; InputError names the file."""
-    from model.problem.scenario import load_scenario
-
-    scenarios, names = [], {}
-    for path in paths:
-        try:
-            scenario = load_scenario(path)
-        except InputError as err:
-            raise InputError(str(path), str(err)) from None
-        try:
-            scenario.ocp.check_solvable()
-        except InputError as err:
-            raise InputError(str(path), str(err)) from None
-        if scenario.ocp.name in names:
-            raise InputError(str(path), f"its name {scenario.ocp.name!r} is also that of {names[scenario.ocp.name]}")
-        names[scenario.ocp.name] = path
-        scenarios.append(scenario)
-    return scenarios
-
-
 def _solve_batch(scenarios: list, args) -> int:
     """Solve each scenario into DIR/<name>/ in this one process (the imports are paid once)."""
     check_output_folder(args.out)
@@ -486,11 +467,6 @@ def _solve_batch(scenarios: list, args) -> int:
     return 0 if solved == len(codes) else 1
 
 
-def run_files(scenario) -> dict[str, bytes]:
-    """The files every run folder holds besides the results: the scenario as given (for ``plot``)."""
-    return {"scenario.toml": Path(scenario.path).read_bytes()} if scenario.path is not None else {}
-
-
 def time_limit_note(sol) -> str:
     """A line for an answer the time limit cut the search short on ('' otherwise)."""
     search = getattr(sol, "search", None) or {}
@@ -509,6 +485,8 @@ def wrote_line(out: Path) -> str:
 def _solve(scenario, args, options: dict) -> int:
     with Progress(quiet=args.quiet) as progress:
         sol, import_seconds = open_loop_solve(scenario, args, options, progress)
+        from model.search.batch import run_files  # after the solve: its imports are the solver's (timed there)
+
         progress.activity = "writing the results"
         t2 = time.perf_counter()
         with run_folder(args.out) as stage:
@@ -529,6 +507,8 @@ def _simulate(scenario, args) -> int:
     """Solve the open-loop optimum, then run the controller (K times with --runs); write the results."""
     with Progress(quiet=args.quiet) as progress:
         sol, _ = open_loop_solve(scenario, args, {}, progress)
+        from model.search.batch import run_files
+
         if not sol.ok:
             from model.direct.solution import json_text
 

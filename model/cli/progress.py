@@ -17,6 +17,7 @@ from __future__ import annotations
 import logging
 import mmap
 import os
+import select
 import signal
 import struct
 import sys
@@ -50,6 +51,7 @@ class Progress(logging.Handler):
         self.started = time.monotonic()
         self._shared = mmap.mmap(-1, _STATE.size + _TEXT)
         self._watcher: int | None = None
+        self._wake: int | None = None  # the write end of the pipe that ends the watcher's wait at once
         self._sigint = None
         self._logger = logging.getLogger(LOGGER)
         self._level = self._logger.level
@@ -101,13 +103,23 @@ class Progress(logging.Handler):
             self._sigint = signal.signal(signal.SIGINT, self._on_sigint)
         self.stream.flush()
         parent = os.getpid()
+        wait_end, self._wake = os.pipe()
         self._watcher = os.fork()
         if self._watcher == 0:
-            self._watch(parent)  # never returns
+            os.close(self._wake)
+            self._watch(parent, wait_end)  # never returns
+        os.close(wait_end)
         return self
 
     def __exit__(self, *exc) -> None:
         self._set_state(stop=1)
+        if self._wake is not None:  # wakes the watcher now, not at the end of its sleep (up to 0.5 s a command)
+            try:
+                os.write(self._wake, b"x")
+            except BrokenPipeError:  # the watcher has ended already
+                pass
+            os.close(self._wake)
+            self._wake = None
         if self._watcher:
             os.waitpid(self._watcher, 0)
             self._watcher = None
@@ -125,15 +137,16 @@ class Progress(logging.Handler):
         state = {"last": last, "interrupted": interrupted, "stop": stop, **values}
         _STATE.pack_into(self._shared, 0, state["last"], state["interrupted"], state["stop"])
 
-    def _watch(self, parent: int) -> None:
-        """The watcher process: heartbeat lines and a repeated SIGINT; ends with the command."""
+    def _watch(self, parent: int, wait_end: int) -> None:
+        """The watcher process: heartbeat lines and a repeated SIGINT; ends with the command (at once when
+        ``__exit__`` writes to the pipe whose read end is ``wait_end``)."""
         try:
             signal.signal(signal.SIGINT, signal.SIG_IGN)
             fd = self.stream.fileno()
             while True:
-                time.sleep(min(0.5, self.quiet_seconds / 3))
+                woken, _, _ = select.select([wait_end], [], [], min(0.5, self.quiet_seconds / 3))
                 last, interrupted, stop = _STATE.unpack_from(self._shared)
-                if stop or os.getppid() != parent:
+                if woken or stop or os.getppid() != parent:
                     break
                 now = time.monotonic()
                 if interrupted and now - interrupted >= 1.0:  # the first one was swallowed

@@ -21,7 +21,7 @@ from model.direct.bodies import DEFAULT_FORMULATION
 from model.direct.solution import Solution
 from model.direct.solve import Start, solve_starts
 from model.problem.ocp import OCP
-from model.search.starts import passes_to_try, start_values
+from model.search.starts import distinct_starts, passes_to_try, start_values
 
 MIN_WALL_TIME = 0.1  # s: the first start of a search runs at least this long whatever the budget left
 CAP_SLACK = 1.0  # s: a timed-out run with less than this left was ended by the time limit, not by run_cap
@@ -142,15 +142,18 @@ class Search:
         """
         first = MIN_WALL_TIME if analyse and not self.answered() else None  # the search's first answer always comes
         capped = {"max_wall_time": self.run_cap} if self.run_cap is not None else {}
-        sols = solve_starts(self.ocp, intervals, passing, starts, self.verbose,
-                            {**capped, **(extra or {}), **self.options}, relax, analyse,
-                            formulation or self.formulation, self.deadline, first)  # fmt: skip
+        distinct, index = distinct_starts(list(starts))  # a start equal to an earlier one gets its answer
+        solved = solve_starts(self.ocp, intervals, passing, distinct, self.verbose,
+                              {**capped, **(extra or {}), **self.options}, relax, analyse,
+                              formulation or self.formulation, self.deadline, first)  # fmt: skip
+        answered = next((k for k, i in enumerate(index) if i >= len(solved)), len(index))  # those the budget left
+        sols = [solved[i] for i in index[:answered]]
         if len(sols) < len(starts):
             self.starts_skipped += len(starts) - len(sols)
             self.stop()
         if any(sol.status in TIMED_OUT for sol in sols) and (self.run_cap is None or self.remaining() < CAP_SLACK):
             self.stop()  # (a run ended by run_cap alone is no stop of the search)
-        self.solutions.extend(sols)
+        self.solutions.extend(solved)
         return sols
 
     def record(self, sol: Solution, passing: str, scale, route: str) -> None:

@@ -22,6 +22,7 @@ Leg = tuple[Pose, Pose, int, float]  # from pose, to pose, gear (+1 / -1), tange
 SAMPLES = 200  # points per leg
 TANGENTS = (0.5, 1.0, 2.0)  # Hermite tangent lengths, as multiples of the chord
 TURN = 0.6  # rad: the heading change of a reversing-first leg
+TF_SCALES = (1.0, 2.0)  # Tf guesses of a route's start (free final time without a first guess of it)
 
 
 def hermite(a: Pose, b: Pose, gear: int, scale: float, m: int = SAMPLES) -> np.ndarray:
@@ -75,6 +76,14 @@ def _beside(ocp: OCP, start: Pose, goal: Pose, sides: tuple[str, ...]) -> list[P
     return [pose for _, pose in sorted(points)]
 
 
+def tf_scales(ocp: OCP) -> tuple[float, ...]:
+    """The Tf scales that make distinct starts of one route: TF_SCALES where ``curve_guess`` reads its
+    ``tf_scale`` (a free final time with no first guess), else (1.0,): with ``problem.final_time``
+    given, every scale is the same start, and the same start solved twice is the same answer twice
+    (the paper's time scenarios screened each route twice before)."""
+    return TF_SCALES if ocp.cost.free_final_time and ocp.final_time is None else (1.0,)
+
+
 def curve_guess(ocp: OCP, legs: list[Leg], n: int, tf_scale: float = 1.0) -> tuple[dict[str, np.ndarray], float]:
     """Node values of every state and control driving ``legs`` at constant speed, and the final time.
 
@@ -88,8 +97,8 @@ def curve_guess(ocp: OCP, legs: list[Leg], n: int, tf_scale: float = 1.0) -> tup
     n : int
         Number of intervals; the n + 1 nodes are equally spaced in arc length.
     tf_scale : float
-        Free final time only: the guess's time is its length over 70 % of the top speed, plus
-        1 s, times this.
+        Free final time without ``problem.final_time`` only (``tf_scales``): the guess's time is
+        its length over 70 % of the top speed, plus 1 s, times this.
 
     Returns
     -------

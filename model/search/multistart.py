@@ -23,7 +23,7 @@ from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
 from model.search.accuracy import ROUTE as ACCURACY_ROUTE
 from model.search.bounds import refusal_from_bounds
 from model.search.context import MIN_WALL_TIME, Reporter, Search, better, clearly_better, cold_starts, reporter
-from model.search.curves import curve_routes
+from model.search.curves import curve_routes, tf_scales
 from model.search.diagnosis import bound_diagnosis, solver_diagnosis, time_limit_diagnosis
 from model.search.guess import reeds_shepp_start_path
 from model.search.road import road_steps
@@ -37,7 +37,6 @@ TIME_STARTS = ((1.0, "arc"), (1.5, "arc"), (2.0, "arc"))  # (scale of the Tf gue
 ROAD_TIME_STARTS = ((1.0, "arc"),)
 ROAD_RUN_SHARE = 0.25  # with a time limit, no one Ipopt run on a road with bodies takes more than this share of it
 ROAD_FINISH_SHARE = 0.2  # and the search's runs end this share of it early: analysis and files (~20 s at 120 s)
-CURVE_TF_SCALES = (1.0, 2.0)  # Tf guesses of a smooth route's start (free final time)
 PROOF_SECONDS = 3.0  # the one start solved beside a proven bound, for the trajectory it reports
 CURVE_MARGIN = 0.02  # a route's coarse optimum is refined if below (1 + this) x the objective so far
 DETOUR_STARTS = ((1.0, "arc"), (1.0, "line"))
@@ -224,7 +223,7 @@ def _curve_search(ctx: Search, best: Solution | None) -> Solution | None:
     routes = curve_routes(ocp)
     if not routes:
         return best
-    scales = CURVE_TF_SCALES if ocp.cost.free_final_time else (1.0,)
+    scales = tf_scales(ocp)  # one start per route where a given first guess of Tf makes the scales alike
     starts = [(k, route) for route in routes for k in scales]
     if ctx.skip("smooth routes", len(starts)):
         return best

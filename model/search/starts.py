@@ -49,6 +49,32 @@ def start_values(
     return Start(initial_guess(ocp, passing, intervals, tf_guess, route), tf_guess if free else None)
 
 
+def distinct_starts(starts: list[Start]) -> tuple[list[Start], list[int]]:
+    """The starts that differ, and for each start given the index of its equal among them.
+
+    Two starts are equal when their final-time guesses and every node value are equal: one
+    deterministic Ipopt run from either gives the same answer, so solving it twice buys nothing
+    (Reeds-Shepp paths reversing in and out are often the same path; so are a smooth route's
+    tangent lengths on a straight run).
+    """
+    kept: list[Start] = []
+    index: list[int] = []
+    for start in starts:
+        same = next((i for i, k in enumerate(kept) if _equal(k, start)), None)
+        if same is None:
+            kept.append(start)
+            same = len(kept) - 1
+        index.append(same)
+    return kept, index
+
+
+def _equal(a: Start, b: Start) -> bool:
+    if not (isinstance(a, Start) and isinstance(b, Start)):  # anything else is never merged
+        return False
+    return (a.final_time == b.final_time and a.values.keys() == b.values.keys()
+            and all(np.array_equal(a.values[k], b.values[k]) for k in a.values))  # fmt: skip
+
+
 def resample(ocp: OCP, traj: Columns, intervals: int) -> dict[str, np.ndarray]:
     """A trajectory's states and controls on a uniform grid of ``intervals`` steps (normalised time)."""
     cols = as_arrays(traj)
@@ -58,4 +84,4 @@ def resample(ocp: OCP, traj: Columns, intervals: int) -> dict[str, np.ndarray]:
     return {n: np.interp(s_new, s_old, cols[n]) for n in names}
 
 
-__all__ = ["THREE_POINT", "passes_to_try", "reeds_shepp_ends", "resample", "start_values"]
+__all__ = ["THREE_POINT", "distinct_starts", "passes_to_try", "reeds_shepp_ends", "resample", "start_values"]

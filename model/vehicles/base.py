@@ -224,5 +224,9 @@ class Vehicle:
 
 @lru_cache(maxsize=64)
 def _speed_norm(fx: sp.Expr, fy: sp.Expr, speed: sp.Symbol) -> sp.Expr:
-    """sqrt(fx^2 + fy^2) at ``speed`` = 1, simplified (cached: simplify takes tens of ms)."""
-    return sp.simplify(sp.sqrt(fx**2 + fy**2).subs(speed, 1))  # SymPy expressions (``.subs`` made them): no parsing
+    """sqrt(fx^2 + fy^2) at ``speed`` = 1, the square trigonometrically simplified (cached).
+
+    ``trigsimp`` of the square, not ``simplify`` of the root: the same 1 or |cos(phi)| for every vehicle
+    model here, in 0.05 s instead of 0.35 s of a solve process (``simplify`` imports sympy.physics.units).
+    """
+    return sp.sqrt(sp.trigsimp((fx**2 + fy**2).subs(speed, 1)))  # SymPy expressions (``.subs`` made them)
