@@ -19,14 +19,14 @@ from model.direct.bodies import DEFAULT_FORMULATION, check_formulation
 from model.direct.solution import Solution
 from model.direct.solve import paused_gc, solve_starts, wall_time_options
 from model.problem.ocp import OCP
-from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
+from model.search.accuracy import GOAL_ACCURACY, grid_failures, refine_for_accuracy
 from model.search.accuracy import ROUTE as ACCURACY_ROUTE
 from model.search.bounds import refusal_from_bounds
 from model.search.context import MIN_WALL_TIME, Reporter, Search, better, clearly_better, cold_starts, reporter
 from model.search.curves import curve_routes
 from model.search.diagnosis import bound_diagnosis, solver_diagnosis, time_limit_diagnosis
 from model.search.guess import reeds_shepp_start_path
-from model.search.road import road_steps
+from model.search.road import cuts_inner_edge, geometry_continuation, road_steps
 from model.search.screening import REFINE_OPTIONS, screen_starts, screening_intervals
 from model.search.starts import passes_to_try, reeds_shepp_ends, resample, start_values
 
@@ -118,6 +118,8 @@ def _finish(ctx: Search, best: Solution, level: str, start: float) -> Solution:
     time limit's diagnosis if due."""
     if ctx.stopped and not best.ok and (best.diagnosis or {}).get("kind") != "proven bound":  # a proof stands
         diagnosis = time_limit_diagnosis(best, ctx.attempts, ctx.record_of_search(level))
+        if best.diagnosis:  # the evidence found before the limit, in the one line too
+            diagnosis["message"] += f"; before the limit: {best.diagnosis['message']}"
         best.diagnosis = diagnosis | ({"before_the_limit": best.diagnosis} if best.diagnosis else {})
     with paused_gc():  # the model may hold a later start's values
         best.nlp.load_primals(best.ipopt.x)
@@ -154,15 +156,21 @@ def _search(ctx: Search, guess: Columns | None, starts, screen, level: str) -> S
         screen = True
     coarse = screening_intervals(ctx.intervals, screen) if guess is None else None
     best = None
-    if coarse is not None:
+    early = curves and ctx.time_limit is not None and ctx.ocp.road is not None and cuts_inner_edge(ctx.ocp)
+    if early:  # the arc start cannot be followed forwards: the budget goes to the continuation (module docstring)
+        ctx.progress("the steady turn at the outer curb cuts the inner edge: continuation in the geometry first")
+        best = geometry_continuation(ctx, None)
+        if best is not None and (best.ok or grid_failures(best)):
+            return road_steps(ctx, best, curves, geometry=False)
+    elif coarse is not None:
         best = _screen_and_refine(ctx, coarse, starts)
-    if best is None or not best.ok:  # no screening, or nothing refined validated: every cold start at N
+    if (best is None or not best.ok) and not ctx.skip("cold starts", len(starts)):  # every cold start at N
         ctx.progress(f"cold starts on N = {ctx.intervals}: {len(starts)} per pass direction "
                      f"({', '.join(passes_to_try(ctx.ocp))})")  # fmt: skip
         best = cold_starts(ctx, starts, guess, best)
     if curves and level != "quick":
         best = _curve_search(ctx, best)
-    return road_steps(ctx, best, curves)
+    return road_steps(ctx, best, curves, geometry=not early)
 
 
 def _accurate(ctx: Search, best: Solution, accuracy: float | None) -> Solution:
