@@ -75,3 +75,25 @@ def test_failed_road_resolves_from_a_zero_violation_answer_whose_validation_fail
     got = road.failed_road(search, _solved("wall_time_limit", {"passed": False}), start=object())
     assert calls == [True, False]
     assert got is good and got.diagnosis["via"] == "minimal violation"
+
+
+def test_a_converged_answer_a_finer_grid_may_cure_ends_the_walk(wb62):
+    """With ``reached`` the walk stops at the scenario's road on an answer that is not validated;
+    without it the failed step is halved (x0.25, ...)."""
+    from model.search import geometry_continuation as gc
+
+    def walk(reached):
+        asked = []
+
+        def step(problem, last):
+            asked.append(problem.name)
+            return SimpleNamespace(ok=False, status="optimal" if "relaxed" in problem.name else "validation_failed",
+                                   objective=60.0)  # fmt: skip
+
+        found, _ = gc.shrink_road(wb62, step, lambda line: None, lambda: False, reached)
+        return found, asked
+
+    found, asked = walk(lambda sol: sol.status == "validation_failed")
+    assert len(asked) == len(gc.SCALES) and found.status == "validation_failed"
+    _, asked = walk(None)
+    assert len(asked) > len(gc.SCALES)

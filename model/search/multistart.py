@@ -6,7 +6,11 @@ built once and solved from each start (``model.direct.solve_starts``). ``solve_o
 search's steps in order on one ``Search`` (``model.search.context``): screening or the cold
 starts, the smooth routes, the road's own steps (``model.search.road``), continuation or a
 diagnosis, the goal-accuracy refinement; with a time limit, each step once the budget is spent
-is skipped and the best validated answer so far is returned, marked as such.
+is skipped and the best validated answer so far is returned, marked as such. With a time limit, on
+a road whose steady turn at the outer curb cuts the inner edge (``model.search.road.cuts_inner_edge``:
+the route's arc start has no forward steady turn to converge to; the WB-62 at ICD 45 m spent 30 s
+of 120 on it for nothing), the geometry continuation runs first and the cold starts only if it
+leaves no converged answer.
 """
 
 from __future__ import annotations
@@ -164,7 +168,7 @@ def _search(ctx: Search, guess: Columns | None, starts, screen, level: str) -> S
             return road_steps(ctx, best, curves, geometry=False)
     elif coarse is not None:
         best = _screen_and_refine(ctx, coarse, starts)
-    if (best is None or not best.ok) and not ctx.skip("cold starts", len(starts)):  # every cold start at N
+    if (best is None or not best.ok) and not (early and ctx.skip("cold starts", len(starts))):  # each cold start at N
         ctx.progress(f"cold starts on N = {ctx.intervals}: {len(starts)} per pass direction "
                      f"({', '.join(passes_to_try(ctx.ocp))})")  # fmt: skip
         best = cold_starts(ctx, starts, guess, best)

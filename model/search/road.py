@@ -142,7 +142,10 @@ def geometry_continuation(search: Search, best: Solution | None) -> Solution | N
             found = sol if found is None or _converged_first(sol, found) else found
         return found
 
-    found, record = shrink_road(search.ocp, step, search.progress, search.expired)
+    def reached(sol: Solution) -> bool:  # feasibility first: a converged answer the accuracy step may refine ends it
+        return sol.ok or (feasibility_first and bool(grid_failures(sol)))
+
+    found, record = shrink_road(search.ocp, step, search.progress, search.expired, reached)
     if found is not None and found.ok and clearly_better(found, best):
         scales = ", ".join(f"x{s['scale']:g}" for s in record["scales"])
         found.diagnosis = {"kind": "recovered", "via": "geometry continuation", "walk": record,
