@@ -115,7 +115,8 @@ def geometry_continuation(search: Search, best: Solution | None) -> Solution | N
 
     def step(problem, last):
         inner = dataclasses.replace(search, ocp=problem)
-        if problem is search.ocp and feasibility_first and last is not None:
+        if problem is search.ocp and feasibility_first and last is not None:  # the last resort: no run cap
+            inner.run_cap = None
             found = feasible_then_fastest(inner, last)
             search.stopped = search.stopped or inner.stopped
             search.starts_skipped = inner.starts_skipped
@@ -178,7 +179,6 @@ def feasible_then_fastest(search: Search, last: Solution) -> Solution | None:
     two (None if the time limit left neither begun); one that does not validate carries the
     ``diagnosis`` of ``feasibility_diagnosis``, the evidence the search reports.
     """
-    search = dataclasses.replace(search, run_cap=None)  # the last resort: the time left, not a share of it
     relaxed = search.solve(search.intervals, "none", [search.values("none", last.columns)], relax=True,
                            formulation=CORNERS)  # fmt: skip
     if not relaxed:
