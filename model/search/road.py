@@ -226,10 +226,11 @@ def feasibility_diagnosis(ocp: OCP, mv: Solution, violation: float, fast: Soluti
             "status": best.status, "final_time_s": best.final_time, "cusps": cusps, "failed_checks": failed,
             "min_clearance_integrated_m": measures.get("min_clearance_integrated"),
             "message": f"{steady}; a trajectory inside the corridor at the N = {best.intervals} nodes exists "
-                       f"(Tf {best.final_time:.4g} s, {cusps} cusps), but it fails {', '.join(failed) or 'no check'}"
+                       f"(Tf {best.final_time:.4g} s, {cusps} cusps: the speed changes sign {cusps} times), but it "
+                       f"fails {', '.join(failed) or 'no check'}"
                        + (f" (least clearance between the nodes {measures['min_clearance_integrated']:.3g} m)"
                           if measures.get("min_clearance_integrated") is not None else "")
-                       + ": a finer grid and more time may validate it"}  # fmt: skip
+                       + ": a finer grid may validate it, or show that it passes only at the nodes"}  # fmt: skip
 
 
 def _converged_first(a: Solution, b: Solution) -> bool:
