@@ -74,8 +74,9 @@ Step = Callable[[OCP, Solution | None], Solution | None]
 
 
 def shrink_road(
-    ocp: OCP, step: Step, progress: Callable[[str], None], out_of_time: Callable[[], bool]
-) -> tuple[Solution | None, dict]:
+    ocp: OCP, step: Step, progress: Callable[[str], None], out_of_time: Callable[[], bool],
+    reached: Callable[[Solution], bool] | None = None,
+) -> tuple[Solution | None, dict]:  # fmt: skip
     """Walk the relaxation from ``SCALES[0]`` down to the scenario's road (module docstring).
 
     Parameters
@@ -85,6 +86,8 @@ def shrink_road(
         the Solution or None (not begun for lack of time).
     progress : one line per step.
     out_of_time : True once the budget is spent (the walk stops).
+    reached : whether an answer on the scenario's road ends the walk (default: it validates; the
+        feasibility-first step also ends it on a converged answer a finer grid may cure).
 
     Returns
     -------
@@ -100,10 +103,11 @@ def shrink_road(
     while todo and not out_of_time():
         scale = todo.pop(0)
         sol = step(relaxed_ocp(ocp, scale), last)
-        ok = sol is not None and (sol.ok if scale == 0.0 else sol.status == "optimal")
+        ok = sol is not None and ((reached or _validated)(sol) if scale == 0.0 else sol.status == "optimal")
         record["scales"].append({"scale": scale, "status": None if sol is None else sol.status, "valid": ok,
                                  "objective": None if sol is None else sol.objective})  # fmt: skip
-        outcome = f"{'validated' if scale == 0.0 else 'converged'}, objective {sol.objective:.6g}" if ok else "failed"
+        word = "validated" if scale == 0.0 and sol.ok else "converged, not validated" if scale == 0.0 else "converged"
+        outcome = f"{word}, objective {sol.objective:.6g}" if ok else "failed"
         progress(f"geometry continuation: road relaxed x{scale:g}: {outcome}")
         if scale == 0.0 and ok:
             return sol, record | {"least_validated_scale": 0.0}
@@ -118,6 +122,10 @@ def shrink_road(
             break  # not even the roomiest road, or the steps got too small
         record["least_validated_scale"] = done
     return own, record
+
+
+def _validated(sol: Solution) -> bool:
+    return sol.ok
 
 
 __all__ = ["MIN_ISLAND", "RELAX_INNER", "RELAX_LANE", "RELAX_OUTER", "SCALES", "relaxed_ocp", "relaxed_roundabout",

@@ -6,7 +6,11 @@ built once and solved from each start (``model.direct.solve_starts``). ``solve_o
 search's steps in order on one ``Search`` (``model.search.context``): screening or the cold
 starts, the smooth routes, the road's own steps (``model.search.road``), continuation or a
 diagnosis, the goal-accuracy refinement; with a time limit, each step once the budget is spent
-is skipped and the best validated answer so far is returned, marked as such.
+is skipped and the best validated answer so far is returned, marked as such. With a time limit, on
+a road whose steady turn at the outer curb cuts the inner edge (``model.search.road.cuts_inner_edge``:
+the route's arc start has no forward steady turn to converge to; the WB-62 at ICD 45 m spent 30 s
+of 120 on it for nothing), the geometry continuation runs first and the cold starts only if it
+leaves no converged answer.
 """
 
 from __future__ import annotations
@@ -19,14 +23,14 @@ from model.direct.bodies import DEFAULT_FORMULATION, check_formulation
 from model.direct.solution import Solution
 from model.direct.solve import paused_gc, solve_starts, wall_time_options
 from model.problem.ocp import OCP
-from model.search.accuracy import GOAL_ACCURACY, refine_for_accuracy
+from model.search.accuracy import GOAL_ACCURACY, grid_failures, refine_for_accuracy
 from model.search.accuracy import ROUTE as ACCURACY_ROUTE
 from model.search.bounds import refusal_from_bounds
 from model.search.context import MIN_WALL_TIME, Reporter, Search, better, clearly_better, cold_starts, reporter
 from model.search.curves import curve_routes, tf_scales
 from model.search.diagnosis import bound_diagnosis, solver_diagnosis, time_limit_diagnosis
 from model.search.guess import reeds_shepp_start_path
-from model.search.road import road_steps
+from model.search.road import cuts_inner_edge, geometry_continuation, road_steps
 from model.search.screening import REFINE_OPTIONS, screen_starts, screening_intervals
 from model.search.starts import passes_to_try, reeds_shepp_ends, resample, start_values
 
@@ -117,6 +121,8 @@ def _finish(ctx: Search, best: Solution, level: str, start: float) -> Solution:
     time limit's diagnosis if due."""
     if ctx.stopped and not best.ok and (best.diagnosis or {}).get("kind") != "proven bound":  # a proof stands
         diagnosis = time_limit_diagnosis(best, ctx.attempts, ctx.record_of_search(level))
+        if best.diagnosis:  # the evidence found before the limit, in the one line too
+            diagnosis["message"] += f"; before the limit: {best.diagnosis['message']}"
         best.diagnosis = diagnosis | ({"before_the_limit": best.diagnosis} if best.diagnosis else {})
     with paused_gc():  # the model may hold a later start's values
         best.nlp.load_primals(best.ipopt.x)
@@ -153,15 +159,21 @@ def _search(ctx: Search, guess: Columns | None, starts, screen, level: str) -> S
         screen = True
     coarse = screening_intervals(ctx.intervals, screen) if guess is None else None
     best = None
-    if coarse is not None:
+    early = curves and ctx.time_limit is not None and ctx.ocp.road is not None and cuts_inner_edge(ctx.ocp)
+    if early:  # the arc start cannot be followed forwards: the budget goes to the continuation (module docstring)
+        ctx.progress("the steady turn at the outer curb cuts the inner edge: continuation in the geometry first")
+        best = geometry_continuation(ctx, None)
+        if best is not None and (best.ok or grid_failures(best)):
+            return road_steps(ctx, best, curves, geometry=False)
+    elif coarse is not None:
         best = _screen_and_refine(ctx, coarse, starts)
-    if best is None or not best.ok:  # no screening, or nothing refined validated: every cold start at N
+    if (best is None or not best.ok) and not (early and ctx.skip("cold starts", len(starts))):  # each cold start at N
         ctx.progress(f"cold starts on N = {ctx.intervals}: {len(starts)} per pass direction "
                      f"({', '.join(passes_to_try(ctx.ocp))})")  # fmt: skip
         best = cold_starts(ctx, starts, guess, best)
     if curves and level != "quick":
         best = _curve_search(ctx, best)
-    return road_steps(ctx, best, curves)
+    return road_steps(ctx, best, curves, geometry=not early)
 
 
 def _accurate(ctx: Search, best: Solution, accuracy: float | None) -> Solution:

@@ -23,7 +23,14 @@
    U-turn, a forward-reverse-forward start (``model.search.guess.three_point_guess``). The step on
    the scenario's own road uses the rectangles' corners (on the EU annulus they converge in 90
    iterations where the discs take 187), from the arc start and then from the last step's answer,
-   and the search's formulation from that answer if both fail.
+   and the search's formulation from that answer if both fail. Where the steady circulating turn
+   at the outer curb still puts a body inside the edge it may not cross (``cuts_inner_edge``: the
+   WB-62 at ICD 45 m, its trailer 0.137 m over the apron's inner edge), a forward turn through the
+   ring does not exist in steady state and the smooth starts do not converge on the scenario's road
+   (x0 from x0.25: 1464 iterations without converging): there the step on the scenario's road is
+   feasibility first, the minimal-violation problem (corners) from the last relaxed answer, then,
+   from a trajectory with zero violation at the nodes, the time problem (``feasible_then_fastest``).
+   Its outcome, answered or not, is the evidence the search reports (``feasibility_diagnosis``).
 
 Each step is skipped once the search's time limit has passed (``Search.skip``).
 """
@@ -32,34 +39,39 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pyomo.environ as pyo
 
+from model.analysis.bounds import ring_fit
 from model.direct.solution import Solution
 from model.direct.solve import Start
+from model.problem.ocp import OCP
 from model.search.accuracy import grid_failures
 from model.search.context import Search, better, clearly_better, cold_starts
 from model.search.diagnosis import finite, road_diagnosis
 from model.search.geometry_continuation import shrink_road
-from model.search.road_polish import reverses
+from model.search.road_polish import REVERSING, reverses
 from model.search.starts import THREE_POINT
 
 ROAD_FALLBACK_STARTS = ((2.0, "arc"),)  # tried where the first fails
 ZERO_VIOLATION = 1e-6  # m, summed slack below which the relaxed solution is a feasible trajectory
 CORNERS = "corners"
+CONVERGED = ("optimal", "validation_failed")  # Ipopt converged (a check of the validation may have failed)
 
 
-def road_steps(search: Search, best: Solution, fallback: bool) -> Solution:
+def road_steps(search: Search, best: Solution, fallback: bool, geometry: bool = True) -> Solution:
     """The three steps of the module docstring, in order, on ``best`` (the answer so far).
 
     ``fallback``: the default starts were searched (not a given guess or given starts). A road
-    problem that still fails leaves with a ``diagnosis`` (the search ends there).
+    problem that still fails leaves with a ``diagnosis`` (the search ends there). ``geometry``:
+    False where the search ran the geometry continuation already (before its cold starts).
     """
     ocp = search.ocp
     if ocp.road is None:
         return best
     fallback = fallback and ocp.cost.free_final_time
     first = search.time_limit is not None  # within a budget the continuation before the slower fallback start
-    if first:
+    if first and geometry:
         best = _geometry_step(search, best)
     cured_finer = grid_failures(best)  # converged, failing only between the nodes: the accuracy step's to refine
     if not (best.ok or cured_finer) and fallback and not search.skip("road fallback starts", len(ROAD_FALLBACK_STARTS)):
@@ -67,7 +79,7 @@ def road_steps(search: Search, best: Solution, fallback: bool) -> Solution:
         best = cold_starts(search, ROAD_FALLBACK_STARTS, None, best)
     if not ocp.bodies:
         return best
-    if not first:
+    if not first and geometry:
         best = _geometry_step(search, best)
     answered = best.ok or grid_failures(best)  # a converged answer that a finer grid may still cure
     if answered and reverses(best) and search.formulation != CORNERS and not search.skip("second opinion", 2):
@@ -91,16 +103,24 @@ def _geometry_step(search: Search, best: Solution) -> Solution:
     return geometry_continuation(search, best)
 
 
-def geometry_continuation(search: Search, best: Solution) -> Solution:
-    """The scenario's road reached from a relaxed one (``shrink_road``); the better of that and ``best``.
+def geometry_continuation(search: Search, best: Solution | None) -> Solution | None:
+    """The scenario's road reached from a relaxed one (``shrink_road``); the better of that and ``best``
+    (None: no start before it; then the continuation's own answer on the scenario's road, or None).
 
     Each step is one solve of the step's problem in the search's formulation, sharing the search's
     clock and record; the answer on the scenario's road carries the walk in ``diagnosis`` ("recovered").
     """
-    failed = best.columns if finite(best.columns) else None
+    failed = best.columns if best is not None and finite(best.columns) else None
+    feasibility_first = cuts_inner_edge(search.ocp)
 
     def step(problem, last):
         inner = dataclasses.replace(search, ocp=problem)
+        if problem is search.ocp and feasibility_first and last is not None:  # the last resort: no run cap
+            inner.run_cap = None
+            found = feasible_then_fastest(inner, last)
+            search.stopped = search.stopped or inner.stopped
+            search.starts_skipped = inner.starts_skipped
+            return found
         if last is not None or failed is not None:
             routes, starts = ["warm"], [inner.values("none", last.columns if last is not None else failed)]
             if problem is search.ocp:  # the corners from the arc start first: cheap where they converge at all
@@ -123,7 +143,10 @@ def geometry_continuation(search: Search, best: Solution) -> Solution:
             found = sol if found is None or _converged_first(sol, found) else found
         return found
 
-    found, record = shrink_road(search.ocp, step, search.progress, search.expired)
+    def reached(sol: Solution) -> bool:  # feasibility first: a converged answer the accuracy step may refine ends it
+        return sol.ok or (feasibility_first and bool(grid_failures(sol)))
+
+    found, record = shrink_road(search.ocp, step, search.progress, search.expired, reached)
     if found is not None and found.ok and clearly_better(found, best):
         scales = ", ".join(f"x{s['scale']:g}" for s in record["scales"])
         found.diagnosis = {"kind": "recovered", "via": "geometry continuation", "walk": record,
@@ -131,7 +154,83 @@ def geometry_continuation(search: Search, best: Solution) -> Solution:
         return found
     search.attempts.append({"pass": "none", "route": "geometry continuation", "status": "failed", "valid": False,
                             "objective": None, "walk": record})  # fmt: skip
+    if best is None:  # the continuation before any cold start: what it got to
+        return found
+    if found is not None and feasibility_first and found.diagnosis is not None:  # feasibility first: its evidence
+        if found.status in CONVERGED and best.status not in CONVERGED:
+            return found  # a converged trajectory of the scenario's road (a finer grid may validate it)
+        best.diagnosis = best.diagnosis or found.diagnosis
     return best
+
+
+def cuts_inner_edge(ocp: OCP) -> bool:
+    """Whether the steady circulating turn whose outer swept radius is the outer curb still puts a body
+    inside the edge it may not cross (``model.analysis.bounds.ring_fit``: inner margin < 0)."""
+    fit = ring_fit(ocp) if ocp.road is not None and ocp.bodies else None
+    return fit is not None and fit["inner_margin"] < 0.0
+
+
+def feasible_then_fastest(search: Search, last: Solution) -> Solution | None:
+    """The scenario's road from the last relaxed answer ``last``: feasibility first, then the time.
+
+    The minimal-violation problem (the rectangles' corners, ``build_model(..., relax=True)``) from
+    ``last``; if Ipopt converges to a summed slack within ``ZERO_VIOLATION`` (a trajectory inside the
+    corridor at the nodes), the scenario's problem (corners) from it. Returns the better answer of the
+    two (None if the time limit left neither begun); one that does not validate carries the
+    ``diagnosis`` of ``feasibility_diagnosis``, the evidence the search reports.
+    """
+    relaxed = search.solve(search.intervals, "none", [search.values("none", last.columns)], relax=True,
+                           formulation=CORNERS)  # fmt: skip
+    if not relaxed:
+        return None
+    mv = relaxed[0]
+    violation = float(pyo.value(mv.model.slack_total))
+    search.record(mv, "none", 1.0, f"geometry continuation, minimal violation ({search.ocp.name}, corners)")
+    found, fast = mv, None
+    if violation <= ZERO_VIOLATION and mv.status in CONVERGED:
+        sols = search.solve(search.intervals, "none", [search.values("none", mv.columns)], formulation=CORNERS)
+        for sol in sols:
+            search.record(sol, "none", 1.0, f"geometry continuation, from zero violation ({search.ocp.name}, corners)")
+            fast = sol
+            found = sol if _converged_first(sol, found) else found
+    if not found.ok:
+        found.diagnosis = feasibility_diagnosis(search.ocp, mv, violation, fast)
+    return found
+
+
+def feasibility_diagnosis(ocp: OCP, mv: Solution, violation: float, fast: Solution | None) -> dict:
+    """The evidence of ``feasible_then_fastest`` where nothing validated: the steady-turn bound, the minimal
+    violation reached, and (zero violation) what failed between the nodes of the trajectory it found."""
+    fit = {k: v for k, v in ring_fit(ocp).items() if k != "bodies"}
+    steady = (f"the steady circulating turn at the outer curb puts the {fit['inner_body']} "
+              f"{-fit['inner_margin']:.3g} m inside the edge it may not cross")  # fmt: skip
+    if violation > ZERO_VIOLATION:
+        out = road_diagnosis(ocp, mv, violation)
+        return out | {"steady_turn": fit, "message": f"{steady}; {out['message']}"}
+    if mv.status not in CONVERGED:  # zero slack, but the dynamics' defects not yet closed
+        log = getattr(getattr(mv, "ipopt", None), "log", None) or []
+        primal = log[-1][2] if log else None
+        return {"kind": "minimal violation not converged", "steady_turn": fit, "summed_slack_m": violation,
+                "relaxed_status": mv.status, "last_primal_infeasibility": primal, "final_time_s": mv.final_time,
+                "message": f"{steady}; the slack-minimising solve reached zero slack at the nodes (Tf "
+                           f"{mv.final_time:.4g} s) but ended {mv.status}"
+                           + (f" with the defects at {primal:.2g}" if primal is not None else "")
+                           + ": no trajectory yet, and no proof that none exists"}  # fmt: skip
+    best = fast if fast is not None and fast.status in CONVERGED else mv
+    failed = [k for k, c in best.validation.get("checks", {}).items() if not c["passed"]]
+    measures = best.validation.get("measures", {})
+    speed = np.asarray(best.columns.get(ocp.vehicle.roles.speed, []), dtype=float)
+    cusps = int(np.count_nonzero(np.diff(np.sign(speed[np.abs(speed) > REVERSING * np.abs(speed).max()])))) \
+        if speed.size else 0
+    return {"kind": "zero violation at the nodes", "steady_turn": fit, "summed_slack_m": violation,
+            "status": best.status, "final_time_s": best.final_time, "cusps": cusps, "failed_checks": failed,
+            "min_clearance_integrated_m": measures.get("min_clearance_integrated"),
+            "message": f"{steady}; a trajectory inside the corridor at the N = {best.intervals} nodes exists "
+                       f"(Tf {best.final_time:.4g} s, {cusps} cusps: the speed changes sign {cusps} times), but it "
+                       f"fails {', '.join(failed) or 'no check'}"
+                       + (f" (least clearance between the nodes {measures['min_clearance_integrated']:.3g} m)"
+                          if measures.get("min_clearance_integrated") is not None else "")
+                       + ": a finer grid may validate it, or show that it passes only at the nodes"}  # fmt: skip
 
 
 def _converged_first(a: Solution, b: Solution) -> bool:
@@ -176,7 +275,7 @@ def failed_road(search: Search, best: Solution, start: Start) -> Solution:
     if not relaxed:  # the time limit passed: the diagnosis is the time limit's (solve_ocp)
         return best
     violation = float(pyo.value(relaxed[0].model.slack_total))
-    if violation <= ZERO_VIOLATION and relaxed[0].status == "optimal":
+    if violation <= ZERO_VIOLATION and relaxed[0].status in CONVERGED:
         again = search.solve(search.intervals, "none", [search.values("none", relaxed[0].columns)])
         if again and again[0].ok:
             message = "solved from a zero-violation trajectory of the minimal-violation problem: every start failed"
@@ -186,5 +285,6 @@ def failed_road(search: Search, best: Solution, start: Start) -> Solution:
     return best
 
 
-__all__ = ["ROAD_FALLBACK_STARTS", "ZERO_VIOLATION", "failed_road", "geometry_continuation", "road_steps",
+__all__ = ["CONVERGED", "ROAD_FALLBACK_STARTS", "ZERO_VIOLATION", "cuts_inner_edge", "failed_road",
+           "feasibility_diagnosis", "feasible_then_fastest", "geometry_continuation", "road_steps",
            "second_opinion"]  # fmt: skip

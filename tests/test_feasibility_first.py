@@ -1,0 +1,99 @@
+"""Feasibility first where the steady turn cuts the inner edge (issue 22: the WB-62 at ICD 45 m)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from model.problem.scenario import load_scenario
+from model.search import multistart, road
+from tests.conftest import ROOT
+
+LIMITS = ROOT / "benchmarks" / "limits"
+
+
+@pytest.fixture(scope="module")
+def wb62():
+    return load_scenario(LIMITS / "wb62-45m-left.toml").ocp
+
+
+def test_only_the_wb62_steady_turn_cuts_its_inner_edge(wb62):
+    """The WB-62's trailer is 0.137 m over the apron's inner edge in the steady turn at the outer curb;
+    the other limits scenarios' steady turns keep inside (the mini roundabout's misses the outer curb)."""
+    assert road.cuts_inner_edge(wb62)
+    for name in ("eu-annulus-uturn", "semi-30m-uturn", "mini-18m-straight"):
+        assert not road.cuts_inner_edge(load_scenario(LIMITS / f"{name}.toml").ocp), name
+
+
+def test_with_a_time_limit_the_continuation_comes_before_the_cold_starts(wb62, monkeypatch):
+    """No Ipopt run before the continuation: the stand-in is called first (and stops the search)."""
+    called = []
+
+    def stand_in(search, best):
+        called.append((best, len(search.solutions)))
+        raise RuntimeError("stop: the continuation was reached")
+
+    monkeypatch.setattr(multistart, "geometry_continuation", stand_in)
+    with pytest.raises(RuntimeError, match="continuation was reached"):
+        multistart.solve_ocp(wb62, intervals=10, time_limit=30.0)
+    assert called == [(None, 0)]
+
+
+def _solved(status, validation, u1=(), tf=50.0, slack=0.0):
+    model = SimpleNamespace(slack_total=slack, body_formulation="corners")
+    return SimpleNamespace(status=status, validation=validation, columns={"u1": np.asarray(u1, float)},
+                           final_time=tf, intervals=100, ok=validation.get("passed") is True, model=model,
+                           diagnosis=None, objective=tf)  # fmt: skip
+
+
+def test_zero_violation_at_the_nodes_is_reported_with_its_cusps_and_the_steady_bound(wb62):
+    failed = {"passed": False, "checks": {"dense_clearance": {"passed": False}, "defects": {"passed": True}},
+              "measures": {"min_clearance_integrated": -0.96}}  # fmt: skip
+    fast = _solved("validation_failed", failed, u1=[5, 10, -4, -10, 0.1, 3, 10, -2, 6])  # four cusps (0.1: standing)
+    got = road.feasibility_diagnosis(wb62, fast, 0.0, fast)
+    assert got["kind"] == "zero violation at the nodes" and got["cusps"] == 4
+    assert got["failed_checks"] == ["dense_clearance"] and got["min_clearance_integrated_m"] == -0.96
+    assert got["steady_turn"]["inner_body"] == "trailer"
+    assert got["steady_turn"]["inner_margin"] == pytest.approx(-0.137, abs=1e-3)
+    assert "0.137 m inside" in got["message"] and "4 cusps" in got["message"]
+
+
+def test_failed_road_resolves_from_a_zero_violation_answer_whose_validation_failed(wb62):
+    """Ipopt converged on the minimal-violation problem with zero slack, a check failed: it is a trajectory
+    inside the corridor at the nodes, so the problem is solved again from it (before: only "optimal")."""
+    calls = []
+    good = _solved("optimal", {"passed": True})
+
+    def fake_solve(intervals, passing, starts, extra=None, relax=False, analyse=True, formulation=None):
+        calls.append(relax)
+        return [_solved("validation_failed", {"passed": False, "checks": {}}, slack=1e-9)] if relax else [good]
+
+    search = SimpleNamespace(formulation="corners", intervals=20, solve=fake_solve,
+                             values=lambda passing, guess=None: guess)  # fmt: skip
+    got = road.failed_road(search, _solved("wall_time_limit", {"passed": False}), start=object())
+    assert calls == [True, False]
+    assert got is good and got.diagnosis["via"] == "minimal violation"
+
+
+def test_a_converged_answer_a_finer_grid_may_cure_ends_the_walk(wb62):
+    """With ``reached`` the walk stops at the scenario's road on an answer that is not validated;
+    without it the failed step is halved (x0.25, ...)."""
+    from model.search import geometry_continuation as gc
+
+    def walk(reached):
+        asked = []
+
+        def step(problem, last):
+            asked.append(problem.name)
+            return SimpleNamespace(ok=False, status="optimal" if "relaxed" in problem.name else "validation_failed",
+                                   objective=60.0)  # fmt: skip
+
+        found, _ = gc.shrink_road(wb62, step, lambda line: None, lambda: False, reached)
+        return found, asked
+
+    found, asked = walk(lambda sol: sol.status == "validation_failed")
+    assert len(asked) == len(gc.SCALES) and found.status == "validation_failed"
+    _, asked = walk(None)
+    assert len(asked) > len(gc.SCALES)
