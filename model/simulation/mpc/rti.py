@@ -95,8 +95,8 @@ class RealTimeIteration:
         if solver == "qpoases":
             opts |= {"printLevel": "none", "sparse": False, "hessian_type": "posdef"}
         opts |= options or {}
-        self.qp = ca.conic("rti", solver, {"h": ca.Sparsity.dense(n_z, n_z), "a": ca.Sparsity.dense(n_rows, n_z)},
-                           opts)  # fmt: skip
+        qp = ca.conic("rti", solver, {"h": ca.Sparsity.dense(n_z, n_z), "a": ca.Sparsity.dense(n_rows, n_z)}, opts)
+        self.qp = BufferedQP(qp)
         self._hz: np.ndarray | None = None
         self._h = None
 
@@ -226,10 +226,9 @@ class RealTimeIteration:
         ubz = _pad_bounds(np.clip(ubx[cols] - x[cols], -big, big), width + 1)
         ubz[width] = big if len(self._soft_k) else 0.0
         t_qp = time.perf_counter()
-        res = self.qp(h=Hz, g=gz, a=A_qp, lba=np.clip(lba, -big, big), uba=np.clip(uba, -big, big), lbx=lbz, ubx=ubz)
+        stats = self.qp(Hz, gz, A_qp, np.clip(lba, -big, big), np.clip(uba, -big, big), lbz, ubz)
         self.qp_seconds, self.prep_seconds = time.perf_counter() - t_qp, t_qp - t0
-        stats = self.qp.stats()
-        zs = np.asarray(res["x"]).ravel()  # names: the QP solver's solution vector
+        zs = self.qp.x
         z, self.elastic = zs[: len(free_pos)], float(zs[width])
         d = np.zeros(len(x))
         d[others], d[cols], d[self.dep] = d_other, z, a + S @ z
@@ -277,3 +276,45 @@ class RealTimeIteration:
 def _pad_bounds(b: np.ndarray, width: int) -> np.ndarray:
     """``b`` with zeros up to ``width`` (the padding variables are fixed at 0)."""
     return np.concatenate([b, np.zeros(width - len(b))])
+
+
+class BufferedQP:
+    """A ``casadi.conic`` QP solver called through persistent numpy buffers.
+
+    Converting the dense constraint matrix (about 1500 x 100 on a road horizon) to a CasADi DM
+    per call costs about 10 ms, more than the hot-started QP itself; the solver's buffer reads
+    the arrays in place (column-major for the matrices). The solver's memory, and with it the
+    active set it hot-starts from, is the buffer's own and persists across calls.
+
+    Parameters
+    ----------
+    qp : casadi.Function
+        The solver (``casadi.conic`` with dense H and A).
+    """
+
+    INPUTS = ("h", "g", "a", "lba", "uba", "lbx", "ubx")
+
+    def __init__(self, qp: ca.Function):
+        self.fn = qp
+        self._buf, self._trigger = qp.buffer()
+        self._args = {}
+        for name in self.INPUTS:
+            i = qp.index_in(name)
+            sp = qp.sparsity_in(i)
+            self._args[name] = np.zeros((sp.size1(), sp.size2()), order="F") if sp.size2() > 1 else np.zeros(sp.size1())
+            self._buf.set_arg(i, memoryview(self._args[name].reshape(-1, order="F")))
+        self._res = {name: np.zeros(qp.nnz_out(i)) for i, name in enumerate(qp.name_out())}
+        for i, name in enumerate(qp.name_out()):
+            self._buf.set_res(i, memoryview(self._res[name]))
+
+    @property
+    def x(self) -> np.ndarray:
+        """The last solution (a copy)."""
+        return self._res["x"].copy()
+
+    def __call__(self, h, g, a, lba, uba, lbx, ubx) -> dict:
+        """Solve the QP with these data (copied into the buffers); the solver's stats."""
+        for name, value in zip(self.INPUTS, (h, g, a, lba, uba, lbx, ubx), strict=True):
+            self._args[name][...] = value
+        self._trigger()
+        return self._buf.stats()
