@@ -191,6 +191,7 @@ class RealTimeIteration:
         nlp.set_primals(x)
         if self._h is None:
             self._h = self._hessian()
+            self._hessian_blocks()
             nlp.set_primals(x)
         g, grad, jac = nlp.evaluate_constraints(), nlp.evaluate_grad_objective(), nlp.evaluate_jacobian()
         lbx, ubx = nlp.primals_lb(), nlp.primals_ub()
@@ -255,15 +256,31 @@ class RealTimeIteration:
         out[cols] = np.minimum(out[cols] + raise_by, nlp.primals_ub()[cols])
         return out
 
+    def _hessian_blocks(self) -> None:
+        """The Hessian's dense blocks the condensing needs, once per Hessian: the dependent columns
+        it touches (h: the terminal states, few), and its rows and columns there and at the free
+        columns (the objective has no curvature in the other dependent columns)."""
+        H, dep, free = self._h, self.dep, self.free
+        touched = np.flatnonzero(np.diff(H[:, dep].tocsc().indptr) > 0)  # positions in dep
+        self._h_dep = touched
+        rows = dep[touched]
+        self._H_hh = H[rows][:, rows].toarray()
+        self._H_hf = H[rows][:, free].toarray()
+        self._H_ff = H[free][:, free].toarray()
+
     def _condensed_cost(self, grad, S, a, d_other, free_pos) -> tuple[np.ndarray, np.ndarray]:
-        """H_z = T' H T + delta I and g_z = T' (grad + H t) for d = T z + t."""
+        """H_z = T' H T + delta I and g_z = T' (grad + H t) for d = T z + t (T: the identity at the
+        free columns, S at the dependent ones)."""
         H, others, dep = self._h, self.others, self.dep
         cols = others[free_pos]
         t = np.zeros(H.shape[0])
         t[others], t[dep] = d_other, a
         g_full = grad + H @ t
-        HT = (H[:, dep] @ S) + H[:, cols].toarray()
-        Hz = S.T @ HT[dep] + HT[cols]
+        S_h = S[self._h_dep]
+        at = np.searchsorted(self.free, cols)  # the step's QP columns among the free ones
+        H_hf = self._H_hf[:, at]
+        HT_h = self._H_hh @ S_h + H_hf  # rows of H T at the touched dependent columns
+        Hz = S_h.T @ HT_h + H_hf.T @ S_h + self._H_ff[np.ix_(at, at)]
         Hz = (Hz + Hz.T) / 2 + self.delta * np.eye(len(cols))
         gz = S.T @ g_full[dep] + g_full[cols]
         n_z = len(self.free) + 1
