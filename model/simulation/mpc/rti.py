@@ -45,6 +45,14 @@ from model.direct.bodies import point_definitions
 from model.nlp.casadi_nlp import CasadiNLP
 
 QP_SOLVERS = ("qpoases", "daqp")
+# qpOASES dense, with the settings of its MPC preset (``Options::setToMPC``: no ramping, far bounds,
+# no flipping bounds, no full linear-independence or zero-curvature tests, no drift correction, no
+# refactorisation, no refinement steps). Measured on the road cases' recorded QP sequences: the
+# same solutions (within 1e-12), the truck's worst QP 17 ms against 67 ms (CPU, load 5).
+QPOASES_OPTIONS = {"printLevel": "none", "sparse": False, "hessian_type": "posdef", "enableRamping": False,
+                   "enableFarBounds": True, "enableFlippingBounds": False, "enableFullLITests": False,
+                   "enableNZCTests": False, "enableDriftCorrection": 0, "enableCholeskyRefactorisation": 0,
+                   "numRefinementSteps": 0}  # fmt: skip
 
 
 @dataclass
@@ -93,7 +101,7 @@ class RealTimeIteration:
         n_rows = len(self.rest) + len(self.bounded_dep)
         opts = {"error_on_fail": False}
         if solver == "qpoases":
-            opts |= {"printLevel": "none", "sparse": False, "hessian_type": "posdef"}
+            opts |= QPOASES_OPTIONS
         opts |= options or {}
         qp = ca.conic("rti", solver, {"h": ca.Sparsity.dense(n_z, n_z), "a": ca.Sparsity.dense(n_rows, n_z)}, opts)
         self.qp = BufferedQP(qp)
