@@ -24,7 +24,11 @@ and the accessors of named components):
   lacks (one Newton step of the row in its slack), so the point satisfies those rows as the
   NLP's soft rows do, at the price the NLP's objective sets;
 - the dense QP (about n_controls (N + 1) + 2 n_states variables) is solved by a dense active-set
-  solver of the casadi wheel (``casadi.conic``: qpOASES by default, or DAQP).
+  solver of the casadi wheel (``casadi.conic``: qpOASES by default, with its MPC preset's settings,
+  hot-started from the previous active set; or DAQP), called through persistent numpy buffers
+  (``BufferedQP``: no conversion of the dense matrices per call);
+- the objective's Hessian enters the condensing through its dense blocks at the free columns and
+  the few dependent columns it touches, formed once per Hessian.
 
 The step is accepted by the controller when the new point satisfies the nonlinear constraints to
 its tolerance (``MPC._violation``); otherwise the controller falls back to warm-started Ipopt.
