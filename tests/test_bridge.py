@@ -116,3 +116,29 @@ def test_presolve_keeps_solution_and_recovers_multipliers():
             assert all(abs(pyo.value(c.body)) < 1e-8 for c in m.ode_x.values())
     np.testing.assert_allclose(values[1], values[0], atol=1e-6)
     np.testing.assert_allclose(duals[1], duals[0], atol=1e-5)
+
+
+def test_refresh_re_reads_param_bounds_and_the_bound_rows():
+    """Row bounds given by Params and singleton rows (presolved into variable bounds) follow a
+    changed Param after ``refresh_parameters`` exactly as a freshly built NLP reads them (the
+    constant bounds are read once, the tightened variable bounds cached until the refresh)."""
+    import pyomo.environ as pyo
+
+    m = pyo.ConcreteModel()
+    m.p = pyo.Param(mutable=True, initialize=1.0)
+    m.x = pyo.Var(range(3), bounds=(-10.0, 10.0), initialize=0.5)
+    m.row = pyo.Constraint(expr=m.x[0] + m.x[1] >= m.p)
+    m.fixed_row = pyo.Constraint(expr=m.x[0] - m.x[1] <= 4.0)
+    m.bound_row = pyo.Constraint(expr=2.0 * m.x[2] <= 3.0 * m.p)
+    m.obj = pyo.Objective(expr=sum(m.x[i] ** 2 for i in range(3)))
+    nlp = CasadiNLP(m)
+    before = (nlp.constraints_lb(), nlp.constraints_ub(), nlp.primals_lb(), nlp.primals_ub())
+    m.p.set_value(2.0)
+    nlp.refresh_parameters()
+    fresh = CasadiNLP(m)
+    after = (nlp.constraints_lb(), nlp.constraints_ub(), nlp.primals_lb(), nlp.primals_ub())
+    for got, want in zip(after, (fresh.constraints_lb(), fresh.constraints_ub(), fresh.primals_lb(),
+                                 fresh.primals_ub()), strict=True):  # fmt: skip
+        np.testing.assert_array_equal(got, want)
+    assert not all(np.array_equal(a, b) for a, b in zip(before, after, strict=True))
+    assert 2.0 in after[0] and 3.0 in after[3]  # the row's Param bound; the bound row's x2 <= 3 p / 2

@@ -315,7 +315,13 @@ class CasadiNLP(NLP):
         return self._reduced_bounds()[1]
 
     def _reduced_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Variable bounds of the reduced NLP, tightened by the singleton rows."""
+        """Variable bounds of the reduced NLP, tightened by the singleton rows (computed once per
+        ``refresh_parameters``: they depend on the Params and bounds it re-reads)."""
+        if self._reduced is None:
+            self._reduced = self._tightened_bounds()
+        return self._reduced[0].copy(), self._reduced[1].copy()
+
+    def _tightened_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         lb, ub = (b[self._cols] for b in self._var_bounds())
         if len(self._bound_rows):
             pool = self._pool(np.zeros(len(self.variables)))
@@ -346,13 +352,28 @@ class CasadiNLP(NLP):
         return np.zeros(size)
 
     def _bounds_now(self) -> tuple[np.ndarray, np.ndarray]:
-        lo = np.array([_number(a, -np.inf) for a, _ in self._bound_exprs], dtype=float)
-        hi = np.array([_number(b, np.inf) for _, b in self._bound_exprs], dtype=float)
-        return lo, hi
+        """The rows' bounds now: the constant ones read once, the Param expressions evaluated."""
+        if not hasattr(self, "_bound_split"):
+            split = []
+            for side, missing in ((0, -np.inf), (1, np.inf)):
+                exprs = [e[side] for e in self._bound_exprs]
+                moving = [i for i, e in enumerate(exprs) if e is not None and type(e) not in native_numeric_types]
+                skip = set(moving)
+                const = np.array([missing if e is None or i in skip else e for i, e in enumerate(exprs)], dtype=float)
+                split.append((const, np.array(moving, dtype=int), [exprs[i] for i in moving]))
+            self._bound_split = split
+        out = []
+        for const, moving, exprs in self._bound_split:
+            values = const.copy()
+            if len(moving):
+                values[moving] = [pyo.value(e) for e in exprs]
+            out.append(values)
+        return out[0], out[1]
 
     def _evaluate_bounds(self) -> None:
         """Constraint bounds may be Param expressions: evaluate them now."""
         self._gl, self._gu = self._bounds_now()
+        self._reduced = None
 
     # -- state -------------------------------------------------------------------
     def set_primals(self, primals: np.ndarray) -> None:

@@ -50,6 +50,7 @@ Offset-free MPC (by default for a fixed final time only, ``MPCSettings.offset_fr
 from __future__ import annotations
 
 import copy
+import gc
 import math
 import time
 from dataclasses import dataclass, field
@@ -223,6 +224,11 @@ class MPC:
                                          self.settings.qp_options)  # fmt: skip
             self._rti_key = None
             self.rti.step(self.plan.x)  # the QP solver's first (cold) active set, before the loop
+        # The horizon was built with the collector paused: its ~10^6 objects sit in the youngest
+        # generation, and the first collections in the loop would traverse them (measured: 1-6 s
+        # pauses inside steps on the semitrailer's road horizon). One full collection now moves
+        # them to the oldest generation, which the loop's allocations do not trigger.
+        gc.collect()
 
     # -- the Controller protocol ---------------------------------------------------------
     def make_step(self, t: float, y: np.ndarray, pending: np.ndarray) -> np.ndarray:
