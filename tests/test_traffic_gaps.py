@@ -133,3 +133,11 @@ def test_group_measures_pool_the_gaps_and_subtract_the_free_line_time():
     assert row["q"] == pytest.approx(20 / 120)
     assert row["line_wait"] == pytest.approx(2.0)
     assert row["adams_delay"] == pytest.approx(adams_delay(20 / 120, g["critical_gap"]))
+
+
+def test_without_a_rejected_gap_there_is_only_a_bound_and_no_adams_delay():
+    run = {"entry": 1.0, "line_time": 1.0, "accepted_gap": 9.0, "rejected_gaps": [], "occupancy": 2.0,
+           "passages": 3, "recorded_seconds": 30.0, "entry_wait": 0.0}  # fmt: skip
+    g = group_measures([{"rate": 600.0, "runs": [run, {**run, "accepted_gap": 7.0}]}])
+    assert g["critical_gap"] is None and g["critical_gap_at_most"] == 7.0
+    assert "adams_delay" not in g["cells"][0] and "capacity_pcph" not in g["cells"][0]

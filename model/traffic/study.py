@@ -127,18 +127,22 @@ def group_measures(cells: Sequence[Mapping]) -> dict:
     Returns
     -------
     dict
-        ``critical_gap`` (Raff, s; None without an accepted gap), its counts, ``follow_up`` (s),
+        ``critical_gap`` (Raff, s; None without an accepted or a rejected gap), ``critical_gap_at_most``
+        (the shortest accepted gap when none was rejected: an upper bound), the counts, ``follow_up`` (s),
         ``line_time_free`` (s, the mean time from the line to the entry at rate 0) and per cell
         ``q`` (veh/s), the mean wait at the line beyond the free one, Adams' delay, capacities.
     """
     runs = [r for c in cells for r in c["runs"] if r.get("entry") is not None]
     accepted = [r["accepted_gap"] for r in runs if r.get("accepted_gap") is not None]
     rejected = [g for r in runs for g in r.get("rejected_gaps", [])]
-    tc = raff_critical_gap(accepted, rejected)
+    # Raff's crossing needs rejected gaps: without any it is only an upper bound (the shortest accepted one)
+    bound = raff_critical_gap(accepted, rejected)
+    tc = bound if rejected else None
     tf = _mean([r["occupancy"] for r in runs if math.isfinite(r.get("occupancy") or math.nan)])
     free = [r["line_time"] for c in cells if c["rate"] == 0 for r in c["runs"] if r.get("entry") is not None]
     line_free = _mean(free)
-    out = {"critical_gap": tc, "accepted": len(accepted), "rejected": len(rejected), "follow_up": tf,
+    out = {"critical_gap": tc, "critical_gap_at_most": bound, "accepted": len(accepted), "rejected": len(rejected),
+           "follow_up": tf,
            "line_time_free": line_free, "cells": []}  # fmt: skip
     for c in sorted(cells, key=lambda c: c["rate"]):
         seconds = sum(r["recorded_seconds"] for r in c["runs"])

@@ -56,7 +56,8 @@ COLUMNS = {"vehicle": "vehicle", "rate": "veh/h per leg", "driver": "driver", "r
            "delay_median": "median delay s", "entry_wait": "mean entry wait s", "others_loss": "others' loss s",
            "others_loss_without": "without truck s", "min_clearance": "least road clearance m",
            "road_violations": "road violations"}  # fmt: skip
-GAP_COLUMNS = {"vehicle": "vehicle", "driver": "driver", "critical_gap": "t_c (Raff) s", "accepted": "accepted",
+GAP_COLUMNS = {"vehicle": "vehicle", "driver": "driver", "critical_gap": "t_c (Raff) s",
+               "critical_gap_at_most": "t_c at most s", "accepted": "accepted",
                "rejected": "rejected", "follow_up": "t_f s", "line_time_free": "line to entry, free s"}  # fmt: skip
 COMPARE_COLUMNS = {"vehicle": "vehicle", "driver": "driver", "rate": "veh/h per leg", "vc_pcph": "v_c measured pc/h",
                    "line_wait": "wait at the line s", "adams_delay": "Adams E[W] s",
@@ -123,8 +124,9 @@ circulating vehicles cross the ray along the entry leg's axis across the ring ro
 truck accepted is the headway of that stream containing its entry (its front bumper crossing the outer
 curb); the gaps it rejected are the complete headways between its arrival within 10 m of the curb and
 its entry. The effective critical gap t_c is Raff's: the t at which the number of accepted gaps
-shorter than t equals the number of rejected gaps longer than t (with no rejected gap it is the
-shortest accepted one, an upper bound). The follow-up time t_f is the truck's mean entry occupancy
+shorter than t equals the number of rejected gaps longer than t. With no rejected gap there is no
+estimate, only an upper bound (the shortest accepted gap, "t_c at most"), and no Adams delay or gap
+capacity is computed from it. The follow-up time t_f is the truck's mean entry occupancy
 (front bumper in to the rear of its last body in), a lower bound of a queued truck's follow-up headway.
 
 {table(gap_rows, GAP_COLUMNS)}
