@@ -147,8 +147,13 @@ def test_a_route_the_strips_do_not_solve_exits_1_with_a_diagnosis(tmp_path):
 
 def test_a_straight_on_route_the_first_cut_did_not_solve_now_validates(tmp_path):
     """The goal pose's strip rows are gone (``fixed_nodes``): the SU-30 straight on at Kackertstrasse
-    validates from the centre line, its bodies inside the corridor at every node (checked here again)."""
+    validates from the centre line, its bodies inside the corridor at every node (checked here again,
+    and against commonroad-drivability-checker's road boundary of the written commonroad.xml)."""
     pytest.importorskip("commonroad")
+    pycrcc = pytest.importorskip("commonroad_dc.pycrcc")
+    from commonroad.common.file_reader import CommonRoadFileReader
+    from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
+
     run, path, out = solve(tmp_path, "kackert-straight", STRAIGHT)
     assert run.returncode == 0, run.stderr
     summary = json.loads((out / "summary.json").read_text())
@@ -160,6 +165,14 @@ def test_a_straight_on_route_the_first_cut_did_not_solve_now_validates(tmp_path)
         x, y, h = ocp.vehicle.state_function(list(poses[name]))(cols)
         corridor = ocp.map_route.corridor(name).buffer(1e-6)
         assert all(corridor.contains(shapely.Polygon(c)) for c in body.corners(x, y, h))
+    scenario, _ = CommonRoadFileReader(str(out / "commonroad.xml")).open()
+    _, boundary = create_road_boundary_obstacle(scenario, method="aligned_triangulation", axis=2)
+    for name, body in ocp.bodies.items():
+        x, y, h = ocp.vehicle.state_function(list(poses[name]))(cols)
+        centre = body.corners(x, y, h).mean(axis=1)
+        shrunk = [pycrcc.RectOBB(body.length / 2 - 0.01, body.width / 2 - 0.01, float(a), float(cx), float(cy))
+                  for a, (cx, cy) in zip(h, centre, strict=True)]  # fmt: skip
+        assert not any(boundary.collide(r) for r in shrunk), name
 
 
 def test_the_map_search_honours_its_time_limit():
