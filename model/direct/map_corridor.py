@@ -276,7 +276,7 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
     for k in range(iterations):
         if k and deadline is not None and time.monotonic() >= deadline:
             break
-        it = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, _timed(options, deadline))
+        it, s_new = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, _timed(options, deadline))
         result.iterates.append(it)
         if on_iterate is not None:
             on_iterate(it)
@@ -284,8 +284,7 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
         if sol.status not in ("optimal", "acceptable", "validation_failed"):
             break
         cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
-        start = Start(values=cols, final_time=sol.final_time)
-        s_fixed = projections(ocp, cols, st)
+        start, s_fixed = Start(values=cols, final_time=sol.final_time), s_new
         if it.moved < tol:
             break
     return result
@@ -304,8 +303,8 @@ def _timed(options: dict | None, deadline: float | None) -> dict:
 
 
 def _strip_solve(ocp: OCP, intervals: int, st: Strips, s_fixed: dict[str, np.ndarray], start: Start,
-                 trust: float | None, relax: bool, options: dict) -> Iterate:  # fmt: skip
-    """One solve with the strips at the fixed projections ``s_fixed``, from ``start``."""
+                 trust: float | None, relax: bool, options: dict) -> tuple[Iterate, dict[str, np.ndarray]]:  # fmt: skip
+    """One solve with the strips at the fixed projections ``s_fixed``, from ``start``; and its answer's projections."""
     t0 = time.perf_counter()
     with paused_gc():
         m = build_model(ocp, intervals)
@@ -321,4 +320,4 @@ def _strip_solve(ocp: OCP, intervals: int, st: Strips, s_fixed: dict[str, np.nda
     moved = max(float(np.max(np.abs(s_new[b] - s_fixed[b]))) for b in s_new)
     violation = _violation(m) if relax else None
     return Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0, getattr(m, "narrow_rows", 0),
-                   violation)  # fmt: skip
+                   violation), s_new  # fmt: skip
