@@ -19,6 +19,7 @@ as exact rectangles in the shapely corridor at the nodes (``exact_clearance``).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -136,15 +137,33 @@ def projections(ocp: OCP, columns: dict[str, np.ndarray], st: Strips) -> dict[st
     return {name: st.frame.project(c) for name, c in disc_centres(ocp, columns, st.covers).items()}
 
 
+def fixed_nodes(ocp: OCP, intervals: int) -> dict[str, tuple[int, ...]]:
+    """Per body, the nodes (0 and/or ``intervals``) at which the boundary values fix its pose.
+
+    A body's pose is fixed at the start (goal) when every state its pose depends on has an initial
+    (final) value; there its exact rectangle was checked inside the corridor when the scenario was
+    read (``model.problem.maps``) and is checked again by the validation, so the strips, which are
+    conservative (a disc anywhere between the frame and the offset), need not hold there: at
+    Kackertstrasse the SU-30's goal on lane 19 lies 0.395 m outside its front disc's strip.
+    """
+    states, out = set(ocp.vehicle.states), {}
+    for name, pose in ocp.vehicle.body_poses().items():
+        used = {str(sym) for expr in pose for sym in getattr(expr, "free_symbols", ())} & states
+        out[name] = tuple(k for k, given in ((0, ocp.initial), (intervals, ocp.final)) if used <= set(given))
+    return out
+
+
 def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: dict[str, np.ndarray],
                           trust: float | None = None, relax: bool = False) -> None:  # fmt: skip
     """For every body, disc and node: the disc centre in the strip at its fixed arclength (linear rows).
 
+    No rows at the nodes where the boundary values fix the body's pose (``fixed_nodes``).
     ``trust`` (m): also keep each disc centre within that distance of its fixed arclength along the
     frame's tangent there, a trust region in which the strip stands for the corridor.
     ``relax``: each strip row gets a slack (m, >= 0, on both sides), collected in ``m.strip_slacks``.
     """
     poses = ocp.vehicle.body_poses()
+    fixed = fixed_nodes(ocp, len(m.nodes) - 1)
     for name, (offsets, _) in st.covers.items():
         s = s_fixed[name]
         c, tangent, n = st.frame.at(s)
@@ -161,7 +180,7 @@ def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: d
                 m.add_component(f"slack_left_{name}_{j}", slack[0])
                 m.add_component(f"slack_right_{name}_{j}", slack[1])
                 m.strip_slacks = [*getattr(m, "strip_slacks", []), *slack]
-            rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j], slack)
+            rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j], slack, fixed[name])
             m.add_component(f"strip_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
             if trust is not None:
                 bound = np.full(len(s), float(trust))
@@ -170,13 +189,15 @@ def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: d
 
 
 def _strip_rule(m: pyo.ConcreteModel, centre, c: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                slack=None):  # fmt: skip
-    """The rule ``lo_k <= n_k . (centre(t_k) - c_k) <= hi_k`` over the nodes t_k (with the pair of
-    slacks ``slack``: ``- left[t] + right[t]`` added to the middle term)."""
+                slack=None, skip: tuple[int, ...] = ()):  # fmt: skip
+    """The rule ``lo_k <= n_k . (centre(t_k) - c_k) <= hi_k`` over the nodes t_k but those in ``skip`` (with
+    the pair of slacks ``slack``: ``- left[t] + right[t]`` added to the middle term)."""
     index = {t: k for k, t in enumerate(m.nodes)}
 
     def rule(_m, t):
         k = index[t]
+        if k in skip:
+            return pyo.Constraint.Skip
         x, y = centre(t)
         lateral = n[k, 0] * (x - c[k, 0]) + n[k, 1] * (y - c[k, 1])
         if slack is not None:
@@ -236,36 +257,67 @@ def _violation(m: pyo.ConcreteModel) -> tuple[float, float]:
 
 
 def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0.05, options: dict | None = None,
-              st: Strips | None = None, trust: float | None = None, relax: bool = False) -> Result:  # fmt: skip
+              st: Strips | None = None, trust: float | None = None, relax: bool = False, start: Start | None = None,
+              deadline: float | None = None,
+              on_iterate: Callable[[Iterate], None] | None = None) -> Result:  # fmt: skip
     """The sequence of strip solves from the centre-line start (see the module docstring); ``trust``
     as in ``add_strip_constraints``. ``relax``: the minimal-violation sequence instead (the strip
     rows widened by slacks, their sum minimised plus 1e-4 m per second of Tf, as the roads'
-    ``diagnosis``); ``Iterate.violation`` is the sum and the largest slack."""
+    ``diagnosis``); ``Iterate.violation`` is the sum and the largest slack.
+
+    ``start``: the first solve's start (default ``centre_line_start``; its projections fix the first
+    strips). ``deadline`` (``time.monotonic()``): each Ipopt run gets the time left as ``max_wall_time``
+    (at least ``MIN_WALL_TIME``) and no solve begins after it. ``on_iterate``: called with each Iterate.
+    """
     st = st or strips(ocp)
-    start = centre_line_start(ocp, intervals, st)
+    start = start or centre_line_start(ocp, intervals, st)
     s_fixed = projections(ocp, start.values, st)
     result = Result()
-    for _ in range(iterations):
-        t0 = time.perf_counter()
-        with paused_gc():
-            m = build_model(ocp, intervals)
-            add_strip_constraints(m, ocp, st, s_fixed, trust, relax)
-            if relax:
-                _minimal_violation(m, ocp)
-            load_start(m, start)
-            nlp = CasadiNLP(m)
-            res = run_ipopt(nlp, options, x0=nlp.init_primals())
-            sol = finish(ocp, m, nlp, res, "ccw", {}, analyse=True)
-        cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
-        s_new = projections(ocp, cols, st)
-        moved = max(float(np.max(np.abs(s_new[b] - s_fixed[b]))) for b in s_new)
-        violation = _violation(m) if relax else None
-        result.iterates.append(Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0,
-                                       getattr(m, "narrow_rows", 0), violation))  # fmt: skip
+    for k in range(iterations):
+        if k and deadline is not None and time.monotonic() >= deadline:
+            break
+        it, s_new = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, _timed(options, deadline))
+        result.iterates.append(it)
+        if on_iterate is not None:
+            on_iterate(it)
+        sol = it.solution
         if sol.status not in ("optimal", "acceptable", "validation_failed"):
             break
-        start = Start(values=cols, final_time=sol.final_time)
-        s_fixed = s_new
-        if moved < tol:
+        cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
+        start, s_fixed = Start(values=cols, final_time=sol.final_time), s_new
+        if it.moved < tol:
             break
     return result
+
+
+MIN_WALL_TIME = 0.5  # s: a strip solve begun before the deadline runs at least this long
+
+
+def _timed(options: dict | None, deadline: float | None) -> dict:
+    """``options`` with the time left before ``deadline`` as Ipopt's ``max_wall_time`` (the smaller of the two)."""
+    out = dict(options or {})
+    if deadline is not None:
+        left = max(deadline - time.monotonic(), MIN_WALL_TIME)
+        out["max_wall_time"] = min(float(out.get("max_wall_time", left)), left)
+    return out
+
+
+def _strip_solve(ocp: OCP, intervals: int, st: Strips, s_fixed: dict[str, np.ndarray], start: Start,
+                 trust: float | None, relax: bool, options: dict) -> tuple[Iterate, dict[str, np.ndarray]]:  # fmt: skip
+    """One solve with the strips at the fixed projections ``s_fixed``, from ``start``; and its answer's projections."""
+    t0 = time.perf_counter()
+    with paused_gc():
+        m = build_model(ocp, intervals)
+        add_strip_constraints(m, ocp, st, s_fixed, trust, relax)
+        if relax:
+            _minimal_violation(m, ocp)
+        load_start(m, start)
+        nlp = CasadiNLP(m)
+        res = run_ipopt(nlp, options, x0=nlp.init_primals())
+        sol = finish(ocp, m, nlp, res, "ccw", {}, analyse=True)
+    cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
+    s_new = projections(ocp, cols, st)
+    moved = max(float(np.max(np.abs(s_new[b] - s_fixed[b]))) for b in s_new)
+    violation = _violation(m) if relax else None
+    return Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0, getattr(m, "narrow_rows", 0),
+                   violation), s_new  # fmt: skip

@@ -1,68 +1,239 @@
-"""The search for map scenarios: the curvilinear corridor strips' sequence of solves (docs/map-corridor.md).
+"""The search for map scenarios: sequences of corridor strip solves from several starts (docs/map-corridor.md).
 
-``solve_map_route`` is ``OCP.solve``'s default method when the problem has a ``map_route``: it runs
-``model.direct.map_corridor.solve_map`` (fixed-projection strip solves from the centre-line start,
-re-projected until the projections move less than 5 cm, at most 8 solves) and returns the last
-solve's Solution. That Solution is validated as every answer is, and its bodies as exact rectangles in
-the shapely corridor at the nodes and between them (``model.analysis.maps``); when a body leaves
-the corridor, or the solve fails, ``diagnosis`` says which body leaves it where and by how much.
+``solve_map_route`` is ``OCP.solve``'s default method when the problem has a ``map_route``. One
+*sequence* is ``model.direct.map_corridor.solve_map``: fixed-projection strip solves, re-projected
+until the projections move less than 5 cm (at most 8 solves). The search runs, until one validates:
+
+1. **centre line**: the sequence from the reference point driven along the route's centre line at
+   half the speed bound (the first cut's only start; where it validates the answer is the same);
+2. **finer grid**: where the answer fails only between the nodes (``body_clearance_dense``), the
+   sequence on 2N from it (interpolated);
+3. **minimal violation, then the strips**: the strip rows get slacks whose sum is minimised (the
+   sequence of ``relax=True`` from the centre line: a continuation in the corridor's width that is
+   always feasible); where its violation vanishes (< ``ZERO_VIOLATION``) or is small (< ``NEAR``
+   m at most), the plain sequence from its answer; a positive minimum is the diagnosis;
+4. **other speeds** (``search = "thorough"`` only): the centre-line start at other fractions of the
+   speed bound (other Tf guesses), each a sequence. With a free Tf they reach the same fixed point
+   as step 1 (measured on Thiergarten 21 -> 90, SU-30: the same eight Tf to 4 digits from 0.3, 0.5
+   and 0.8), so the default search leaves them out.
+
+The best validated answer (the lowest objective) is returned; with none, the failed answer whose
+bodies leave the corridor least, with ``diagnosis``: which body leaves it where and by how much
+(``model.analysis.maps``), the failed checks, and the minimal violation of step 3. ``time_limit``
+(s) is honoured as the roundabout search does (``model.search.context``): each Ipopt run gets the
+time left, no solve begins after it, and ``search`` says what it cut short. ``progress`` gets one
+line per step and per strip solve.
 """
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from model.analysis.maps import corridor_diagnosis
-from model.direct.map_corridor import solve_map
+from model.direct.map_corridor import Iterate, Result, Strips, centre_line_start, solve_map, strips
 from model.direct.solution import Solution
+from model.direct.solve import Start
 from model.problem.ocp import OCP
+from model.search.context import Reporter, reporter
 
-ITERATIONS = 8  # at most this many strip solves
-TOLERANCE = 0.05  # m: the sequence stops when no projection moved more than this
+ITERATIONS = 8  # at most this many strip solves in a sequence
+TOLERANCE = 0.05  # m: a sequence stops when no projection moved more than this
+ZERO_VIOLATION = 1e-4  # m: summed strip slack below which the minimal-violation answer lies in the strips
+NEAR = 0.3  # m: the largest slack of a minimal-violation answer from which the plain strips are still tried
+SPEEDS = {"quick": (), "default": (), "thorough": (0.3, 0.8)}  # step 4's speed fractions (thorough only)
+CONVERGED = ("optimal", "acceptable", "validation_failed")  # Ipopt converged (a check may have failed)
+
+
+@dataclass
+class MapSearch:
+    """One map search's state: the problem, strips, Ipopt options, clock, the sequences run."""
+
+    ocp: OCP
+    intervals: int
+    st: Strips
+    options: dict
+    progress: Reporter
+    time_limit: float | None = None
+    started: float = field(default_factory=time.monotonic)
+    sequences: list[dict] = field(default_factory=list)
+    steps_skipped: list[str] = field(default_factory=list)
+    best: Solution | None = None
+    violation: tuple[float, float] | None = None  # step 3's minimum: (sum, largest) of the slacks, m
+    best_clearance: float = -np.inf  # m: the best answer's least exact clearance at the nodes
+
+    @property
+    def deadline(self) -> float | None:
+        """The ``time.monotonic()`` instant the budget ends (None: no limit)."""
+        return None if self.time_limit is None else self.started + self.time_limit
+
+    def expired(self) -> bool:
+        """Whether the time limit has passed."""
+        return self.deadline is not None and time.monotonic() >= self.deadline
+
+    def skip(self, step: str) -> bool:
+        """True (and ``step`` noted as skipped) if the time limit has passed (never before the first sequence)."""
+        if not self.sequences or not self.expired():
+            return False
+        if not self.steps_skipped:
+            self.progress(f"time limit of {self.time_limit:g} s reached: the map search stops with what it has found")
+        self.steps_skipped.append(step)
+        return True
+
+    def sequence(self, label: str, start: Start | None = None, intervals: int | None = None,
+                 relax: bool = False) -> Result:  # fmt: skip
+        """One sequence of strip solves (``solve_map``), recorded and reported; the best answer kept."""
+        n = intervals or self.intervals
+        solves: list[dict] = []
+
+        def report(it: Iterate) -> None:
+            sol = it.solution
+            extra = f", violation {it.violation[0]:.4f} m (largest {it.violation[1]:.4f} m)" if it.violation else ""
+            solves.append({"status": sol.status, "final_time": sol.final_time, "moved": it.moved,
+                           "exact_clearance": it.exact_clearance, "seconds": it.seconds,
+                           **({"violation": list(it.violation)} if it.violation else {})})  # fmt: skip
+            self.progress(f"[{label}, solve {len(solves)}] N = {n}: {sol.status}, Tf {sol.final_time:.4f} s, "
+                          f"moved {it.moved:.3f} m, exact clearance {it.exact_clearance:+.3f} m{extra}, "
+                          f"{it.seconds:.1f} s")  # fmt: skip
+
+        result = solve_map(self.ocp, n, iterations=ITERATIONS, tol=TOLERANCE, options=self.options, st=self.st,
+                           relax=relax, start=start, deadline=self.deadline, on_iterate=report)  # fmt: skip
+        last = result.iterates[-1]
+        self.sequences.append({"start": label, "intervals": n, "relaxed": relax, "solves": solves,
+                               "converged": last.moved < TOLERANCE and last.solution.status in CONVERGED,
+                               "valid": bool(last.solution.ok)})  # fmt: skip
+        if not relax and _before(last, self.best, self.best_clearance):
+            self.best = last.solution
+            self.best.search = {"converged": self.sequences[-1]["converged"]}
+            self.best_clearance = last.exact_clearance
+        return result
+
+
+def _before(it: Iterate, best: Solution | None, clearance: float) -> bool:
+    """Whether ``it``'s answer replaces ``best`` (whose least exact clearance is ``clearance``): validated
+    first, then the lower objective (validated) or the larger exact clearance (failed, converged first)."""
+    sol = it.solution
+    if best is None:
+        return True
+    if sol.ok != best.ok:
+        return sol.ok
+    if sol.ok:
+        return sol.objective < best.objective * (1 - 1e-6)
+    converged, was = sol.status in CONVERGED, best.status in CONVERGED
+    if converged != was:
+        return converged
+    return it.exact_clearance > clearance
 
 
 def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None, verbose: bool = False,
+                    progress=None, time_limit: float | None = None, search: str = "default",
                     **_ignored: Any) -> Solution:  # fmt: skip
-    """Solve a route through a lanelet map by the sequence of corridor strip solves.
+    """Solve a route through a lanelet map by the steps of the module docstring.
 
     Parameters
     ----------
     ocp : OCP
         A problem with a ``map_route``.
     intervals : int
-        N, the trapezoid steps of each solve.
+        N, the trapezoid steps of each solve (the finer-grid step uses 2N).
     options : dict, optional
         Ipopt options (``verbose`` adds ``print_level`` 5).
+    progress : callable, optional
+        Receives the search's progress lines.
+    time_limit : float, optional
+        Seconds for the whole search (None: no limit).
+    search : str
+        "quick" (steps 1-2), "default" (steps 1-3) or "thorough" (steps 1-4).
     **_ignored
-        The roundabout search's options (``progress``, ``search``, ``time_limit``, ...), not used here.
+        The roundabout search's other options (``guess``, ``starts``, ``formulation``), not used here.
 
     Returns
     -------
     Solution
-        The last solve of the sequence; ``search`` records each solve (status, Tf, how far the
-        projections moved, the exact clearance at the nodes), ``diagnosis`` is set unless ``ok``.
+        The best answer; ``search`` records each sequence (start, N, each solve's status, Tf, how far
+        the projections moved, the exact clearance at the nodes) and the time limit; ``diagnosis`` is
+        set unless ``ok``.
     """
     ipopt = dict(options or {})
     if verbose:
         ipopt.setdefault("print_level", 5)
-    result = solve_map(ocp, intervals, iterations=ITERATIONS, tol=TOLERANCE, options=ipopt)
-    sol = result.solution
+    if search not in SPEEDS:
+        raise ValueError(f"search must be one of {', '.join(SPEEDS)}, got {search!r}")
+    run = MapSearch(ocp, intervals, strips(ocp), ipopt, reporter(progress), time_limit)
+    run.progress("map search: the strip sequence from the centre line")
+    run.sequence("centre line x0.5")
+    _refine(run)
+    if not run.best.ok and search != "quick" and not run.skip("minimal violation"):
+        _minimal_violation_step(run)
+    for speed in SPEEDS[search]:
+        if run.best.ok or run.skip(f"centre line x{speed:g}"):
+            break
+        run.progress(f"no sequence validated: the centre line at {speed:g} of the speed bound")
+        run.sequence(f"centre line x{speed:g}", centre_line_start(ocp, intervals, run.st, speed))
+        _refine(run)
+    return _finished(run)
+
+
+def _refine(run: MapSearch) -> None:
+    """Step 2: the sequence on 2N from an answer that fails only between the nodes."""
+    best = run.best
+    failed = [k for k, c in best.validation.get("checks", {}).items() if not c["passed"]]
+    if best.ok or failed != ["body_clearance_dense"] or best.intervals != run.intervals or run.skip("finer grid"):
+        return
+    n = 2 * run.intervals
+    run.progress(f"the answer leaves the corridor only between the nodes: the strips on N = {n} from it")
+    run.sequence(f"finer grid from {run.sequences[-1]['start']}", interpolated(run.ocp, best, n), n)
+
+
+def interpolated(ocp: OCP, sol: Solution, intervals: int) -> Start:
+    """``sol``'s states and controls interpolated linearly onto ``intervals`` equal steps of its Tf."""
+    t = np.asarray(sol.columns["t"], float)
+    tau, new = (t - t[0]) / (t[-1] - t[0]), np.linspace(0.0, 1.0, intervals + 1)
+    names = [k for k in ocp.vehicle.states + ocp.vehicle.controls if k in sol.columns]
+    return Start(values={k: np.interp(new, tau, np.asarray(sol.columns[k], float)) for k in names},
+                 final_time=sol.final_time)  # fmt: skip
+
+
+def _minimal_violation_step(run: MapSearch) -> None:
+    """Step 3: the minimal-violation sequence from the centre line; the plain strips from its answer."""
+    run.progress("no sequence validated: the strips with slacks (minimal violation), then the strips from it")
+    relaxed = run.sequence("minimal violation", relax=True).iterates[-1]
+    if relaxed.violation is None or relaxed.solution.status not in CONVERGED:
+        return
+    run.violation = relaxed.violation
+    if relaxed.violation[1] > NEAR or run.skip("strips from the minimal violation"):
+        return
+    cols = {k: np.asarray(relaxed.solution.columns[k]) for k in run.ocp.vehicle.states + run.ocp.vehicle.controls}
+    run.sequence("from the minimal violation", Start(values=cols, final_time=relaxed.solution.final_time))
+    _refine(run)
+
+
+def _finished(run: MapSearch) -> Solution:
+    """The best answer with the search's record (and its diagnosis unless it validated)."""
+    sol = run.best
+    last = next(s for s in reversed(run.sequences) if not s["relaxed"] and s["valid"] == sol.ok)
     sol.search = {
-        "method": "map corridor strips (fixed projections)",
-        "solves": [{"status": it.solution.status, "final_time": it.solution.final_time, "moved": it.moved,
-                    "exact_clearance": it.exact_clearance, "seconds": it.seconds} for it in result.iterates],
-        "converged": result.iterates[-1].moved < TOLERANCE,
+        "method": "map corridor strips (fixed projections), several starts",
+        "solves": last["solves"],  # the sequence of the answer
+        "converged": sol.search.get("converged", False),
+        "sequences": run.sequences,
+        "time_limit": run.time_limit, "stopped_by_time_limit": bool(run.steps_skipped),
+        "starts_skipped": len(run.steps_skipped), "steps_skipped": run.steps_skipped,
+        "seconds": time.monotonic() - run.started,
     }  # fmt: skip
-    sol.timings = {**sol.timings, "solves_seconds": float(sum(it.seconds for it in result.iterates))}
+    seconds = sum(x["seconds"] for s in run.sequences for x in s["solves"])
+    sol.timings = {**sol.timings, "solves_seconds": float(seconds)}
     if not sol.ok:
-        sol.diagnosis = diagnosis(sol)
+        sol.diagnosis = diagnosis(sol, run.violation)
     return sol
 
 
-def diagnosis(sol: Solution) -> dict:
-    """Why a map solve failed: the bodies that leave the corridor (where and by how much) and the failed checks."""
+def diagnosis(sol: Solution, violation: tuple[float, float] | None = None) -> dict:
+    """Why a map solve failed: the bodies that leave the corridor (where and by how much), the failed checks,
+    and the minimal violation of the strips (``violation``: sum and largest slack, m) where it was solved."""
     ocp = sol.ocp
     states = {k: np.asarray(sol.columns[k]) for k in ("t", *ocp.vehicle.states)}
     bodies = corridor_diagnosis(ocp, states)
@@ -73,5 +244,11 @@ def diagnosis(sol: Solution) -> dict:
         parts.insert(0, f"Ipopt: {sol.status}")
     if not sol.search.get("converged", True):
         parts.append(f"the projections did not converge in {len(sol.search['solves'])} solves")
-    return {"kind": "map corridor", "message": "; ".join(parts) or "validation failed: " + ", ".join(failed),
-            "bodies": bodies, "failed_checks": failed}  # fmt: skip
+    if violation is not None and violation[0] > ZERO_VIOLATION:
+        parts.append(f"the strips with slacks need {violation[1]:.3f} m at most ({violation[0]:.3f} m summed over "
+                     "the discs and nodes) beyond the corridor")  # fmt: skip
+    out = {"kind": "map corridor", "message": "; ".join(parts) or "validation failed: " + ", ".join(failed),
+           "bodies": bodies, "failed_checks": failed}  # fmt: skip
+    if violation is not None:
+        out["minimal_violation"] = {"sum": violation[0], "largest": violation[1]}
+    return out
