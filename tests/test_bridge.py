@@ -142,3 +142,16 @@ def test_refresh_re_reads_param_bounds_and_the_bound_rows():
         np.testing.assert_array_equal(got, want)
     assert not all(np.array_equal(a, b) for a, b in zip(before, after, strict=True))
     assert 2.0 in after[0] and 3.0 in after[3]  # the row's Param bound; the bound row's x2 <= 3 p / 2
+
+
+def test_first_order_in_one_call_matches_the_separate_evaluations(nlp):
+    """``evaluate_first_order``: g, the gradient and the Jacobian's values of the current primals, copies."""
+    rng = np.random.default_rng(3)
+    for _ in range(2):  # a second point: the buffers are refilled, not stale
+        nlp.set_primals(rng.uniform(0.1, 0.9, nlp.n_primals()))
+        g, grad, jac = nlp.evaluate_first_order()
+        np.testing.assert_array_equal(g, nlp.evaluate_constraints())
+        np.testing.assert_array_equal(grad, nlp.evaluate_grad_objective())
+        np.testing.assert_array_equal(jac, nlp.evaluate_jacobian().data)
+    g[:] = np.nan  # a copy: the next call is untouched
+    assert np.all(np.isfinite(nlp.evaluate_first_order()[0]))

@@ -441,6 +441,22 @@ class CasadiNLP(NLP):
         rows, cols = self._jac_rc
         return coo_matrix((data.copy(), (rows, cols)), shape=(self.n_constraints(), self.n_primals()))
 
+    def evaluate_first_order(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The constraints, the objective's gradient and the Jacobian's values (in the order of
+        ``evaluate_jacobian``'s entries) at the current primals, in one CasADi call.
+
+        The three share the horizon's mapped templates' inputs, so one call spends less in the
+        function's virtual machine than three (semitrailer horizon: 2.6 against 3.0 ms). The
+        arrays are copies.
+        """
+        if "first_order" not in self._fns:
+            parts = [self._fns[k].fn for k in ("g", "grad", "jac")]
+            x, p = ca.MX.sym("x", parts[0].size1_in(0)), ca.MX.sym("p", parts[0].size1_in(1))
+            fn = ca.Function("first_order", [x, p], [f(x, p) for f in parts])
+            self._fns["first_order"] = _Buffered(fn, *(f.nnz_out(0) for f in parts))
+        g, grad, jac = self._fns["first_order"].call_all(self._x, self._p)
+        return g.copy(), grad.copy(), jac.copy()
+
     def evaluate_hessian_lag(self, out: coo_matrix | None = None) -> coo_matrix:
         data = self._fns["hess"](self._x, self._p, self._sigma, self._y)
         if out is not None:
@@ -707,17 +723,24 @@ def _is_zero(value) -> bool:
 class _Buffered:
     """A CasADi Function called through persistent numpy buffers (no copies per call)."""
 
-    def __init__(self, fn: ca.Function, n_out: int):
+    def __init__(self, fn: ca.Function, *n_out: int):
         self.fn = fn
         self.buf, self.trigger = fn.buffer()
-        self.out = np.zeros(n_out)
-        self.buf.set_res(0, memoryview(self.out))
+        self.outs = [np.zeros(n) for n in n_out]
+        for i, out in enumerate(self.outs):
+            self.buf.set_res(i, memoryview(out))
+        self.out = self.outs[0]
 
     def __call__(self, *args: np.ndarray) -> np.ndarray:
+        """The first output (the buffer itself)."""
+        return self.call_all(*args)[0]
+
+    def call_all(self, *args: np.ndarray) -> list[np.ndarray]:
+        """Every output (the buffers themselves)."""
         for i, a in enumerate(args):
             self.buf.set_arg(i, memoryview(np.ascontiguousarray(a, dtype=float)))
         self.trigger()
-        return self.out
+        return self.outs
 
 
 def _emit(values: np.ndarray, out: np.ndarray | None) -> np.ndarray:
