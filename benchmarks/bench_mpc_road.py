@@ -1,7 +1,7 @@
 """Benchmark: real-time MPC on the roundabout road with bodies, against a plain CasADi Opti peer.
 
 Usage: python benchmarks/bench_mpc_road.py [--cases truck semitrailer] [--controllers rti ipopt]
-       [--reference-intervals 100] [--no-peer]
+       [--reference-intervals 100] [--no-peer] [--compiled]
 
 Cases: the rigid truck (examples/roundabout-truck.toml), the EU semitrailer
 (examples/roundabout-semitrailer.toml) and the truck with a crossing car (examples/crossing-car.toml)
@@ -231,13 +231,13 @@ class Shadowed:
         return u
 
 
-def run(case: str, controller: str, reference_intervals: int, peer: bool) -> dict:
+def run(case: str, controller: str, reference_intervals: int, peer: bool, compiled: bool = False) -> dict:
     sc = load_scenario(ROOT / CASES[case])
     t0 = time.perf_counter()
     sol = sc.ocp.solve(intervals=reference_intervals)
     solve_seconds = time.perf_counter() - t0
     control, disturbance = ControlSettings(SAMPLE, HORIZON), Disturbance()
-    mpc = MPC(sol, control, disturbance, settings=MPCSettings(realtime=controller == "rti"))
+    mpc = MPC(sol, control, disturbance, settings=MPCSettings(realtime=controller == "rti", rti_compiled=compiled))
     shadow = Shadowed(mpc, OptiPeer(mpc) if peer else None)
     load_before = os.getloadavg()[0]
     loop = simulate(sc, sol, shadow, disturbance, control)
@@ -299,6 +299,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--controllers", nargs="+", default=["rti", "ipopt"], choices=["rti", "ipopt"])
     ap.add_argument("--reference-intervals", type=int, default=100)
     ap.add_argument("--no-peer", action="store_true")
+    ap.add_argument("--compiled", action="store_true", help="the RTI's first-order functions as compiled C")
     args = ap.parse_args(argv)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, CasADi {ca.__version__}, load average {os.getloadavg()[0]:.2f}; "
@@ -307,7 +308,7 @@ def main(argv: list[str] | None = None) -> int:
     print("|" + "---|" * (HEAD.count("|") - 1))
     for case in args.cases:
         for controller in args.controllers:
-            print(line(run(case, controller, args.reference_intervals, not args.no_peer)), flush=True)
+            print(line(run(case, controller, args.reference_intervals, not args.no_peer, args.compiled)), flush=True)
     return 0
 
 
