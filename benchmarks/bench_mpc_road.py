@@ -80,6 +80,15 @@ The 10 ms mean / 30 ms worst target is met by the truck's CPU time only; on the 
 crossing car a step's CPU is still about 2x the target (CPU profile of the semitrailer loop: the
 QP ~35 %, about 20 hot-started qpOASES iterations of ~0.1-0.2 ms on ~1500 rows; the function
 evaluations ~20 %; the condensing's LU and solves ~10 %).
+
+Second round (``--controllers rti --no-peer [--compiled]``, load 5-9, CPU mean / max ms): the
+worst steps are those with many hot-started qpOASES iterations (100-173; correlation of a step's CPU
+time with the QP's iteration count 0.95-0.99), not a cold QP, a collection, the check or a fallback.
+At 5c53a87 7.5 / 18.9 (truck), 19.5 / 55.6 (semitrailer), 15.1 / 64.8 (crossing car); g, gradient
+and Jacobian in one CasADi call: 7.0 / 19.2 and 7.2 / 19.5, 17.6 / 51.7 and 17.0 / 50.2, 16.0 / 65.6
+and 15.6 / 65.3 (two runs); with ``--compiled`` (gcc -O1, cached under ~/.cache/roundabout-ocp; the
+first run compiles in the MPC's constructor): 8.0 / 21.6 and 6.6 / 17.7, 17.1 / 52.0 and 17.4 / 51.8,
+15.2 / 63.0 and 13.6 / 60.2. Same closed loops in every run.
 """
 
 from __future__ import annotations

@@ -473,7 +473,7 @@ class CasadiNLP(NLP):
         flags under ``cache_dir`` (default ``$XDG_CACHE_HOME/roundabout-ocp`` or
         ``~/.cache/roundabout-ocp``) and loaded from there by later calls (and processes) with the
         same function. Semitrailer road horizon (3250 columns): 1.4 against 2.6 ms per call, gcc
-        -O1 about 80 s once (-O0 compiles in 14 s but runs no faster than the interpreter).
+        -O1 about 40 s CPU (83 s wall at load 5) once (-O0 compiles in 14 s but runs no faster than the interpreter).
 
         Parameters
         ----------

@@ -121,7 +121,7 @@ class MPCSettings:
         Options of the QP solver (``casadi.conic``'s plug-in options).
     rti_compiled : bool
         The real-time iteration evaluates the constraints, the gradient and the Jacobian by C code
-        compiled with gcc and cached on disk (``CasadiNLP.compile_first_order``: about 80 s once per
+        compiled with gcc and cached on disk (``CasadiNLP.compile_first_order``: about 40 s CPU once per
         horizon structure on the semitrailer, then 1.4 instead of 2.6 ms per step); if compiling
         fails, a warning and the interpreted functions.
     estimator_window : int
