@@ -1,7 +1,7 @@
 """Benchmark: real-time MPC on the roundabout road with bodies, against a plain CasADi Opti peer.
 
 Usage: python benchmarks/bench_mpc_road.py [--cases truck semitrailer] [--controllers rti ipopt]
-       [--reference-intervals 100] [--no-peer]
+       [--reference-intervals 100] [--no-peer] [--compiled]
 
 Cases: the rigid truck (examples/roundabout-truck.toml), the EU semitrailer
 (examples/roundabout-semitrailer.toml) and the truck with a crossing car (examples/crossing-car.toml)
@@ -80,6 +80,15 @@ The 10 ms mean / 30 ms worst target is met by the truck's CPU time only; on the 
 crossing car a step's CPU is still about 2x the target (CPU profile of the semitrailer loop: the
 QP ~35 %, about 20 hot-started qpOASES iterations of ~0.1-0.2 ms on ~1500 rows; the function
 evaluations ~20 %; the condensing's LU and solves ~10 %).
+
+Second round (``--controllers rti --no-peer [--compiled]``, load 5-9, CPU mean / max ms): the
+worst steps are those with many hot-started qpOASES iterations (100-173; correlation of a step's CPU
+time with the QP's iteration count 0.95-0.99), not a cold QP, a collection, the check or a fallback.
+At 5c53a87 7.5 / 18.9 (truck), 19.5 / 55.6 (semitrailer), 15.1 / 64.8 (crossing car); g, gradient
+and Jacobian in one CasADi call: 7.0 / 19.2 and 7.2 / 19.5, 17.6 / 51.7 and 17.0 / 50.2, 16.0 / 65.6
+and 15.6 / 65.3 (two runs); with ``--compiled`` (gcc -O1, cached under ~/.cache/roundabout-ocp; the
+first run compiles in the MPC's constructor): 8.0 / 21.6 and 6.6 / 17.7, 17.1 / 52.0 and 17.4 / 51.8,
+15.2 / 63.0 and 13.6 / 60.2. Same closed loops in every run.
 """
 
 from __future__ import annotations
@@ -231,13 +240,13 @@ class Shadowed:
         return u
 
 
-def run(case: str, controller: str, reference_intervals: int, peer: bool) -> dict:
+def run(case: str, controller: str, reference_intervals: int, peer: bool, compiled: bool = False) -> dict:
     sc = load_scenario(ROOT / CASES[case])
     t0 = time.perf_counter()
     sol = sc.ocp.solve(intervals=reference_intervals)
     solve_seconds = time.perf_counter() - t0
     control, disturbance = ControlSettings(SAMPLE, HORIZON), Disturbance()
-    mpc = MPC(sol, control, disturbance, settings=MPCSettings(realtime=controller == "rti"))
+    mpc = MPC(sol, control, disturbance, settings=MPCSettings(realtime=controller == "rti", rti_compiled=compiled))
     shadow = Shadowed(mpc, OptiPeer(mpc) if peer else None)
     load_before = os.getloadavg()[0]
     loop = simulate(sc, sol, shadow, disturbance, control)
@@ -299,6 +308,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--controllers", nargs="+", default=["rti", "ipopt"], choices=["rti", "ipopt"])
     ap.add_argument("--reference-intervals", type=int, default=100)
     ap.add_argument("--no-peer", action="store_true")
+    ap.add_argument("--compiled", action="store_true", help="the RTI's first-order functions as compiled C")
     args = ap.parse_args(argv)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, CasADi {ca.__version__}, load average {os.getloadavg()[0]:.2f}; "
@@ -307,7 +317,7 @@ def main(argv: list[str] | None = None) -> int:
     print("|" + "---|" * (HEAD.count("|") - 1))
     for case in args.cases:
         for controller in args.controllers:
-            print(line(run(case, controller, args.reference_intervals, not args.no_peer)), flush=True)
+            print(line(run(case, controller, args.reference_intervals, not args.no_peer, args.compiled)), flush=True)
     return 0
 
 

@@ -142,3 +142,44 @@ def test_refresh_re_reads_param_bounds_and_the_bound_rows():
         np.testing.assert_array_equal(got, want)
     assert not all(np.array_equal(a, b) for a, b in zip(before, after, strict=True))
     assert 2.0 in after[0] and 3.0 in after[3]  # the row's Param bound; the bound row's x2 <= 3 p / 2
+
+
+def test_first_order_in_one_call_matches_the_separate_evaluations(nlp):
+    """``evaluate_first_order``: g, the gradient and the Jacobian's values of the current primals, copies."""
+    rng = np.random.default_rng(3)
+    for _ in range(2):  # a second point: the buffers are refilled, not stale
+        nlp.set_primals(rng.uniform(0.1, 0.9, nlp.n_primals()))
+        g, grad, jac = nlp.evaluate_first_order()
+        np.testing.assert_array_equal(g, nlp.evaluate_constraints())
+        np.testing.assert_array_equal(grad, nlp.evaluate_grad_objective())
+        np.testing.assert_array_equal(jac, nlp.evaluate_jacobian().data)
+    g[:] = np.nan  # a copy: the next call is untouched
+    assert np.all(np.isfinite(nlp.evaluate_first_order()[0]))
+
+
+def test_compiled_first_order_matches_and_is_cached(tmp_path):
+    """gcc-compiled first-order functions: the interpreted values, and the library reused from the cache."""
+    model = build_model(paper_energy_problem(), intervals=6)
+    nlp = CasadiNLP(model)
+    x = np.random.default_rng(4).uniform(0.1, 0.9, nlp.n_primals())
+    nlp.set_primals(x)
+    interpreted = nlp.evaluate_first_order()
+    assert nlp.compile_first_order(tmp_path)
+    (library,) = tmp_path.glob("first_order_*.so")
+    stamp = library.stat().st_mtime_ns
+    for a, b in zip(nlp.evaluate_first_order(), interpreted, strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-13)
+    again = CasadiNLP(model)  # same structure: loaded from the cache, not compiled again
+    assert again.compile_first_order(tmp_path)
+    assert list(tmp_path.glob("first_order_*.so")) == [library] and library.stat().st_mtime_ns == stamp
+
+
+def test_compile_failure_warns_and_keeps_the_interpreted_functions(tmp_path):
+    nlp = CasadiNLP(build_model(paper_energy_problem(), intervals=6))
+    nlp.set_primals(np.full(nlp.n_primals(), 0.4))
+    before = nlp.evaluate_first_order()
+    with pytest.warns(RuntimeWarning, match="stay interpreted"):
+        assert not nlp.compile_first_order(tmp_path, compiler="no-such-compiler-xyz")
+    assert not list(tmp_path.glob("*.so"))
+    for a, b in zip(nlp.evaluate_first_order(), before, strict=True):
+        np.testing.assert_array_equal(a, b)

@@ -20,7 +20,13 @@ and the multipliers of the presolved rows are recovered for Pyomo afterwards.
 
 from __future__ import annotations
 
+import hashlib
+import os
+import subprocess
+import tempfile
+import warnings
 from dataclasses import replace
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -441,6 +447,61 @@ class CasadiNLP(NLP):
         rows, cols = self._jac_rc
         return coo_matrix((data.copy(), (rows, cols)), shape=(self.n_constraints(), self.n_primals()))
 
+    def evaluate_first_order(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The constraints, the objective's gradient and the Jacobian's values (in the order of
+        ``evaluate_jacobian``'s entries) at the current primals, in one CasADi call.
+
+        The three share the horizon's mapped templates' inputs, so one call spends less in the
+        function's virtual machine than three (semitrailer horizon: 2.6 against 3.0 ms). The
+        arrays are copies.
+        """
+        if "first_order" not in self._fns:
+            self._fns["first_order"] = _buffered(self._first_order_function())
+        g, grad, jac = self._fns["first_order"].call_all(self._x, self._p)
+        return g.copy(), grad.copy(), jac.copy()
+
+    def _first_order_function(self) -> ca.Function:
+        parts = [self._fns[k].fn for k in ("g", "grad", "jac")]
+        x, p = ca.MX.sym("x", parts[0].size1_in(0)), ca.MX.sym("p", parts[0].size1_in(1))
+        return ca.Function("first_order", [x, p], [f(x, p) for f in parts])
+
+    def compile_first_order(self, cache_dir: str | Path | None = None, compiler: str = "gcc",
+                            flags: tuple[str, ...] = ("-O1",)) -> bool:  # fmt: skip
+        """Evaluate ``evaluate_first_order`` by C code of its CasADi function, compiled once.
+
+        The generated C is compiled to a shared library named by the SHA-256 of the source and the
+        flags under ``cache_dir`` (default ``$XDG_CACHE_HOME/roundabout-ocp`` or
+        ``~/.cache/roundabout-ocp``) and loaded from there by later calls (and processes) with the
+        same function. Semitrailer road horizon (3250 columns): 1.4 against 2.6 ms per call, gcc
+        -O1 about 40 s CPU (83 s wall at load 5) once (-O0 compiles in 14 s but runs no faster than the interpreter).
+
+        Parameters
+        ----------
+        cache_dir : str or Path, optional
+            Where the libraries are kept.
+        compiler : str
+            The C compiler's command.
+        flags : tuple of str
+            Its optimisation flags.
+
+        Returns
+        -------
+        bool
+            True if the compiled function is used; False (with one warning saying why) if the code
+            could not be compiled or loaded: the interpreted function stays in use.
+        """
+        fn = self._first_order_function()
+        try:
+            library = _compiled(fn, Path(cache_dir) if cache_dir else _cache_dir(), compiler, tuple(flags))
+            external = ca.external(fn.name(), str(library))
+        except (OSError, RuntimeError, subprocess.SubprocessError) as exc:
+            message = str(exc).strip().splitlines()
+            warnings.warn(f"the first-order functions stay interpreted: {message[-1] if message else exc}",
+                          RuntimeWarning, stacklevel=2)  # fmt: skip
+            return False
+        self._fns["first_order"] = _buffered(external)
+        return True
+
     def evaluate_hessian_lag(self, out: coo_matrix | None = None) -> coo_matrix:
         data = self._fns["hess"](self._x, self._p, self._sigma, self._y)
         if out is not None:
@@ -707,17 +768,56 @@ def _is_zero(value) -> bool:
 class _Buffered:
     """A CasADi Function called through persistent numpy buffers (no copies per call)."""
 
-    def __init__(self, fn: ca.Function, n_out: int):
+    def __init__(self, fn: ca.Function, *n_out: int):
         self.fn = fn
         self.buf, self.trigger = fn.buffer()
-        self.out = np.zeros(n_out)
-        self.buf.set_res(0, memoryview(self.out))
+        self.outs = [np.zeros(n) for n in n_out]
+        for i, out in enumerate(self.outs):
+            self.buf.set_res(i, memoryview(out))
+        self.out = self.outs[0]
 
     def __call__(self, *args: np.ndarray) -> np.ndarray:
+        """The first output (the buffer itself)."""
+        return self.call_all(*args)[0]
+
+    def call_all(self, *args: np.ndarray) -> list[np.ndarray]:
+        """Every output (the buffers themselves)."""
         for i, a in enumerate(args):
             self.buf.set_arg(i, memoryview(np.ascontiguousarray(a, dtype=float)))
         self.trigger()
-        return self.out
+        return self.outs
+
+
+def _buffered(fn: ca.Function) -> _Buffered:
+    return _Buffered(fn, *(fn.nnz_out(i) for i in range(fn.n_out())))
+
+
+def _cache_dir() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "roundabout-ocp"
+
+
+def _compiled(fn: ca.Function, cache: Path, compiler: str, flags: tuple[str, ...]) -> Path:
+    """The shared library of ``fn``'s C code in ``cache`` (compiled unless it is there)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        gen = ca.CodeGenerator(f"{fn.name()}.c")
+        gen.add(fn)
+        path = Path(gen.generate(tmp + os.sep))
+        text = path.read_bytes()
+        key = hashlib.sha256(text + " ".join((compiler, *flags)).encode()).hexdigest()[:24]
+        library = cache / f"{fn.name()}_{key}.so"
+        if library.exists():
+            return library
+        cache.mkdir(parents=True, exist_ok=True)
+        out = Path(tmp) / library.name
+        run = subprocess.run([compiler, *flags, "-fPIC", "-shared", str(path), "-o", str(out)],
+                             capture_output=True, text=True)  # fmt: skip
+        if run.returncode != 0:
+            raise RuntimeError(f"{compiler} failed: {run.stderr.strip() or run.returncode}")
+        partial = cache / f".{library.name}.{os.getpid()}"
+        partial.write_bytes(out.read_bytes())
+        partial.replace(library)  # atomic: a concurrent process sees the whole library or none
+    return library
 
 
 def _emit(values: np.ndarray, out: np.ndarray | None) -> np.ndarray:

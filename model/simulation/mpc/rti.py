@@ -205,9 +205,8 @@ class RealTimeIteration:
             self._h = self._hessian()
             self._hessian_blocks()
             nlp.set_primals(x)
-        g, grad, jac = nlp.evaluate_constraints(), nlp.evaluate_grad_objective(), nlp.evaluate_jacobian()
+        g, grad, data = nlp.evaluate_first_order()
         lbx, ubx = nlp.primals_lb(), nlp.primals_ub()
-        data = jac.data
         others = self.others
         fixed = (self._role[others] == 2) | (lbx[others] == ubx[others])
         d_other = np.where(fixed, np.where(self._role[others] == 2, 0.0, lbx[others] - x[others]), 0.0)
