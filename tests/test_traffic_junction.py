@@ -22,15 +22,14 @@ def net(tmp_path_factory):
     return write_network(pilot.scenario.ocp.road.roundabout, tmp_path_factory.mktemp("net"), find_sumo().netconvert)
 
 
-def junction_pilot(net, exit_leg: int = 1):
+def junction_pilot(net, exit_leg: int = 1, entry_rule: bool = True):
     """The straight plan into the ring, with SUMO's junction outlines of leg 0 (entry) and ``exit_leg``."""
     from model.traffic.autopilot import Autopilot
     from model.traffic.network import junction_shape
 
     plain = straight_pilot()
-    return Autopilot(
-        plain.scenario, plain.plan, front=6.5, junctions=(junction_shape(net, 0), junction_shape(net, exit_leg))
-    )
+    outlines = (junction_shape(net, 0), junction_shape(net, exit_leg))
+    return Autopilot(plain.scenario, plain.plan, front=6.5, junctions=outlines, entry_rule=entry_rule)
 
 
 def test_the_junction_outline_and_the_internal_lanes_come_from_the_network(net):
@@ -71,6 +70,9 @@ def test_entering_ahead_of_a_ring_car_within_its_brake_gap_is_refused(net, degre
     s = pilot.s + tau
     assert pilot.junction_conflict(tau, s, pilot.predicted([ring_car(degrees)], tau)) == conflict
     assert not pilot.junction_conflict(tau, np.full_like(tau, pilot.s), pilot.predicted([ring_car(130.0)], tau))
+    off = junction_pilot(net, entry_rule=False)  # as `roundabout traffic` drives: the entry half is off
+    off.s, off.rate = pilot.s, 1.0
+    assert not off.junction_conflict(tau, s, off.predicted([ring_car(130.0)], tau))
 
 
 @pytest.mark.parametrize("front_y,conflict", [(-29.4, True), (-62.0, False)])

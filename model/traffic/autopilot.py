@@ -98,6 +98,7 @@ class Autopilot:
     line_radius: float | None = None  # the give-way line's distance from the centre; None: Ro + GIVE_WAY_MARGIN
     junctions: tuple[np.ndarray, np.ndarray] | None = None  # SUMO's entry and exit junction outlines; None: no rule
     exit_lanes: tuple[np.ndarray, np.ndarray] | None = None  # the exit's internal lane and the ring's one beside it
+    entry_rule: bool = False  # also the entry half of the junction rule (measured worse: off in `roundabout traffic`)
     s: float = 0.0
     rate: float = 1.0
     decision_seconds: list[float] = field(default_factory=list)
@@ -209,11 +210,11 @@ class Autopilot:
         arc = np.concatenate([np.zeros((len(theirs), 1)),
                               np.cumsum(np.linalg.norm(np.diff(fronts, axis=1), axis=-1), axis=1)], axis=1)  # fmt: skip
         gap = speed * SUMO_TAU + speed**2 / (2.0 * YIELD_DECEL)
-        if s[0] < enter <= s[-1]:
+        if self.entry_rule and s[0] < enter <= s[-1]:
             k = int(np.argmax(s >= enter))
             if self._approaching(self.junctions[0], fronts, arc, gap, k, inward[:, k] < ENTERING_COS).any():
                 return True
-        if s[-1] >= enter and s[0] <= e1:
+        if self.entry_rule and s[-1] >= enter and s[0] <= e1:
             inside = shapely.contains_xy(shapely.Polygon(self.junctions[0]), fronts[..., 0], fronts[..., 1])
             mine = self._front(s) - c  # the truck's front from the centre, (T, 2)
             ra = self.scenario.ocp.road.roundabout
