@@ -1,7 +1,7 @@
 """Benchmark: the truck autopilot against SUMO's own driver on a grid of traffic cells.
 
 Usage: python benchmarks/bench_traffic.py [--vehicles truck semitrailer] [--turns right straight left]
-       [--rates 200 450 700] [--seeds 5] [--drivers sumo autopilot] [--out runs.jsonl]
+       [--rates 200 450 700] [--seeds 5] [--drivers sumo autopilot] [--junction-rule] [--out runs.jsonl]
 
 Each cell is a vehicle (the rigid truck of examples/traffic-roundabout.toml, the EU semitrailer
 of examples/roundabout-semitrailer.toml), a turn from leg 0 (right = 1st exit, straight = 2nd,
@@ -66,7 +66,8 @@ def run_grid(args) -> list[dict]:
                         if driver == "autopilot" and plan is None:
                             continue
                         with tempfile.TemporaryDirectory() as tmp:
-                            summary, _, _ = one_run(scenario, sumo, Path(tmp), driver, seed, plan)
+                            summary, _, _ = one_run(scenario, sumo, Path(tmp), driver, seed, plan,
+                                                    junction_rule=args.junction_rule)  # fmt: skip
                         summary |= {"vehicle": vehicle, "turn": turn, "rate": rate}
                         results.append(summary)
                         with open(args.out, "a") as f:
@@ -132,6 +133,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rates", type=float, nargs="+", default=[200.0, 450.0, 700.0])
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--drivers", nargs="+", default=["sumo", "autopilot"], choices=["sumo", "autopilot"])
+    ap.add_argument(
+        "--junction-rule",
+        action="store_true",
+        help="the autopilot with SUMO's exit junction rule (off in roundabout traffic; measured worse)",
+    )
     ap.add_argument("--out", default="traffic-runs.jsonl", help="JSON lines, one run each (appended)")
     ap.add_argument("--table", help="only print the table of an existing --out file")
     ap.add_argument("--compare", nargs="+", metavar="LABEL=FILE:DRIVER",

@@ -28,7 +28,9 @@ predictions, no fixed critical gap or time margin. The profiles, fastest first:
   the last such moment comes with no safe gap (it never slows for a conflict it can still wait out);
 - ``stop at the line`` (r falls linearly to 0 exactly at the line), ``stand``.
 
-The first safe profile is taken; if none is, the one with the largest least predicted distance.
+The first safe profile (distance kept, and SUMO's junction rule of ``junction_conflict`` kept when
+the network's junctions are given) is taken; if none is, the one with the largest least predicted
+distance (whatever the junction rule says).
 A vehicle too far to come within ``safety_distance`` during the horizon, whatever it and the truck
 do at their speeds, is not checked.
 """
@@ -55,6 +57,10 @@ TARGETS = (1.0, 0.875, 0.75, 0.625, 0.5, 0.375, 0.25, 0.125)
 YAW_WINDOW = 0.5  # s: the others' yaw rate is their heading change over this long, divided by it
 YIELD_DECEL = 4.5  # m/s^2: an entering vehicle that can stop at its line braking at most this hard yields
 ENTERING_COS = math.cos(math.radians(30.0))  # heading within 30 degrees of the centre's direction: entering
+SUMO_TAU = 1.0  # s: the headway of SUMO's car-following model (Krauss tau): its brake gap is v tau + v^2 / (2 b)
+ENTRY_INSTANTS = 1  # the checked instants inside the entry junction for vehicles behind the truck in it
+MAP_MARGIN = 1.0  # m: the ring's internal lane this much farther from the front than the exit's may still be chosen
+TURNING_IN_COS = 0.5  # inside the exit's junction, a vehicle heading within 60 degrees of the centre still turns in
 
 
 @dataclass
@@ -90,6 +96,9 @@ class Autopilot:
     plan: Plan
     front: float
     line_radius: float | None = None  # the give-way line's distance from the centre; None: Ro + GIVE_WAY_MARGIN
+    junctions: tuple[np.ndarray, np.ndarray] | None = None  # SUMO's entry and exit junction outlines; None: no rule
+    exit_lanes: tuple[np.ndarray, np.ndarray] | None = None  # the exit's internal lane and the ring's one beside it
+    entry_rule: bool = False  # also the entry half of the junction rule (measured worse: off in `roundabout traffic`)
     s: float = 0.0
     rate: float = 1.0
     decision_seconds: list[float] = field(default_factory=list)
@@ -98,9 +107,12 @@ class Autopilot:
     body_poses: dict = field(init=False, repr=False)
     reach: float = field(init=False)
     top_speed: float = field(init=False)
+    windows: tuple[tuple[float, float], tuple[float, float]] | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         self.give_way = self._give_way_time()
+        if self.junctions is not None:
+            self.windows = (self._inside_window(self.junctions[0]), self._mapped_window())
         # each body's pose as a numpy function of the states, made once (lambdify is slow; a decision is not)
         v = self.scenario.ocp.vehicle
         poses = v.body_poses()
@@ -129,6 +141,111 @@ class Autopilot:
         line = ra.outer_radius + GIVE_WAY_MARGIN if self.line_radius is None else self.line_radius
         inside = np.nonzero(r <= line)[0]
         return float(s[inside[0]]) if len(inside) else self.plan.duration
+
+    def _front(self, s: np.ndarray) -> np.ndarray:
+        """The front bumper's centre (len(s), 2) at plan times ``s``."""
+        v = self.scenario.ocp.vehicle
+        st = self.plan.at(s)
+        h = st[v.roles.heading]
+        x, y = (st[n] for n in v.position)
+        return np.column_stack([x + self.front * np.cos(h), y + self.front * np.sin(h)])
+
+    def _inside_window(self, outline: np.ndarray) -> tuple[float, float]:
+        """First and last plan time with the front bumper inside ``outline``; (inf, inf) if never."""
+        import shapely
+
+        s = np.linspace(0.0, self.plan.duration, 2001)
+        p = self._front(s)
+        inside = np.nonzero(shapely.contains_xy(shapely.Polygon(outline), p[:, 0], p[:, 1]))[0]
+        return (float(s[inside[0]]), float(s[inside[-1]])) if len(inside) else (math.inf, math.inf)
+
+    def _mapped_window(self) -> tuple[float, float]:
+        """Plan times, inside the exit junction, where SUMO may put the truck on the ring's lane, not its exit's.
+
+        ``moveToXY(..., keepRoute=2)`` maps the front bumper onto the nearest lane: where the plan
+        cuts the corner the ring's internal lane beside the exit's is about as near (within
+        ``MAP_MARGIN``), and a car entering from the exit leg then sees a circulating truck.
+        (inf, inf) without ``exit_lanes`` or if it never is.
+        """
+        import shapely
+
+        if self.exit_lanes is None:
+            return math.inf, math.inf
+        s = np.linspace(0.0, self.plan.duration, 2001)
+        p = self._front(s)
+        points = shapely.points(p)
+        mine, ring = (shapely.distance(shapely.LineString(lane), points) for lane in self.exit_lanes)
+        inside = shapely.contains_xy(shapely.Polygon(self.junctions[1]), p[:, 0], p[:, 1])
+        k = np.nonzero(inside & (ring <= mine + MAP_MARGIN))[0]
+        return (float(s[k[0]]), float(s[k[-1]])) if len(k) else (math.inf, math.inf)
+
+    def junction_conflict(self, tau: np.ndarray, s: np.ndarray, theirs: np.ndarray) -> bool:
+        """Whether the profile reaching plan times ``s`` breaks SUMO's junction rule for a predicted vehicle.
+
+        SUMO's vehicles brake for a vehicle on a foe or merging internal lane of the junction ahead
+        (``traci.vehicle.getJunctionFoes``), and the truck, moved by ``moveToXY``, is on the junction's
+        internal lanes while its front bumper is inside the junction outline. A vehicle that then
+        cannot stop before the junction within its brake gap v ``SUMO_TAU`` + v^2 / (2 ``YIELD_DECEL``)
+        brakes harder (up to SUMO's emergency 9 m/s^2). So: (entry) at the instant the truck's front
+        enters the entry junction, no vehicle that is not itself entering may be approaching that
+        junction within its brake gap; (exit) at every instant the front is inside the exit junction
+        (where SUMO may map the truck onto the ring's internal lane that merges with the exit leg's
+        entry), no entering vehicle may be within its brake gap of that junction or inside it still
+        turning in.
+        """
+        if self.windows is None or len(theirs) == 0:
+            return False
+        import shapely
+
+        (enter, e1), (x0, x1) = self.windows
+        fronts = theirs[:, :, 1:3, :].mean(axis=2)  # (n, T, 2): the front corners' middle
+        rears = theirs[:, :, [0, 3], :].mean(axis=2)
+        axis = fronts - rears
+        axis /= np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-9)
+        c = np.asarray(self.scenario.ocp.road.roundabout.center, float)
+        radial = c - fronts
+        radial /= np.maximum(np.linalg.norm(radial, axis=-1, keepdims=True), 1e-9)
+        inward = (axis * radial).sum(axis=-1)  # (n, T): cosine between heading and the centre's direction
+        speed = np.linalg.norm(np.gradient(fronts, tau, axis=1), axis=-1)
+        arc = np.concatenate([np.zeros((len(theirs), 1)),
+                              np.cumsum(np.linalg.norm(np.diff(fronts, axis=1), axis=-1), axis=1)], axis=1)  # fmt: skip
+        gap = speed * SUMO_TAU + speed**2 / (2.0 * YIELD_DECEL)
+        if self.entry_rule and s[0] < enter <= s[-1]:
+            k = int(np.argmax(s >= enter))
+            if self._approaching(self.junctions[0], fronts, arc, gap, k, inward[:, k] < ENTERING_COS).any():
+                return True
+        if self.entry_rule and s[-1] >= enter and s[0] <= e1:
+            inside = shapely.contains_xy(shapely.Polygon(self.junctions[0]), fronts[..., 0], fronts[..., 1])
+            mine = self._front(s) - c  # the truck's front from the centre, (T, 2)
+            ra = self.scenario.ocp.road.roundabout
+            turn = np.arctan2(-radial[..., 1], -radial[..., 0]) - np.arctan2(mine[:, 1], mine[:, 0])
+            ahead = ra.circulation * np.arctan2(np.sin(turn), np.cos(turn)) > 0.0  # (n, T): further along the ring
+            behind = inside & ~ahead & (inward > -TURNING_IN_COS) & (inward < ENTERING_COS)
+            if behind[:, (s >= enter) & (s <= e1)][:, :ENTRY_INSTANTS].any():
+                return True
+        if s[0] <= x1 and s[-1] >= x0:
+            entering = inward >= ENTERING_COS
+            outline = shapely.Polygon(self.junctions[1])
+            inside = shapely.contains_xy(outline, fronts[..., 0], fronts[..., 1])
+            for k in np.nonzero((s >= x0) & (s <= x1))[0]:
+                if (inside[:, k] & (inward[:, k] >= TURNING_IN_COS)).any():
+                    return True
+                if self._approaching(self.junctions[1], fronts, arc, gap, k, entering[:, k]).any():
+                    return True
+        return False
+
+    @staticmethod
+    def _approaching(outline: np.ndarray, fronts: np.ndarray, arc: np.ndarray, gap: np.ndarray, k: int,
+                     which: np.ndarray) -> np.ndarray:  # fmt: skip
+        """Per vehicle: among ``which``, outside ``outline`` at instant ``k`` and reaching it within its brake gap."""
+        import shapely
+
+        inside = shapely.contains_xy(shapely.Polygon(outline), fronts[..., 0], fronts[..., 1])  # (n, T)
+        later = inside[:, k:]
+        hits = later.any(axis=1)
+        first = k + np.argmax(later, axis=1)
+        dist = arc[np.arange(len(arc)), first] - arc[:, k]
+        return which & ~inside[:, k] & hits & (dist < gap[:, k])
 
     def instants(self, step: float) -> np.ndarray:
         """The checked instants: now, the end of the step, then every ``SAMPLE`` up to ``HORIZON``."""
@@ -175,7 +292,7 @@ class Autopilot:
         best, best_gap = None, -math.inf
         for name, rates, s in self.profiles(tau):
             gap = self.least_distance(s, theirs)
-            if gap >= self.scenario.traffic.safety_distance:
+            if gap >= self.scenario.traffic.safety_distance and not self.junction_conflict(tau, s, theirs):
                 best, best_gap = (name, rates), gap
                 break
             if gap > best_gap:
@@ -274,5 +391,7 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
     return MovingVehicle(length, width, start=(x, y, heading), speed=speed, yaw_rate=yaw, key=f"traffic {vid}")
 
 
-__all__ = ["GIVE_WAY_MARGIN", "HORIZON", "LINE_SLACK", "RATE_SLOPE", "SAMPLE", "TARGETS", "YAW_WINDOW", "Autopilot",
-           "Plan", "plan_of", "predict"]  # fmt: skip
+__all__ = [
+    "GIVE_WAY_MARGIN", "HORIZON", "LINE_SLACK", "MAP_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS",
+    "TURNING_IN_COS", "YAW_WINDOW", "Autopilot", "Plan", "plan_of", "predict",
+]  # fmt: skip

@@ -27,7 +27,15 @@ from pathlib import Path
 import numpy as np
 
 from model.problem.scenario import Scenario
-from model.traffic.network import config_xml, entry_end_radius, routes_xml, write_network
+from model.traffic.network import (
+    config_xml,
+    entry_end_radius,
+    junction_shape,
+    route_edges,
+    routes_xml,
+    via_lane_shape,
+    write_network,
+)
 from model.traffic.sumo import Sumo
 
 BRAKING_RADIUS = 50.0  # m: other vehicles this close to a truck body count for max_braking_caused
@@ -156,18 +164,29 @@ def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, s
     return out
 
 
-def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: str = "routes.rou.xml") -> Pass:
+def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: str = "routes.rou.xml",
+                    junction_rule: bool = False) -> Pass:  # fmt: skip
     """The autopilot's pass: each step, predict the others, choose the progress, move ``truck`` there.
 
     The loop is the contract's replay loop with the poses made online, so replaying ``DIR/sumo``
     with ``trajectory.csv`` gives this pass's ``traffic.csv``. ``Pass.states`` holds the rows.
+    ``junction_rule``: give the driver SUMO's exit junction rule (``Autopilot.junction_conflict``);
+    off by default (``roundabout traffic``): measured worse, benchmarks/traffic.md.
     """
     from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
 
     traffic, v, road = scenario.traffic, scenario.ocp.vehicle, scenario.ocp.road
     geo = truck_geometry(scenario)
     line = entry_end_radius(folder / "net.net.xml", road.roundabout, road.route.enter) + LINE_SLACK
-    pilot = Autopilot(scenario, plan, geo["front"], line_radius=line)
+    net = folder / "net.net.xml"
+    junctions = (junction_shape(net, road.route.enter), junction_shape(net, road.exit_leg))
+    edges = route_edges(road.roundabout, road.route.enter, road.route.exit)
+    lanes = None
+    if len(edges) > 2:  # the ring's internal lanes at the exit: the truck's, and the one continuing round
+        lanes = (via_lane_shape(net, edges[-2], edges[-1]), via_lane_shape(net, edges[-2], f"ring{road.exit_leg}"))
+    if not junction_rule:
+        junctions = lanes = None
+    pilot = Autopilot(scenario, plan, geo["front"], line_radius=line, junctions=junctions, exit_lanes=lanes)
     # the plan's solve leaves large object graphs: collect them now and keep the survivors out of the
     # collector's scans while driving, so that no decision pays for a full collection (measured: 1.7 CPU s)
     gc.collect()

@@ -171,6 +171,28 @@ def entry_end_radius(net: Path, roundabout: Roundabout, leg: int) -> float:
     return math.hypot(x - roundabout.center[0], y - roundabout.center[1])
 
 
+def junction_shape(net: Path, leg: int) -> np.ndarray:
+    """The outline (n, 2) of leg ``leg``'s ring junction ``r<leg>`` in the converted network ``net``.
+
+    Inside it a vehicle is on one of the junction's internal lanes: where SUMO's junction model
+    (right of way, merging) sees it.
+    """
+    import xml.etree.ElementTree as ET
+
+    node = ET.parse(net).getroot().find(f"junction[@id='r{leg}']")
+    return np.array([tuple(map(float, p.split(","))) for p in node.get("shape").split()])
+
+
+def via_lane_shape(net: Path, from_edge: str, to_edge: str) -> np.ndarray:
+    """The centre line (n, 2) of the internal lane that connects ``from_edge`` to ``to_edge`` in ``net``."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(net).getroot()
+    via = root.find(f"connection[@from='{from_edge}'][@to='{to_edge}']").get("via")
+    lane = root.find(f"edge/lane[@id='{via}']")
+    return np.array([tuple(map(float, p.split(","))) for p in lane.get("shape").split()])
+
+
 def truck_vtype(vclass: str, length: float, width: float) -> str:
     """The ``<vType>`` of the truck (id ``ego``): its class, overall length and widest body."""
     return f'    <vType id="ego" vClass="{vclass}" length="{length:.4f}" width="{width:.4f}" minGap="2.0"/>'
@@ -225,6 +247,7 @@ def config_xml(traffic: TrafficSettings, seed: int, routes: str = "routes.rou.xm
 
 
 __all__ = [
-    "NET_FILES", "config_xml", "connections_xml", "edges_xml", "lane_line", "next_leg", "nodes_xml", "ring_order",
-    "ring_radius", "ring_shape", "route_edges", "routes_xml", "truck_vtype", "write_network",
+    "NET_FILES", "config_xml", "connections_xml", "edges_xml", "junction_shape", "lane_line", "next_leg", "nodes_xml",
+    "ring_order", "ring_radius", "ring_shape", "route_edges", "routes_xml", "truck_vtype", "via_lane_shape",
+    "write_network",
 ]  # fmt: skip
