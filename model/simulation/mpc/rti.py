@@ -338,7 +338,7 @@ class BufferedQP:
     @property
     def x(self) -> np.ndarray:
         """The last solution (a copy)."""
-        return self._res["x"].copy()
+        return self._res["x"].copy()  # names: the QP solver's output "x"
 
     def __call__(self, h, g, a, lba, uba, lbx, ubx) -> dict:
         """Solve the QP with these data (copied into the buffers); the solver's stats."""
