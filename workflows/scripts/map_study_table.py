@@ -153,8 +153,9 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         " of a single-unit truck and not by the passenger car P; *apron depth* is how far the swept area reaches"
         " from the lanes into the apron lanelets, *apron area* the part of it on the apron. A failing cell gives"
         " the diagnosis (which body leaves the corridor where, by how much); it is never drawn as a solution. A"
-        " failure is that of a local solve started from the route's centre line (the map search has no multi-start"
-        " yet, docs/map-format.md): evidence, not a proof, that the vehicle cannot make the movement.",
+        " failure is that of the map search (model/search/maps.py: the centre-line strip sequence, a finer grid, a"
+        " minimal-violation start; docs/map-corridor.md): evidence, not a proof, that the vehicle cannot make the"
+        " movement.",
         "",
         "The turning-path table: minimum time Tf in seconds, " + " / ".join(
             "with the apron" if a else "without it" for a in sorted(set(df.apron), reverse=True))
