@@ -28,7 +28,7 @@ from derivations.symbolic import (
     multiplier,
     obstacle_symbols,
 )
-from model.vehicles import sym
+from model.vehicles import expression, sym
 
 if TYPE_CHECKING:
     from model.problem.ocp import OCP
@@ -281,7 +281,7 @@ def derive(ocp: OCP, abnormal: bool = False, symbolic_obstacles: bool = True) ->
     states = vehicle.state_symbols()
     controls = vehicle.control_symbols()
     dynamics = vehicle.rhs(numeric=False)
-    lagrangian = sp.nsimplify(sp.sympify(ocp.cost.lagrangian(vehicle), strict=True), rational=True)
+    lagrangian = sp.nsimplify(expression(ocp.cost.lagrangian(vehicle)), rational=True)
     parameters = {vehicle.parameter_symbols()[k]: v for k, v in vehicle.parameters().items()}
     constraints, multipliers, obstacle_values = _obstacle_terms(ocp, symbolic_obstacles)
     parameters.update(obstacle_values)

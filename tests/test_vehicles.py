@@ -366,8 +366,8 @@ def test_unknown_preset_without_a_close_name_lists_them():
 
 
 def test_expressions_are_never_parsed_from_strings():
-    """Every sympify on the model's paths is strict: a string (which SymPy would parse and evaluate)
-    is refused, so no text from a scenario file can become code there."""
+    """No expression on the model's paths is parsed (model.vehicles.expression): a string (which
+    SymPy's sympify would parse and evaluate) is refused, so no text from a scenario file can become code."""
     import pytest
     import sympy as sp
 
@@ -385,6 +385,14 @@ def test_expressions_are_never_parsed_from_strings():
         plant_rhs(truck, Disturbance())
     with pytest.raises(AttributeError):  # a string has no .subs: reference_speed never parses one
         truck.reference_speed()
+    from derivations.paper.checking import compare
+    from model.vehicles import expression
+
+    with pytest.raises(sp.SympifyError):
+        compare("__import__('os').getcwd()", 0)
+    assert expression(2) == sp.Integer(2) and expression(0.5) == sp.Float(0.5)
+    with pytest.raises(sp.SympifyError):
+        expression(True)
 
 
 def test_reference_speed_is_the_simplified_norm_of_every_vehicle_model():

@@ -8,6 +8,8 @@ from dataclasses import asdict, dataclass
 
 import sympy as sp
 
+from model.vehicles import expression
+
 HOLDS = "holds"
 FAILS = "fails"
 CORRECTED = "holds after correction"
@@ -67,7 +69,7 @@ def numeric_error(expr: sp.Expr, scale: sp.Expr, samples: int = 12, seed: int = 
 def compare(a: sp.Expr, b: sp.Expr, tol: float = 1e-9) -> Comparison:
     """Compare two expressions symbolically and numerically; the numeric opinion decides
     when simplify cannot prove equality, and a contradiction between the two raises."""
-    a, b = sp.sympify(a, strict=True), sp.sympify(b, strict=True)
+    a, b = expression(a), expression(b)
     diff = sp.simplify(sp.trigsimp(sp.expand(a - b)))
     symbolic = diff == 0
     err = numeric_error(a - b, sp.Abs(a) + sp.Abs(b))

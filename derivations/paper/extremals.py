@@ -10,6 +10,7 @@ import sympy as sp
 from derivations.paper.checking import compare
 from derivations.pmp import PMPSystem
 from derivations.symbolic import derivative_symbol
+from model.vehicles import expression
 
 T = sp.Symbol("t", real=True)
 
@@ -25,11 +26,11 @@ class Extremal:
     params: dict[sp.Symbol, float] = field(default_factory=dict)
 
     def at(self, expr: sp.Expr) -> sp.Expr:
-        return sp.sympify(expr, strict=True).subs(self.values)
+        return expression(expr).subs(self.values)
 
 
 def _numbers(expr: sp.Expr, params: dict, horizon: float, n: int = 9) -> np.ndarray:
-    f = sp.lambdify(T, sp.sympify(expr, strict=True).subs(params), "numpy")
+    f = sp.lambdify(T, expression(expr).subs(params), "numpy")
     ts = np.linspace(0.0, horizon, n)
     return np.broadcast_to(np.asarray(f(ts), dtype=float), ts.shape)
 

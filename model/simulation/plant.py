@@ -20,7 +20,7 @@ import numpy as np
 import sympy as sp
 
 from model.problem.closed_loop import Disturbance
-from model.vehicles import Vehicle, sym
+from model.vehicles import Vehicle, expression, sym
 
 RTOL = ATOL = 1e-10
 METHOD = "DOP853"
@@ -54,7 +54,7 @@ def plant_rhs(vehicle: Vehicle, disturbance: Disturbance) -> list[sp.Expr]:
     drift = dict(zip(vehicle.position, disturbance.drift, strict=True))
     out = []
     for name in vehicle.states:
-        expr = sp.sympify(f[name], strict=True).subs(u1, disturbance.speed_gain * u1, simultaneous=True)
+        expr = expression(f[name]).subs(u1, disturbance.speed_gain * u1, simultaneous=True)
         if r.steering is not None and name != r.steering:
             expr = expr.subs(sym(r.steering), sym(r.steering) + disturbance.steering_bias)
         out.append(expr.subs(params) + drift.get(name, 0.0))

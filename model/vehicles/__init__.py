@@ -21,7 +21,7 @@ No name outside ``model/vehicles/`` is a literal state or control name (``tests/
 Bodies (``Body``) and named parameter presets (``preset``, ``PRESETS``) live beside them.
 """
 
-from model.vehicles.base import Roles, Vehicle, sym
+from model.vehicles.base import Roles, Vehicle, expression, sym
 from model.vehicles.body import Body, Cover
 from model.vehicles.presets import PRESETS, preset
 from model.vehicles.tractor_trailer import TractorTrailer
@@ -48,5 +48,6 @@ __all__ = [
     "Unicycle",
     "Vehicle",
     "preset",
+    "expression",
     "sym",
 ]

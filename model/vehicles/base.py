@@ -91,6 +91,21 @@ def sym(name: str) -> sp.Symbol:
     return sp.Symbol(name, real=True)
 
 
+def expression(value: object) -> sp.Expr:
+    """A SymPy expression from a SymPy object or a number, never from a string (nothing is parsed).
+
+    Raises
+    ------
+    sympy.SympifyError
+        For anything else (a string included): expressions are built by the vehicles and costs, never read.
+    """
+    if isinstance(value, sp.Basic):
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise sp.SympifyError(value, "not a SymPy expression or a number (nothing is parsed)")
+    return sp.Integer(value) if isinstance(value, int) else sp.Float(value)
+
+
 class Vehicle:
     """Base class: subclasses set ``states``, ``controls``, ``dynamics`` and (other names) ``roles``.
 
@@ -192,9 +207,9 @@ class Vehicle:
 
     def _numeric(self, names: list[str], exprs: list[sp.Expr]):
         """Expressions of the named variables (parameters substituted) as one numpy function of a mapping
-        name -> array; each result broadcast to the shape of the first state. Strict sympify: no string."""
+        name -> array; each result broadcast to the shape of the first state. Nothing is parsed (``expression``)."""
         values = {sym(k): v for k, v in self.parameters().items()}
-        fn = sp.lambdify([sym(n) for n in names], [sp.sympify(e, strict=True).subs(values) for e in exprs], "numpy")
+        fn = sp.lambdify([sym(n) for n in names], [expression(e).subs(values) for e in exprs], "numpy")
 
         def evaluate(columns) -> list[np.ndarray]:
             shape = np.shape(columns[self.states[0]])
