@@ -137,3 +137,13 @@ def test_table_scripts_on_one_small_cell(tmp_path):
     assert f"{data['time']['final_time']:.4g}" in text
     assert "FAILED" in text and "the trailer crosses the apron by 1.30 m" in text
     assert (tmp_path / "table" / "table.png").exists()
+
+
+def test_a_cell_with_a_bad_time_limit_is_refused_in_one_line(tmp_path):
+    """``--time-limit`` (the full grid's per-cell budget) must be positive: one line, exit 2, nothing written."""
+    cell = tmp_path / "cell.json"
+    done = subprocess.run([sys.executable, str(SCRIPTS / "studies_roads_cell.py"), "--template", str(TEMPLATE),
+                           "--cell", "P_icd40_apron0", "--intervals", "20", "--time-limit", "0", "--out", str(cell)],
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "--time-limit" in done.stderr
+    assert not cell.exists()

@@ -97,6 +97,22 @@ def solver_diagnosis(best: Solution) -> dict:
     }
 
 
+def refined_diagnosis(coarse: Solution, finer: Solution) -> dict:
+    """The search's evidence for a failed answer the accuracy refinement replaced by a finer grid's re-solve.
+
+    ``coarse`` is the search's failed answer on its own grid (its ``diagnosis`` the search's evidence: a
+    minimal violation, a proof, the solver's); ``finer`` the failed re-solve on a finer grid that is kept.
+    The coarse evidence stands (or the solver's on ``finer`` if there was none), with the finer grid's
+    status and failed checks in ``refined_to`` and in the message.
+    """
+    out = dict(coarse.diagnosis) if coarse.diagnosis else solver_diagnosis(finer)
+    failed = [k for k, c in finer.validation.get("checks", {}).items() if not c["passed"]]
+    out["refined_to"] = {"intervals": finer.intervals, "status": finer.status, "failed_checks": failed}
+    out["message"] = (f"{out.get('message', 'no valid solution')}; re-solved on N = {finer.intervals}: "
+                      f"{finer.status}" + (f" ({', '.join(failed)} failed)" if failed else ""))  # fmt: skip
+    return out
+
+
 def time_limit_diagnosis(best: Solution, attempts: list[dict], search: dict) -> dict:
     """No valid answer within the time limit: what was tried, what was skipped, and the solver's evidence."""
     tried = Counter(a["status"] for a in attempts)

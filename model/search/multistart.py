@@ -28,7 +28,7 @@ from model.search.accuracy import ROUTE as ACCURACY_ROUTE
 from model.search.bounds import refusal_from_bounds
 from model.search.context import MIN_WALL_TIME, Reporter, Search, better, clearly_better, cold_starts, reporter
 from model.search.curves import curve_routes, tf_scales
-from model.search.diagnosis import bound_diagnosis, solver_diagnosis, time_limit_diagnosis
+from model.search.diagnosis import bound_diagnosis, refined_diagnosis, solver_diagnosis, time_limit_diagnosis
 from model.search.guess import reeds_shepp_start_path
 from model.search.road import cuts_inner_edge, geometry_continuation, road_steps
 from model.search.screening import REFINE_OPTIONS, screen_starts, screening_intervals
@@ -124,6 +124,8 @@ def _finish(ctx: Search, best: Solution, level: str, start: float) -> Solution:
         if best.diagnosis:  # the evidence found before the limit, in the one line too
             diagnosis["message"] += f"; before the limit: {best.diagnosis['message']}"
         best.diagnosis = diagnosis | ({"before_the_limit": best.diagnosis} if best.diagnosis else {})
+    if not best.ok and best.diagnosis is None:  # every failed answer says why
+        best.diagnosis = solver_diagnosis(best)
     with paused_gc():  # the model may hold a later start's values
         best.nlp.load_primals(best.ipopt.x)
         best.nlp.load_duals(best.ipopt.mult_g, best.ipopt.x)
@@ -190,6 +192,8 @@ def _accurate(ctx: Search, best: Solution, accuracy: float | None) -> Solution:
         return sols[0] if sols else None
 
     sol, record = refine_for_accuracy(best, solve, accuracy, ctx.progress)
+    if sol is not best and not sol.ok and sol.diagnosis is None:  # a finer grid's failed re-solve kept
+        sol.diagnosis = refined_diagnosis(best, sol)
     sol.accuracy = record
     return sol
 

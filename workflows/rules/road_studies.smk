@@ -51,11 +51,15 @@ rule road_study_cell:
         f"{ROAD_STUDY_DIR}/table/{{road_grid}}/cells/{{road_cell}}.json",
     params:
         intervals=lambda wc: config["road_studies_grids"][wc.road_grid]["intervals"],
+        time_limit=lambda wc: (lambda s: f"--time-limit {s}" if s else "")(
+            config["road_studies_grids"][wc.road_grid].get("time_limit")
+        ),
     log:
         "results/logs/studies/roads-{road_grid}/{road_cell}.log",
     shell:
         "{PYTHON} {input.script} --template {input.template} --cell {wildcards.road_cell}"
-        " --intervals {params.intervals} --energy-ratio {ROAD_ENERGY_RATIO} --out {output} 2> {log}"
+        " --intervals {params.intervals} {params.time_limit} --energy-ratio {ROAD_ENERGY_RATIO} --out {output}"
+        " 2> {log}"
 
 
 rule road_study_table:

@@ -48,12 +48,12 @@ def outcome(sol) -> dict:
     return out
 
 
-def solve_cell(template: Path, cell: str, intervals: int, energy_ratio: float) -> dict:
+def solve_cell(template: Path, cell: str, intervals: int, energy_ratio: float, time_limit: float | None = None) -> dict:
     preset_name, icd, apron = parse_cell(cell)
     doc = cell_document(tomllib.loads(template.read_text()), preset_name, icd, apron, intervals)
     ocp = parse_scenario(doc).ocp
     start = time.perf_counter()
-    sol = ocp.solve(intervals=intervals)
+    sol = ocp.solve(intervals=intervals, time_limit=time_limit)
     record = {
         "cell": cell,
         "preset": preset_name,
@@ -61,6 +61,7 @@ def solve_cell(template: Path, cell: str, intervals: int, energy_ratio: float) -
         "apron": apron,
         "apron_use": ocp.road.roundabout.apron_use,
         "intervals": intervals,
+        "time_limit": time_limit,
         "template": str(template),
         "time": outcome(sol),
         "energy_ratio": energy_ratio,
@@ -82,9 +83,14 @@ def main() -> None:
     ap.add_argument("--cell", required=True, help="e.g. WB-62_icd40_apron2 (model.studies.roads.cell_name)")
     ap.add_argument("--intervals", type=int, required=True)
     ap.add_argument("--energy-ratio", type=float, default=1.2)
+    ap.add_argument("--time-limit", type=float, default=None,
+                    help="seconds for the minimum-time search (default: none); past it, the best answer or a refusal")
     ap.add_argument("--out", type=Path, required=True, help="the cell's JSON file")
     args = ap.parse_args()
-    write_json(args.out, solve_cell(args.template, args.cell, args.intervals, args.energy_ratio))
+    if args.time_limit is not None and not args.time_limit > 0:
+        print(f"--time-limit must be a positive number of seconds, got {args.time_limit}", file=sys.stderr)
+        sys.exit(2)
+    write_json(args.out, solve_cell(args.template, args.cell, args.intervals, args.energy_ratio, args.time_limit))
 
 
 if __name__ == "__main__":
