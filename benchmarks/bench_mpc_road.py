@@ -1,7 +1,7 @@
 """Benchmark: real-time MPC on the roundabout road with bodies, against a plain CasADi Opti peer.
 
 Usage: python benchmarks/bench_mpc_road.py [--cases truck semitrailer] [--controllers rti ipopt]
-       [--reference-intervals 100] [--no-peer] [--compiled]
+       [--reference-intervals 100] [--no-peer] [--compiled] [--qp-max-changes K]
 
 Cases: the rigid truck (examples/roundabout-truck.toml), the EU semitrailer
 (examples/roundabout-semitrailer.toml) and the truck with a crossing car (examples/crossing-car.toml)
@@ -89,6 +89,13 @@ and Jacobian in one CasADi call: 7.0 / 19.2 and 7.2 / 19.5, 17.6 / 51.7 and 17.0
 and 15.6 / 65.3 (two runs); with ``--compiled`` (gcc -O1, cached under ~/.cache/roundabout-ocp; the
 first run compiles in the MPC's constructor): 8.0 / 21.6 and 6.6 / 17.7, 17.1 / 52.0 and 17.4 / 51.8,
 15.2 / 63.0 and 13.6 / 60.2. Same closed loops in every run.
+
+Third round (semitrailer, ``--no-peer``, load 0.4-2.0, CPU mean / max ms): baseline 23.2 / 69.5;
+``--qp-max-changes 40`` 26.1 / 146.9 (7 fallbacks, 4 failed, goal missed), ``70`` 21.2 / 152.1 (1 / 1,
+goal missed): qpOASES' early stop (its intermediate iterate) does not keep the loop; the README has
+the profile of a step.
+With the Opti peer (``--controllers rti``, load 1.7 -> 3.2): CPU mean / max ms 10.5 / 26.5 (truck,
+Opti ratio 0.124), 24.0 / 63.5 (semitrailer, 0.100), 21.0 / 71.2 (crossing car, 0.131); all checks held.
 """
 
 from __future__ import annotations
@@ -240,13 +247,16 @@ class Shadowed:
         return u
 
 
-def run(case: str, controller: str, reference_intervals: int, peer: bool, compiled: bool = False) -> dict:
+def run(case: str, controller: str, reference_intervals: int, peer: bool, compiled: bool = False,
+        qp_changes: int = 0) -> dict:  # fmt: skip
     sc = load_scenario(ROOT / CASES[case])
     t0 = time.perf_counter()
     sol = sc.ocp.solve(intervals=reference_intervals)
     solve_seconds = time.perf_counter() - t0
     control, disturbance = ControlSettings(SAMPLE, HORIZON), Disturbance()
-    mpc = MPC(sol, control, disturbance, settings=MPCSettings(realtime=controller == "rti", rti_compiled=compiled))
+    qp_options = {"nWSR": qp_changes} if qp_changes else {}
+    settings = MPCSettings(realtime=controller == "rti", rti_compiled=compiled, qp_options=qp_options)
+    mpc = MPC(sol, control, disturbance, settings=settings)
     shadow = Shadowed(mpc, OptiPeer(mpc) if peer else None)
     load_before = os.getloadavg()[0]
     loop = simulate(sc, sol, shadow, disturbance, control)
@@ -309,6 +319,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--reference-intervals", type=int, default=100)
     ap.add_argument("--no-peer", action="store_true")
     ap.add_argument("--compiled", action="store_true", help="the RTI's first-order functions as compiled C")
+    ap.add_argument("--qp-max-changes", type=int, default=0,
+                    help="cap on qpOASES' working-set changes per step (nWSR; 0: its default)")  # fmt: skip
     args = ap.parse_args(argv)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, CasADi {ca.__version__}, load average {os.getloadavg()[0]:.2f}; "
@@ -317,7 +329,8 @@ def main(argv: list[str] | None = None) -> int:
     print("|" + "---|" * (HEAD.count("|") - 1))
     for case in args.cases:
         for controller in args.controllers:
-            print(line(run(case, controller, args.reference_intervals, not args.no_peer, args.compiled)), flush=True)
+            row = run(case, controller, args.reference_intervals, not args.no_peer, args.compiled, args.qp_max_changes)
+            print(line(row), flush=True)
     return 0
 
 

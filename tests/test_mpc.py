@@ -334,3 +334,15 @@ def test_real_time_steps_follow_the_road(road):
             lo, hi = road.ocp.bounds[c]
             assert lo - 1e-9 <= val <= hi + 1e-9
     assert sum(s["realtime"] for s in mpc.steps) >= 4
+
+
+def test_a_capped_qp_gives_its_intermediate_iterate(road):
+    """With qpOASES' working-set changes capped at 1 the pushed state's QP stops early: the step
+    reports the cap, is accepted (the caller's violation test decides) and moves off the start."""
+    settings = MPCSettings(realtime=True, budget=100.0, qp_options={"nWSR": 1})
+    mpc = MPC(road, ControlSettings(0.1, 40), settings=settings)
+    pushed = rti_problem(mpc, 0.1, 0.2)
+    step = mpc.rti.step(pushed)
+    assert step.status.startswith("Maximum number of working set recalculations")
+    assert step.success and step.step > 0.0
+    assert np.all(np.isfinite(step.x)) and not np.array_equal(step.x, pushed)

@@ -58,6 +58,9 @@ QPOASES_OPTIONS = {"printLevel": "none", "sparse": False, "hessian_type": "posde
                    "enableNZCTests": False, "enableDriftCorrection": 0, "enableCholeskyRefactorisation": 0,
                    "numRefinementSteps": 0}  # fmt: skip
 
+# qpOASES' message when the cap on working-set changes (its ``nWSR``) is reached
+QPOASES_CAPPED = "Maximum number of working set recalculations"
+
 
 @dataclass
 class StepResult:
@@ -244,8 +247,12 @@ class RealTimeIteration:
         z, self.elastic = zs[: len(free_pos)], float(zs[width])
         d = np.zeros(len(x))
         d[others], d[cols], d[self.dep] = d_other, z, a + S @ z
-        ok = bool(stats.get("success", False)) and bool(np.all(np.isfinite(d)))
-        status = str(stats.get("return_status", "")) or ("solved" if ok else "failed")
+        status = str(stats.get("return_status", ""))
+        # a capped qpOASES homotopy (nWSR reached): the iterate solves an intermediate QP on the path
+        # from the previous one; accepted here, the caller's violation test decides (real-time early stop)
+        capped = self.solver == "qpoases" and status.startswith(QPOASES_CAPPED)
+        ok = (bool(stats.get("success", False)) or capped) and bool(np.all(np.isfinite(d)))
+        status = status or ("solved" if ok else "failed")
         size = float(np.max(np.abs(d), initial=0.0))
         iterations = int(stats.get("iter_count", -1) or -1)
         new = self._repair(x + d, data) if ok else x
