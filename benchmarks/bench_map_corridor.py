@@ -30,8 +30,8 @@ VEHICLES = {
 # (label, dataset, from_lanelet, to_lanelet, start_offset for SU-30, for the semitrailer, goal_offset)
 ROUTES = [
     ("Kackertstrasse 90 -> 102 (east -> south, left)", "rounD/DEU_Kackertstrasse-1", 90, 102, 19.0, 20.0, -12.0),
-    ("Thiergarten 21 -> 90 (first exit)", "rounD/DEU_Thiergarten-1", 21, 90, 12.0, 20.0, -8.0),
-    ("Thiergarten 21 -> 50 (the exit before the U-turn)", "rounD/DEU_Thiergarten-1", 21, 50, 12.0, 20.0, -12.0),
+    ("Thiergarten 21 -> 90 (the second exit, straight on)", "rounD/DEU_Thiergarten-1", 21, 90, 12.0, 20.0, -8.0),
+    ("Thiergarten 21 -> 50 (the first exit, right)", "rounD/DEU_Thiergarten-1", 21, 50, 12.0, 20.0, -12.0),
     ("Thiergarten 21 -> 23 (U-turn)", "rounD/DEU_Thiergarten-1", 21, 23, 12.0, 20.0, -10.0),
     ("Neuweiler 119 -> 107 (open ring)", "rounD/DEU_Neuweiler-1", 119, 107, 12.0, 20.0, -12.0),
 ]

@@ -2,8 +2,8 @@
 
 The Kackertstrasse SU-30 route of docs/map-corridor.md (90 -> 102, N = 60) solves and validates
 with its bodies as exact rectangles inside the corridor; its commonroad.xml, read back with
-commonroad-io, holds one DynamicObstacle per body following the trajectory; the SU-30's right
-turn at Thiergarten's first exit (21 -> 90), which the map search does not solve, exits 1
+commonroad-io, holds one DynamicObstacle per body following the trajectory; the SU-30's
+route straight on at Thiergarten (21 -> 90, its second exit), which the map search does not solve, exits 1
 with a diagnosis naming the body and how far it leaves the corridor; the SU-30 straight on at
 Kackertstrasse, which the first cut refused, validates; the search honours its time limit.
 """
