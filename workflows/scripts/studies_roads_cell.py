@@ -21,6 +21,8 @@ if str(ROOT) not in sys.path:
 
 from studies_common import write_json  # noqa: E402
 
+from model.cli import checked_time_limit  # noqa: E402
+from model.errors import InputError  # noqa: E402
 from model.problem.scenario import parse_scenario  # noqa: E402
 from model.studies.roads import cell_document, cell_measures, parse_cell  # noqa: E402
 from model.studies.sweeps import as_energy  # noqa: E402
@@ -83,14 +85,17 @@ def main() -> None:
     ap.add_argument("--cell", required=True, help="e.g. WB-62_icd40_apron2 (model.studies.roads.cell_name)")
     ap.add_argument("--intervals", type=int, required=True)
     ap.add_argument("--energy-ratio", type=float, default=1.2)
-    ap.add_argument("--time-limit", type=float, default=None,
-                    help="seconds for the minimum-time search (default: none); past it, the best answer or a refusal")
+    ap.add_argument("--time-limit", default=None,
+                    help="seconds for the minimum-time search ('inf' or not given: none); past it, the best answer or "
+                         "a refusal")  # fmt: skip
     ap.add_argument("--out", type=Path, required=True, help="the cell's JSON file")
     args = ap.parse_args()
-    if args.time_limit is not None and not args.time_limit > 0:
-        print(f"--time-limit must be a positive number of seconds, got {args.time_limit}", file=sys.stderr)
+    try:  # the CLI's own check of --time-limit (a number > 0 or 'inf')
+        limit = None if args.time_limit is None else checked_time_limit(args.time_limit)
+    except InputError as err:
+        print(err, file=sys.stderr)
         sys.exit(2)
-    write_json(args.out, solve_cell(args.template, args.cell, args.intervals, args.energy_ratio, args.time_limit))
+    write_json(args.out, solve_cell(args.template, args.cell, args.intervals, args.energy_ratio, limit))
 
 
 if __name__ == "__main__":
