@@ -230,15 +230,11 @@ def worst_outside(ocp, columns, corridors) -> tuple[float, str]:
     return worst
 
 
-def commonroad_check(ocp, traj, xml: Path) -> tuple[int, float, str]:
+def commonroad_check(ocp, columns: dict[str, np.ndarray], scenario) -> tuple[int, float, str]:
     """Obstacles read back, the largest centre distance (m) to the bodies' centres, and the size check."""
-    from commonroad.common.file_reader import CommonRoadFileReader
-
-    scenario, _ = CommonRoadFileReader(str(xml)).open()
     obstacles = scenario.dynamic_obstacles
     poses, worst, sizes = ocp.vehicle.body_poses(), 0.0, "ok"
-    t = traj["t"].to_numpy()
-    columns = {c: traj[c].to_numpy() for c in traj.columns}
+    t = columns["t"]
     centres = {}
     for name, body in ocp.bodies.items():
         x, y, h = ocp.vehicle.state_function(list(poses[name]))(columns)
@@ -257,21 +253,18 @@ def commonroad_check(ocp, traj, xml: Path) -> tuple[int, float, str]:
     return len(obstacles), worst, sizes
 
 
-def boundary_hits(ocp, traj, xml: Path) -> tuple[int, int]:
+def boundary_hits(ocp, columns: dict[str, np.ndarray], scenario) -> tuple[int, int]:
     """Body rectangles at the nodes (shrunk 1 cm) that collide with the drivability checker's road
     boundary of the written map, and how many of those reach out of every lanelet of the map (the union
     of all its lanelet polygons, cracks under 1 mm closed): a hit that does not is the checker's
     triangulation of a crack between two lanelets, not a body off the road."""
     import commonroad_dc.pycrcc as pycrcc
-    from commonroad.common.file_reader import CommonRoadFileReader
     from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
 
-    scenario, _ = CommonRoadFileReader(str(xml)).open()
     _, boundary = create_road_boundary_obstacle(scenario, method="aligned_triangulation", axis=2)
     road = shapely.union_all([lanelet_polygon(la) for la in scenario.lanelet_network.lanelets])
     road = road.buffer(CRACK / 2, join_style="mitre").buffer(-CRACK / 2, join_style="mitre")
     poses, hits, off_road = ocp.vehicle.body_poses(), 0, 0
-    columns = {c: traj[c].to_numpy() for c in traj.columns}
     for name, body in ocp.bodies.items():
         x, y, h = ocp.vehicle.state_function(list(poses[name]))(columns)
         for a, corners in zip(h, body.corners(x, y, h), strict=True):
@@ -286,6 +279,7 @@ def boundary_hits(ocp, traj, xml: Path) -> tuple[int, int]:
 def check(path: Path, out: Path) -> dict:
     """The independent checks of one solved case."""
     import pandas as pd
+    from commonroad.common.file_reader import CommonRoadFileReader
 
     from model.problem.scenario import load_scenario
     from model.scene.lanelet_map import dataset_file
@@ -296,11 +290,13 @@ def check(path: Path, out: Path) -> dict:
     traj = pd.read_csv(out / "trajectory.csv")
     ids, corridors = contract_corridor(dataset_file(doc["map"]["dataset"]), doc["route"], list(ocp.bodies),
                                        doc["route"].get("apron_use", "trailer"))  # fmt: skip
-    nodes = worst_outside(ocp, {c: traj[c].to_numpy() for c in traj.columns}, corridors)
+    columns = {c: traj[c].to_numpy() for c in traj.columns}
+    nodes = worst_outside(ocp, columns, corridors)
     states, drift = reintegrated(ocp, traj)
     between = worst_outside(ocp, states, corridors)
-    n_obstacles, centre_error, sizes = commonroad_check(ocp, traj, out / "commonroad.xml")
-    hits, off_road = boundary_hits(ocp, traj, out / "commonroad.xml")
+    scenario, _ = CommonRoadFileReader(str(out / "commonroad.xml")).open()
+    n_obstacles, centre_error, sizes = commonroad_check(ocp, columns, scenario)
+    hits, off_road = boundary_hits(ocp, columns, scenario)
     agree = ids == summary["route_lanelets"]
     passed = (nodes[0] <= 1e-6 and between[0] <= 0.02 and drift <= 0.05 and n_obstacles == len(ocp.bodies)
               and centre_error <= 0.05 and sizes == "ok" and off_road == 0 and agree)  # fmt: skip
