@@ -13,7 +13,7 @@ from pathlib import Path
 from benchmarks.bench_traffic import document
 from model.problem.scenario import parse_scenario
 from model.traffic.autopilot import plan_of
-from model.traffic.cosim import TIME_DIGITS, _start, autopilot_drive, write_sumo_files  # noqa: PLC2701
+from model.traffic.cosim import TIME_DIGITS, autopilot_drive, start_sumo, write_sumo_files
 from model.traffic.run import solve_plan
 from model.traffic.sumo import find_sumo
 
@@ -28,7 +28,7 @@ def main() -> None:
     driven = autopilot_drive(scenario, sumo, out, plan_of(sol, scenario.ocp.vehicle))
     t_worst, who, worst = max(((t, k, b) for t, d in driven.braking.items() for k, b in d.items()), key=lambda r: r[2])
     print(f"worst braking {worst:.2f} by {who} at t={t_worst}")
-    traci = _start(sumo, out, "routes.rou.xml")
+    traci = start_sumo(sumo, out)
     v = traci.vehicle
     try:
         while traci.simulation.getTime() < t_worst + 0.5 - 1e-9:

@@ -98,7 +98,8 @@ def write_sumo_files(scenario: Scenario, folder: Path, sumo: Sumo, seed: int) ->
     (folder / "run.sumocfg").write_text(config_xml(traffic, seed))
 
 
-def _start(sumo: Sumo, folder: Path, routes: str) -> object:
+def start_sumo(sumo: Sumo, folder: Path, routes: str = "routes.rou.xml") -> object:
+    """SUMO started on ``folder/run.sumocfg`` (with ``routes`` instead of its route file), quietly; its traci module."""
     traci = sumo.traci
     cmd = [sumo.sumo, "-c", str(folder / "run.sumocfg")]
     if routes != "routes.rou.xml":
@@ -121,7 +122,7 @@ def passed_goal(scenario: Scenario, front: tuple[float, float, float]) -> bool:
 def drive(scenario: Scenario, sumo: Sumo, folder: Path, routes: str = "routes.rou.xml") -> Pass:
     """Pass 1: SUMO drives the truck; its front poses from t = warmup to the goal or the time limit."""
     traffic = scenario.traffic
-    traci = _start(sumo, folder, routes)
+    traci = start_sumo(sumo, folder, routes)
     out, t_end = Pass(), traffic.warmup + traffic.time_limit
     try:
         while traci.simulation.getTime() < t_end - 1e-9:
@@ -149,7 +150,7 @@ def drive(scenario: Scenario, sumo: Sumo, folder: Path, routes: str = "routes.ro
 def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, step: float,
            routes: str = "routes.rou.xml") -> Pass:  # fmt: skip
     """The contract's replay loop: ``truck`` moved to ``poses`` (t -> X, Y, A), every other vehicle recorded."""
-    traci = _start(sumo, folder, routes)
+    traci = start_sumo(sumo, folder, routes)
     out = Pass(end=t_last)
     try:
         while traci.simulation.getTime() < t_last - 1e-9:
@@ -191,7 +192,7 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     # collector's scans while driving, so that no decision pays for a full collection (measured: 1.7 CPU s)
     gc.collect()
     gc.freeze()
-    traci = _start(sumo, folder, routes)
+    traci = start_sumo(sumo, folder, routes)
     out, t_end = Pass(), traffic.warmup + traffic.time_limit
     seen: dict[str, list[tuple[float, float]]] = {}  # id -> (t, heading) over the last YAW_WINDOW seconds
     last: list[tuple] = []
@@ -349,6 +350,6 @@ def _trailers(vehicle, cols: dict[str, np.ndarray]) -> None:
 
 
 __all__ = [
-    "BRAKING_RADIUS", "Pass", "autopilot_drive", "drive", "passed_goal", "reconstruct", "replay", "states_of",
-    "truck_geometry", "write_sumo_files",
+    "BRAKING_RADIUS", "Pass", "autopilot_drive", "drive", "passed_goal", "reconstruct", "replay", "start_sumo",
+    "states_of", "truck_geometry", "write_sumo_files",
 ]  # fmt: skip
