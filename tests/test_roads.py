@@ -159,3 +159,18 @@ def test_the_lane_strip_ends_at_the_centre(doc):
     near = _lane_margin(rb, 0, "entry", -30.0, -2.0, 1.0)
     assert pyo.value(far_side) < 0 < pyo.value(near)
 
+
+
+def test_the_diagnosis_names_an_encroachment_between_the_nodes(doc):
+    """Two nodes on the ring a quarter turn apart: both rectangles inside, the chord between them over the island."""
+    from types import SimpleNamespace
+
+    from model.search.diagnosis import road_diagnosis
+
+    ocp = parse_scenario(doc).ocp
+    states = {"x": np.array([17.0, 0.0]), "y": np.array([0.0, 17.0]), "theta": np.array([math.pi / 2, math.pi]),
+              "phi": np.zeros(2), "t": np.array([0.0, 3.0])}  # fmt: skip
+    assert min(clearances(ocp, states)["vehicle"]) > 0.5
+    diagnosis = road_diagnosis(ocp, SimpleNamespace(columns=states, status="relaxed"), 0.1)
+    assert diagnosis["where"] == "between nodes" and 0.0 < diagnosis["at_time_s"] < 3.0
+    assert diagnosis["encroachment_m"] > 1.0 and f"{diagnosis['encroachment_m']:.2f} m" in diagnosis["message"]

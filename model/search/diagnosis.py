@@ -20,23 +20,23 @@ from collections import Counter
 
 import numpy as np
 
-from model.analysis.bodies import body_corners
+from model.analysis.bodies import body_corners, substeps
 from model.direct.solution import Solution
 from model.problem.ocp import OCP
 from model.scene.geometry import clearance_detail
 
 
 def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
-    """The deepest exact encroachment of the relaxed trajectory: body, edge, metres, time, place."""
-    worst = None
-    for name, corners in body_corners(ocp, relaxed.columns).items():
-        region = ocp.road.corridor(name)
-        for k, c in enumerate(corners):
-            value, edge, point = clearance_detail(region, c)
-            if worst is None or value < worst[1]:
-                worst = (name, value, edge, point, k)
-    name, value, edge, point, k = worst
-    t = float(relaxed.columns["t"][k])
+    """The deepest exact encroachment of the relaxed trajectory: body, edge, metres, time, place.
+
+    The exact rectangles are checked at the nodes and at ``SUBSTEPS`` linear sub-steps between them
+    (as ``body_clearance_dense`` is), so a trajectory that fails only between the nodes is named there.
+    """
+    nodes = relaxed.columns
+    between = substeps(nodes, [*ocp.vehicle.states, "t"])
+    name, value, edge, point, t, where = min(
+        (_deepest(ocp, nodes, "node"), _deepest(ocp, between, "between nodes")), key=lambda w: w[1]
+    )
     depth = max(0.0, -value)
     return {
         "kind": "minimal violation",
@@ -46,13 +46,26 @@ def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
         "encroachment_m": depth,
         "at_time_s": t,
         "at_point": [float(point[0]), float(point[1])],
+        "where": where,
         "summed_slack_m": violation,
         "relaxed_status": relaxed.status,
         "message": (
-            f"no valid trajectory found: the {name} crosses the {edge} by {depth:.2f} m at t = {t:.2f} s on the "
-            "best trajectory a slack-minimising solve reached (an upper bound on what must give way)"
+            f"no valid trajectory found: the {name} crosses the {edge} by {depth:.2f} m at t = {t:.2f} s "
+            f"({where}) on the best trajectory a slack-minimising solve reached (an upper bound on what must give way)"
         ),
     }
+
+
+def _deepest(ocp: OCP, states: dict, where: str) -> tuple:
+    """(body, clearance, edge, point, time, where) of the smallest exact clearance over the samples."""
+    worst = None
+    for name, corners in body_corners(ocp, states).items():
+        region = ocp.road.corridor(name)
+        for k, c in enumerate(corners):
+            value, edge, point = clearance_detail(region, c)
+            if worst is None or value < worst[1]:
+                worst = (name, value, edge, point, float(states["t"][k]), where)
+    return worst
 
 
 def bound_diagnosis(ocp: OCP) -> dict | None:
