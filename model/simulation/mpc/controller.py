@@ -227,7 +227,7 @@ class MPC:
         if self.settings.realtime:
             self.rti = RealTimeIteration(self.horizon.model, self.horizon.nlp, self.ocp.vehicle.states,
                                          self.settings.qp_solver, self.settings.rti_regularization,
-                                         self.settings.qp_options)  # fmt: skip
+                                         self.settings.qp_options, self.ocp.vehicle.controls)  # fmt: skip
             self._rti_key = None
             if self.settings.rti_compiled:
                 self.horizon.nlp.compile_first_order()
