@@ -30,6 +30,10 @@ and the accessors of named components):
 - the objective's Hessian enters the condensing through its dense blocks at the free columns and
   the few dependent columns it touches, formed once per Hessian.
 
+With ``solver="hpipm"`` the QP is not condensed: ``stagewise.StagewiseQP`` writes the same QP in
+the OCP's stage layout for hpipm's Riccati-based interior point (measured slower on the road
+cases: see that module).
+
 The step is accepted by the controller when the new point satisfies the nonlinear constraints to
 its tolerance (``MPC._violation``); otherwise the controller falls back to warm-started Ipopt.
 """
@@ -90,11 +94,13 @@ class RealTimeIteration:
     states : sequence of str
         The state names (``d<state>_trapezoid`` are their trapezoid rows).
     solver : str
-        A dense ``casadi.conic`` plug-in (``QP_SOLVERS``).
+        A ``casadi.conic`` plug-in (``QP_SOLVERS``): a dense one on the condensed QP, or "hpipm".
     regularization : float
         The proximal term on every QP variable (in the NLP's own units).
     options : dict, optional
-        Options of the QP plug-in (added to the defaults).
+        Options of the QP plug-in (added to the defaults; hpipm's for "hpipm").
+    controls : sequence of str, optional
+        The control names (needed by the stagewise QP of "hpipm").
     """
 
     def __init__(self, model: pyo.ConcreteModel, nlp: CasadiNLP, states, solver: str = "qpoases",
