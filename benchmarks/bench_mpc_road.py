@@ -2,6 +2,7 @@
 
 Usage: python benchmarks/bench_mpc_road.py [--cases truck semitrailer] [--controllers rti ipopt]
        [--reference-intervals 100] [--no-peer] [--compiled] [--qp-max-changes K]
+       [--qp-solver qpoases|hpipm] [--hpipm-mode MODE] [--hpipm-iter-max K]
 
 Cases: the rigid truck (examples/roundabout-truck.toml), the EU semitrailer
 (examples/roundabout-semitrailer.toml) and the truck with a crossing car (examples/crossing-car.toml)
@@ -96,6 +97,15 @@ goal missed): qpOASES' early stop (its intermediate iterate) does not keep the l
 the profile of a step.
 With the Opti peer (``--controllers rti``, load 1.7 -> 3.2): CPU mean / max ms 10.5 / 26.5 (truck,
 Opti ratio 0.124), 24.0 / 63.5 (semitrailer, 0.100), 21.0 / 71.2 (crossing car, 0.131); all checks held.
+
+Fourth round (ced764a): ``--qp-solver hpipm`` (the uncondensed QP in hpipm's stage layout,
+``model.simulation.mpc.stagewise``; robust mode, cap 40, ``--no-peer``): truck 6 RTI / 99 fallbacks,
+CPU 40 / 61 ms (load 11), semitrailer 5 / 127, 102 / 131 ms (load 6), crossing car 0 / 115, 65 / 87
+ms; goals missed: the interior point takes 14-29 iterations when it converges (truck RTI steps
+9-10 ms, semitrailer 17-19 ms) and reaches its cap from some sample on. qpOASES stays the default.
+With the Opti peer (``--controllers rti``, N = 40, x86_64 2 shared cores, load 12 -> 7): CPU mean / max
+ms 11.8 / 25.4 (truck, ratio 0.107), 26.6 / 64.1 (semitrailer, 0.108), 23.3 / 78.4 (crossing car,
+0.130); same closed loops, all checks held; the 10 / 30 ms target is not met (README).
 """
 
 from __future__ import annotations
