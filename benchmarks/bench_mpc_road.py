@@ -2,6 +2,7 @@
 
 Usage: python benchmarks/bench_mpc_road.py [--cases truck semitrailer] [--controllers rti ipopt]
        [--reference-intervals 100] [--no-peer] [--compiled] [--qp-max-changes K]
+       [--qp-solver qpoases|hpipm] [--hpipm-mode MODE] [--hpipm-iter-max K]
 
 Cases: the rigid truck (examples/roundabout-truck.toml), the EU semitrailer
 (examples/roundabout-semitrailer.toml) and the truck with a crossing car (examples/crossing-car.toml)
@@ -96,6 +97,15 @@ goal missed): qpOASES' early stop (its intermediate iterate) does not keep the l
 the profile of a step.
 With the Opti peer (``--controllers rti``, load 1.7 -> 3.2): CPU mean / max ms 10.5 / 26.5 (truck,
 Opti ratio 0.124), 24.0 / 63.5 (semitrailer, 0.100), 21.0 / 71.2 (crossing car, 0.131); all checks held.
+
+Fourth round (ced764a): ``--qp-solver hpipm`` (the uncondensed QP in hpipm's stage layout,
+``model.simulation.mpc.stagewise``; robust mode, cap 40, ``--no-peer``): truck 6 RTI / 99 fallbacks,
+CPU 40 / 61 ms (load 11), semitrailer 5 / 127, 102 / 131 ms (load 6), crossing car 0 / 115, 65 / 87
+ms; goals missed: the interior point takes 14-29 iterations when it converges (truck RTI steps
+9-10 ms, semitrailer 17-19 ms) and reaches its cap from some sample on. qpOASES stays the default.
+With the Opti peer (``--controllers rti``, N = 40, x86_64 2 shared cores, load 12 -> 7): CPU mean / max
+ms 11.8 / 25.4 (truck, ratio 0.107), 26.6 / 64.1 (semitrailer, 0.108), 23.3 / 78.4 (crossing car,
+0.130); same closed loops, all checks held; the 10 / 30 ms target is not met (README).
 """
 
 from __future__ import annotations
@@ -248,14 +258,17 @@ class Shadowed:
 
 
 def run(case: str, controller: str, reference_intervals: int, peer: bool, compiled: bool = False,
-        qp_changes: int = 0) -> dict:  # fmt: skip
+        qp_changes: int = 0, qp_solver: str = "qpoases", hpipm: dict | None = None) -> dict:  # fmt: skip
     sc = load_scenario(ROOT / CASES[case])
     t0 = time.perf_counter()
     sol = sc.ocp.solve(intervals=reference_intervals)
     solve_seconds = time.perf_counter() - t0
     control, disturbance = ControlSettings(SAMPLE, HORIZON), Disturbance()
     qp_options = {"nWSR": qp_changes} if qp_changes else {}
-    settings = MPCSettings(realtime=controller == "rti", rti_compiled=compiled, qp_options=qp_options)
+    if qp_solver == "hpipm":  # the stagewise QP: its options are hpipm's
+        qp_options = dict(hpipm or {})
+    settings = MPCSettings(realtime=controller == "rti", rti_compiled=compiled, qp_options=qp_options,
+                           qp_solver=qp_solver)  # fmt: skip
     mpc = MPC(sol, control, disturbance, settings=settings)
     shadow = Shadowed(mpc, OptiPeer(mpc) if peer else None)
     load_before = os.getloadavg()[0]
@@ -321,7 +334,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--compiled", action="store_true", help="the RTI's first-order functions as compiled C")
     ap.add_argument("--qp-max-changes", type=int, default=0,
                     help="cap on qpOASES' working-set changes per step (nWSR; 0: its default)")  # fmt: skip
+    ap.add_argument("--qp-solver", default="qpoases", choices=["qpoases", "hpipm"],
+                    help="the RTI's QP: condensed and dense (qpoases) or stagewise (hpipm)")
+    ap.add_argument("--hpipm-mode", default=None, help="hpipm's mode (speed_abs, speed, balance, robust)")
+    ap.add_argument("--hpipm-iter-max", type=int, default=0, help="hpipm's iteration cap (0: the default)")
     args = ap.parse_args(argv)
+    hpipm = {k: v for k, v in (("mode", args.hpipm_mode), ("iter_max", args.hpipm_iter_max)) if v}
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, CasADi {ca.__version__}, load average {os.getloadavg()[0]:.2f}; "
           f"{SAMPLE:g} s samples, horizon {HORIZON} intervals ({SAMPLE * HORIZON:g} s)")  # fmt: skip
@@ -329,7 +347,8 @@ def main(argv: list[str] | None = None) -> int:
     print("|" + "---|" * (HEAD.count("|") - 1))
     for case in args.cases:
         for controller in args.controllers:
-            row = run(case, controller, args.reference_intervals, not args.no_peer, args.compiled, args.qp_max_changes)
+            row = run(case, controller, args.reference_intervals, not args.no_peer, args.compiled, args.qp_max_changes,
+                      args.qp_solver, hpipm)  # fmt: skip
             print(line(row), flush=True)
     return 0
 

@@ -18,6 +18,7 @@ from scipy.integrate import solve_ivp
 from model.problem.closed_loop import ControlSettings, Disturbance
 from model.problem.scenario import load_scenario
 from model.simulation.mpc import MPC, MPCSettings, TimeLayout
+from model.simulation.mpc.rti import RealTimeIteration
 from tests.conftest import ROOT
 
 SCENARIOS = ROOT / "workflows" / "scenarios"
@@ -346,3 +347,27 @@ def test_a_capped_qp_gives_its_intermediate_iterate(road):
     assert step.status.startswith("Maximum number of working set recalculations")
     assert step.success and step.step > 0.0
     assert np.all(np.isfinite(step.x)) and not np.array_equal(step.x, pushed)
+
+
+def test_the_stagewise_qp_takes_the_condensed_step(road):
+    """The uncondensed QP in hpipm's stage layout (``qp_solver="hpipm"``) is the condensed QP written
+    stage by stage: from the pushed state its step agrees with qpOASES' to the interior point's
+    tolerance and repairs the dynamics as well."""
+    mpc = MPC(road, ControlSettings(0.1, 40), settings=MPCSettings(realtime=True, budget=100.0))
+    hm = mpc.horizon
+    stagewise = RealTimeIteration(hm.model, hm.nlp, hm.states, "hpipm", mpc.settings.rti_regularization,
+                                  controls=hm.controls)  # fmt: skip
+    sw = stagewise.stagewise
+    assert len(sw.nx) == hm.n + 1 and sw.nv == sum(sw.nx) + sum(sw.nu)
+    pushed = rti_problem(mpc, 0.1, 0.2)
+    before = hm.violation(pushed)
+    dense, staged = mpc.rti.step(pushed), stagewise.step(pushed)
+    assert dense.success and staged.success and staged.qp_iterations > 0
+    assert np.max(np.abs(staged.x - dense.x)) < 1e-2 * dense.step
+    assert hm.violation(staged.x) < 0.02 * before
+
+
+def test_the_stagewise_qp_needs_the_controls(road):
+    mpc = MPC(road, ControlSettings(0.1, 40), settings=MPCSettings(realtime=True, budget=100.0))
+    with pytest.raises(ValueError, match="control names"):
+        RealTimeIteration(mpc.horizon.model, mpc.horizon.nlp, mpc.horizon.states, "hpipm")

@@ -114,7 +114,9 @@ class MPCSettings:
         built NLP, the QP by ``qp_solver``), used when its point satisfies the constraints to
         ``feasible_inf_pr``; warm-started Ipopt is the fallback when it does not.
     qp_solver : str
-        The real-time iteration's dense QP solver (``rti.QP_SOLVERS``).
+        The real-time iteration's QP solver (``rti.QP_SOLVERS``): "qpoases" or "daqp" on the
+        condensed dense QP, "hpipm" on the uncondensed QP in the stage layout (``stagewise``;
+        then ``qp_options`` are hpipm's).
     rti_regularization : float
         The real-time iteration's proximal weight on each QP variable.
     qp_options : dict
@@ -227,7 +229,7 @@ class MPC:
         if self.settings.realtime:
             self.rti = RealTimeIteration(self.horizon.model, self.horizon.nlp, self.ocp.vehicle.states,
                                          self.settings.qp_solver, self.settings.rti_regularization,
-                                         self.settings.qp_options)  # fmt: skip
+                                         self.settings.qp_options, self.ocp.vehicle.controls)  # fmt: skip
             self._rti_key = None
             if self.settings.rti_compiled:
                 self.horizon.nlp.compile_first_order()

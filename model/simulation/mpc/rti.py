@@ -30,6 +30,10 @@ and the accessors of named components):
 - the objective's Hessian enters the condensing through its dense blocks at the free columns and
   the few dependent columns it touches, formed once per Hessian.
 
+With ``solver="hpipm"`` the QP is not condensed: ``stagewise.StagewiseQP`` writes the same QP in
+the OCP's stage layout for hpipm's Riccati-based interior point (measured slower on the road
+cases: see that module).
+
 The step is accepted by the controller when the new point satisfies the nonlinear constraints to
 its tolerance (``MPC._violation``); otherwise the controller falls back to warm-started Ipopt.
 """
@@ -47,8 +51,10 @@ from scipy.sparse.linalg import splu
 
 from model.direct.bodies import point_definitions
 from model.nlp.casadi_nlp import CasadiNLP
+from model.simulation.mpc.qp_buffer import BufferedQP
+from model.simulation.mpc.stagewise import StagewiseQP
 
-QP_SOLVERS = ("qpoases", "daqp")
+QP_SOLVERS = ("qpoases", "daqp", "hpipm")  # hpipm: the stagewise QP (``stagewise``), not condensed
 # qpOASES dense, with the settings of its MPC preset (``Options::setToMPC``: no ramping, far bounds,
 # no flipping bounds, no full linear-independence or zero-curvature tests, no drift correction, no
 # refactorisation, no refinement steps). Measured on the road cases' recorded QP sequences: the
@@ -88,15 +94,17 @@ class RealTimeIteration:
     states : sequence of str
         The state names (``d<state>_trapezoid`` are their trapezoid rows).
     solver : str
-        A dense ``casadi.conic`` plug-in (``QP_SOLVERS``).
+        A ``casadi.conic`` plug-in (``QP_SOLVERS``): a dense one on the condensed QP, or "hpipm".
     regularization : float
         The proximal term on every QP variable (in the NLP's own units).
     options : dict, optional
-        Options of the QP plug-in (added to the defaults).
+        Options of the QP plug-in (added to the defaults; hpipm's for "hpipm").
+    controls : sequence of str, optional
+        The control names (needed by the stagewise QP of "hpipm").
     """
 
     def __init__(self, model: pyo.ConcreteModel, nlp: CasadiNLP, states, solver: str = "qpoases",
-                 regularization: float = 1e-6, options: dict | None = None):  # fmt: skip
+                 regularization: float = 1e-6, options: dict | None = None, controls=None):  # fmt: skip
         if not ca.has_conic(solver):
             raise ValueError(f"casadi has no QP solver {solver!r}")
         self.nlp, self.delta, self.solver = nlp, float(regularization), solver
@@ -104,14 +112,20 @@ class RealTimeIteration:
         jac = nlp.evaluate_jacobian()
         self._jac_parts = self._split(jac.row, jac.col)
         self._elastic_entries(jac.row, jac.col)
-        n_z = len(self.free) + 1  # the last: the elastic variable
-        n_rows = len(self.rest) + len(self.bounded_dep)
-        opts = {"error_on_fail": False}
-        if solver == "qpoases":
-            opts |= QPOASES_OPTIONS
-        opts |= options or {}
-        qp = ca.conic("rti", solver, {"h": ca.Sparsity.dense(n_z, n_z), "a": ca.Sparsity.dense(n_rows, n_z)}, opts)
-        self.qp = BufferedQP(qp)
+        self.stagewise = None
+        if solver == "hpipm":
+            if controls is None:
+                raise ValueError("the stagewise QP needs the control names")
+            self.stagewise = StagewiseQP(model, nlp, states, controls, self.held, jac.row, jac.col, options)
+        else:
+            n_z = len(self.free) + 1  # the last: the elastic variable
+            n_rows = len(self.rest) + len(self.bounded_dep)
+            opts = {"error_on_fail": False}
+            if solver == "qpoases":
+                opts |= QPOASES_OPTIONS
+            opts |= options or {}
+            sp = {"h": ca.Sparsity.dense(n_z, n_z), "a": ca.Sparsity.dense(n_rows, n_z)}
+            self.qp = BufferedQP(ca.conic("rti", solver, sp, opts))
         self._hz: np.ndarray | None = None
         self._h = None
 
@@ -184,6 +198,24 @@ class RealTimeIteration:
         order, indices, indptr, shape = self._jac_parts[name]
         return csc_matrix((data[order], indices, indptr), shape=shape)
 
+    def _dense_free(self, data: np.ndarray, name: str, free_pos: np.ndarray) -> np.ndarray:
+        """Block ``name``'s columns ``free_pos`` as a dense array, scattered straight from the
+        Jacobian's values (the same array as slicing the sparse block and ``toarray``; the scatter
+        indices are kept per set of free columns, which changes only when a bound fixes a column)."""
+        key = (name, free_pos.tobytes())
+        cache = self.__dict__.setdefault("_scatter", {})
+        if key not in cache:
+            order, indices, indptr, shape = self._jac_parts[name]
+            col = np.repeat(np.arange(shape[1]), np.diff(indptr))
+            where = np.full(shape[1], -1)
+            where[free_pos] = np.arange(len(free_pos))
+            keep = where[col] >= 0
+            cache[key] = (indices[keep] * len(free_pos) + where[col[keep]], order[keep], (shape[0], len(free_pos)))
+        target, source, shape = cache[key]
+        out = np.zeros(shape[0] * shape[1])
+        out[target] = data[source]
+        return out.reshape(shape)
+
     # -- the objective's Hessian ------------------------------------------------------------------
     def refresh_hessian(self) -> None:
         """Evaluate the objective's Hessian again at the next step (after its Params changed)."""
@@ -206,9 +238,14 @@ class RealTimeIteration:
         nlp.set_primals(x)
         if self._h is None:
             self._h = self._hessian()
-            self._hessian_blocks()
+            if self.stagewise is not None:
+                self.stagewise.set_hessian(self._h, self.delta)
+            else:
+                self._hessian_blocks()
             nlp.set_primals(x)
         g, grad, data = nlp.evaluate_first_order()
+        if self.stagewise is not None:
+            return self._stagewise_step(x, g, grad, data, t0)
         lbx, ubx = nlp.primals_lb(), nlp.primals_ub()
         others = self.others
         fixed = (self._role[others] == 2) | (lbx[others] == ubx[others])
@@ -220,10 +257,10 @@ class RealTimeIteration:
             lu = splu(J_ED)
         except RuntimeError as exc:
             return StepResult(x, False, f"singular dynamics: {exc}", time.perf_counter() - t0, 0.0)
-        J_EO_free = J_EO[:, free_pos].toarray()
+        J_EO_free = self._dense_free(data, "EO", free_pos)
         a = -lu.solve(g[self.eq] + J_EO @ d_other)
         S = -lu.solve(J_EO_free)
-        A_rest = J_RD @ S + J_RO[:, free_pos].toarray()
+        A_rest = J_RD @ S + self._dense_free(data, "RO", free_pos)
         b_rest = g[self.rest] + J_RD @ a + J_RO @ d_other
         lba, uba = nlp.constraints_lb()[self.rest] - b_rest, nlp.constraints_ub()[self.rest] - b_rest
         bd = self.bounded_dep
@@ -257,6 +294,21 @@ class RealTimeIteration:
         iterations = int(stats.get("iter_count", -1) or -1)
         new = self._repair(x + d, data) if ok else x
         return StepResult(new, ok, status, time.perf_counter() - t0, size, iterations, self.qp_seconds)
+
+    def _stagewise_step(self, x, g, grad, data, t0: float) -> StepResult:
+        """The step by the stagewise QP (hpipm): no condensing."""
+        price = float(np.max(grad[self.held], initial=0.0)) * len(self._soft_k)
+        t_qp = time.perf_counter()
+        d, stats = self.stagewise.direction(x, g, grad, data, price)
+        self.qp_seconds, self.prep_seconds = time.perf_counter() - t_qp, t_qp - t0
+        self.elastic = self.stagewise.elastic
+        status = str(stats.get("return_status", ""))
+        ok = bool(stats.get("success", False)) and bool(np.all(np.isfinite(d)))
+        size = float(np.max(np.abs(d), initial=0.0))
+        iterations = int(stats.get("iter_count", -1) or -1)
+        new = self._repair(x + d, data) if ok else x
+        return StepResult(new, ok, status or ("solved" if ok else "failed"), time.perf_counter() - t0, size,
+                          iterations, self.qp_seconds)  # fmt: skip
 
     def _repair(self, x: np.ndarray, data: np.ndarray) -> np.ndarray:
         """Raise each soft row's slack by what ``x`` lacks on the row (its coefficient from ``data``, the
@@ -311,45 +363,3 @@ class RealTimeIteration:
 def _pad_bounds(b: np.ndarray, width: int) -> np.ndarray:
     """``b`` with zeros up to ``width`` (the padding variables are fixed at 0)."""
     return np.concatenate([b, np.zeros(width - len(b))])
-
-
-class BufferedQP:
-    """A ``casadi.conic`` QP solver called through persistent numpy buffers.
-
-    Converting the dense constraint matrix (about 1500 x 100 on a road horizon) to a CasADi DM
-    per call costs about 10 ms, more than the hot-started QP itself; the solver's buffer reads
-    the arrays in place (column-major for the matrices). The solver's memory, and with it the
-    active set it hot-starts from, is the buffer's own and persists across calls.
-
-    Parameters
-    ----------
-    qp : casadi.Function
-        The solver (``casadi.conic`` with dense H and A).
-    """
-
-    INPUTS = ("h", "g", "a", "lba", "uba", "lbx", "ubx")
-
-    def __init__(self, qp: ca.Function):
-        self.fn = qp
-        self._buf, self._trigger = qp.buffer()
-        self._args = {}
-        for name in self.INPUTS:
-            i = qp.index_in(name)
-            sp = qp.sparsity_in(i)
-            self._args[name] = np.zeros((sp.size1(), sp.size2()), order="F") if sp.size2() > 1 else np.zeros(sp.size1())
-            self._buf.set_arg(i, memoryview(self._args[name].reshape(-1, order="F")))
-        self._res = {name: np.zeros(qp.nnz_out(i)) for i, name in enumerate(qp.name_out())}
-        for i, name in enumerate(qp.name_out()):
-            self._buf.set_res(i, memoryview(self._res[name]))
-
-    @property
-    def x(self) -> np.ndarray:
-        """The last solution (a copy)."""
-        return self._res["x"].copy()  # names: the QP solver's output "x"
-
-    def __call__(self, h, g, a, lba, uba, lbx, ubx) -> dict:
-        """Solve the QP with these data (copied into the buffers); the solver's stats."""
-        for name, value in zip(self.INPUTS, (h, g, a, lba, uba, lbx, ubx), strict=True):
-            self._args[name][...] = value
-        self._trigger()
-        return self._buf.stats()
