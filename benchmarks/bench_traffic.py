@@ -1,7 +1,7 @@
 """Benchmark: the truck autopilot against SUMO's own driver on a grid of traffic cells.
 
 Usage: python benchmarks/bench_traffic.py [--vehicles truck semitrailer] [--turns right straight left]
-       [--rates 200 450 700] [--seeds 5] [--drivers sumo autopilot] [--junction-rule] [--out runs.jsonl]
+       [--rates 200 450 700] [--seeds 5] [--drivers sumo autopilot] [--junction-rule] [--entry-rule] [--out runs.jsonl]
 
 Each cell is a vehicle (the rigid truck of examples/traffic-roundabout.toml, the EU semitrailer
 of examples/roundabout-semitrailer.toml), a turn from leg 0 (right = 1st exit, straight = 2nd,
@@ -66,8 +66,8 @@ def run_grid(args) -> list[dict]:
                         if driver == "autopilot" and plan is None:
                             continue
                         with tempfile.TemporaryDirectory() as tmp:
-                            summary, _, _ = one_run(scenario, sumo, Path(tmp), driver, seed, plan,
-                                                    junction_rule=args.junction_rule)  # fmt: skip
+                            rules = {"junction_rule": args.junction_rule, "entry_rule": args.entry_rule}
+                            summary, _, _ = one_run(scenario, sumo, Path(tmp), driver, seed, plan, **rules)
                         summary |= {"vehicle": vehicle, "turn": turn, "rate": rate}
                         results.append(summary)
                         with open(args.out, "a") as f:
@@ -137,6 +137,11 @@ def main(argv: list[str] | None = None) -> int:
         "--junction-rule",
         action="store_true",
         help="the autopilot with SUMO's exit junction rule (off in roundabout traffic; measured worse)",
+    )
+    ap.add_argument(
+        "--entry-rule",
+        action="store_true",
+        help="the autopilot with the entry half of SUMO's junction rule (off in roundabout traffic)",
     )
     ap.add_argument("--out", default="traffic-runs.jsonl", help="JSON lines, one run each (appended)")
     ap.add_argument("--table", help="only print the table of an existing --out file")

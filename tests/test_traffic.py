@@ -410,3 +410,50 @@ def test_left_hand_traffic_a_sumo_run_arrives_by_its_exit(tmp_path):
     assert summary["arrived"] and summary["exit_taken"] == 2
     traj = list(csv.DictReader((out / "trajectory.csv").open()))
     assert float(traj[0]["y"]) == pytest.approx(2.0)  # left-hand: the entry lane of the leg at 180 deg is at y > 0
+
+
+def test_the_truck_moved_along_its_plan_stays_on_its_route_lanes(tmp_path):
+    """Replayed by the contract's loop (keepRoute=2), the right-turn plan is never put on a lane off its route.
+
+    With the ring lane as wide as the ring roadway (6 m against the exit's 4 m) SUMO put the truck,
+    cutting the exit corner near the outer curb, on the ring's internal lane beside the exit's for
+    0.4 s (``:r1_2_0``, route rewritten to ring0 ring1): a "circulating" truck for the car entering
+    from the exit leg, which braked at 9 m/s^2 (benchmarks/traffic.md).
+    """
+    import xml.etree.ElementTree as ET
+
+    from model.traffic.autopilot import plan_of
+    from model.traffic.cosim import autopilot_drive, start_sumo, write_sumo_files
+    from model.traffic.run import solve_plan
+    from model.traffic.sumo import find_sumo
+
+    data = document()
+    data["route"]["exit"] = 1
+    scenario = parse_scenario(data)
+    sumo = find_sumo()
+    write_sumo_files(scenario, tmp_path, sumo, 0)
+    sol, _ = solve_plan(scenario)
+    assert sol.ok
+    free = "routes_free_flow.rou.xml"
+    poses = autopilot_drive(scenario, sumo, tmp_path, plan_of(sol, scenario.ocp.vehicle), routes=free).truck
+    root = ET.parse(tmp_path / "net.net.xml").getroot()
+    traci = start_sumo(sumo, tmp_path, free)
+    lanes, allowed = [], None
+    try:
+        while traci.simulation.getTime() < max(poses) - 1e-9:
+            t_next = round(traci.simulation.getTime() + scenario.traffic.step, 6)
+            if t_next in poses and "truck" in traci.vehicle.getIDList():
+                if allowed is None:
+                    route = traci.vehicle.getRoute("truck")
+                    pairs = zip(route[:-1], route[1:], strict=True)
+                    vias = {root.find(f"connection[@from='{a}'][@to='{b}']").get("via") for a, b in pairs}
+                    allowed = {f"{e}_0" for e in route} | vias
+                x, y, a = poses[t_next][:3]
+                traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)
+            traci.simulationStep()
+            if allowed is not None and "truck" in traci.vehicle.getIDList():
+                lanes.append(traci.vehicle.getLaneID("truck"))
+    finally:
+        traci.close()
+    assert ":r1_1_0" in lanes and "out1_0" in lanes, "the truck left by its exit's internal lane"
+    assert set(lanes) <= allowed, sorted(set(lanes) - allowed)

@@ -166,13 +166,14 @@ def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, s
 
 
 def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: str = "routes.rou.xml",
-                    junction_rule: bool = False) -> Pass:  # fmt: skip
+                    junction_rule: bool = False, entry_rule: bool = False) -> Pass:  # fmt: skip
     """The autopilot's pass: each step, predict the others, choose the progress, move ``truck`` there.
 
     The loop is the contract's replay loop with the poses made online, so replaying ``DIR/sumo``
     with ``trajectory.csv`` gives this pass's ``traffic.csv``. ``Pass.states`` holds the rows.
     ``junction_rule``: give the driver SUMO's exit junction rule (``Autopilot.junction_conflict``);
-    off by default (``roundabout traffic``): measured worse, benchmarks/traffic.md.
+    off by default (``roundabout traffic``): measured worse, benchmarks/traffic.md. ``entry_rule``: its
+    entry half (``Autopilot(entry_rule=True)``), alone or with the exit half; off by default.
     """
     from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
 
@@ -186,8 +187,11 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     if len(edges) > 2:  # the ring's internal lanes at the exit: the truck's, and the one continuing round
         lanes = (via_lane_shape(net, edges[-2], edges[-1]), via_lane_shape(net, edges[-2], f"ring{road.exit_leg}"))
     if not junction_rule:
-        junctions = lanes = None
-    pilot = Autopilot(scenario, plan, geo["front"], line_radius=line, junctions=junctions, exit_lanes=lanes)
+        lanes = None  # no exit half: the mapped window is empty
+    if not (junction_rule or entry_rule):
+        junctions = None
+    pilot = Autopilot(scenario, plan, geo["front"], line_radius=line, junctions=junctions, exit_lanes=lanes,
+                      entry_rule=entry_rule)  # fmt: skip
     # the plan's solve leaves large object graphs: collect them now and keep the survivors out of the
     # collector's scans while driving, so that no decision pays for a full collection (measured: 1.7 CPU s)
     gc.collect()

@@ -6,7 +6,9 @@ scenario's own metric coordinates (``--offset.disable-normalization``: no shift)
 - one ring node per leg on the ring roadway's centre line (radius ``(Ro + Ri) / 2``) on the leg's
   axis, and one node at the leg's far end (``Ro + length``);
 - ring edges ``ring{i}`` from leg i's node to the next leg's node in the circulation direction,
-  one lane as wide as the ring roadway, shaped as the arc of the centre line;
+  one lane on the ring roadway's centre line, shaped as its arc, as wide as the legs' lanes (at most
+  the roadway; ``ring_lane_width``: the ring's internal lane beside an exit's is then no wider than
+  the exit's, so that ``moveToXY(..., keepRoute=2)`` maps a truck leaving by the exit onto the exit's);
 - per leg an entry edge ``in{i}`` and an exit edge ``out{i}``, one lane each, as wide as the
   leg's lanes, along the middle of the entry and the exit lane (the sides the traffic side gives);
 - connections entry -> ring, ring -> ring, ring -> exit only (no U-turn in place), and the ring
@@ -55,6 +57,20 @@ def _ring_point(roundabout: Roundabout, angle: float) -> tuple[float, float]:
     return c[0] + r * math.cos(angle), c[1] + r * math.sin(angle)
 
 
+def ring_lane_width(roundabout: Roundabout) -> float:
+    """Width of the ring's SUMO lane: the legs' widest lane, at most the ring roadway.
+
+    SUMO's internal lanes take the width of the lane they lead to, so an exit's internal lane is as
+    wide as the exit lane and the ring's one beside it as wide as the ring lane. ``moveToXY(...,
+    keepRoute=2)`` picks between them by their distances *and* widths: with a ring lane as wide as
+    the roadway (6 m against the exit's 4 m on the example) a truck cutting the exit corner near the
+    outer curb lies inside the ring lane's width and outside the exit's, and SUMO put it on the ring's
+    lane for 0.2-0.7 s (measured: every exit of the benchmark's runs), a "circulating" truck for the
+    car entering from that leg. With equal widths the nearer lane wins.
+    """
+    return min(roundabout.circulatory_width, max(g.lane_width for g in roundabout.legs))
+
+
 def ring_shape(roundabout: Roundabout, leg: int) -> list[tuple[float, float]]:
     """The arc of the ring centre line from leg ``leg``'s node to the next leg's, in the circulation direction."""
     a0, a1 = roundabout.legs[leg].angle, roundabout.legs[next_leg(roundabout, leg)].angle
@@ -90,7 +106,7 @@ def nodes_xml(roundabout: Roundabout) -> str:
 
 def edges_xml(roundabout: Roundabout) -> str:
     """The plain-XML edges (ring, entries, exits) and the ``<roundabout>`` declaration."""
-    width = roundabout.circulatory_width
+    width = ring_lane_width(roundabout)
     rows = []
     for i, g in enumerate(roundabout.legs):
         j = next_leg(roundabout, i)
@@ -248,6 +264,6 @@ def config_xml(traffic: TrafficSettings, seed: int, routes: str = "routes.rou.xm
 
 __all__ = [
     "NET_FILES", "config_xml", "connections_xml", "edges_xml", "junction_shape", "lane_line", "next_leg", "nodes_xml",
-    "ring_order", "ring_radius", "ring_shape", "route_edges", "routes_xml", "truck_vtype", "via_lane_shape",
-    "write_network",
+    "ring_lane_width", "ring_order", "ring_radius", "ring_shape", "route_edges", "routes_xml", "truck_vtype",
+    "via_lane_shape", "write_network",
 ]  # fmt: skip

@@ -78,10 +78,11 @@ def solve_plan(scenario: Scenario) -> tuple[object, float]:
 
 
 def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int, plan=None,
-            junction_rule: bool = False) -> tuple[dict, dict, list]:  # fmt: skip
+            junction_rule: bool = False, entry_rule: bool = False) -> tuple[dict, dict, list]:  # fmt: skip
     """One run into ``folder/sumo``: (summary, trajectory columns, traffic rows); ``plan`` for the autopilot.
 
-    ``junction_rule``: the autopilot with SUMO's exit junction rule (``autopilot_drive``; off by default).
+    ``junction_rule``: the autopilot with SUMO's exit junction rule (``autopilot_drive``; off by default);
+    ``entry_rule``: with its entry half (off by default).
     """
     traffic = scenario.traffic
     sumo_dir = folder / "sumo"
@@ -94,7 +95,7 @@ def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int
         poses = {t: p[:3] for t, p in driven.truck.items()}
         scored = replay(sumo, sumo_dir, poses, driven.end, traffic.step)
     else:
-        driven = autopilot_drive(scenario, sumo, sumo_dir, plan, junction_rule=junction_rule)
+        driven = autopilot_drive(scenario, sumo, sumo_dir, plan, junction_rule=junction_rule, entry_rule=entry_rule)
         free = autopilot_drive(scenario, sumo, sumo_dir, plan, "routes_free_flow.rou.xml")
         cols = states_of(scenario, driven) if driven.states else {}
         scored = driven
