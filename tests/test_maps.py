@@ -318,6 +318,27 @@ def test_lateral_extents_of_a_straight_lane_and_a_ring():
     assert np.all(low[near] == 0.5) and np.all(low[far] == 3.0)
 
 
+def test_the_curved_offset_is_the_distance_to_the_frames_circle():
+    """docs/map-corridor.md (curved strips): the frame's curvature on a circle, and the offset from the
+    osculating circle against R - |p - o| for points up to a quarter turn along it, either turn."""
+    from model.direct.map_corridor import curved_offset
+    from model.scene.curvilinear import frame
+
+    angles = np.linspace(0, np.pi, 400)
+    for sign in (1.0, -1.0):  # ccw (left turn, kappa > 0) and cw
+        fr = frame(15.0 * np.column_stack([np.cos(angles), sign * np.sin(angles)]), step=0.25, sigma=1.0)
+        inner = (fr.s > 5) & (fr.s < fr.s[-1] - 5)
+        assert np.allclose(fr.curvature(fr.s[inner]), sign / 15.0, rtol=0.01)
+        rng = np.random.default_rng(1)
+        k = int(np.argmin(np.abs(fr.s - 20.0)))
+        c, t, n, kappa = fr.points[k], fr.tangents[k], fr.normals[k], float(fr.curvature(fr.s[k]))
+        centre = c + n / kappa
+        p = c + rng.uniform(-12, 12, (50, 1)) * t + rng.uniform(-4, 4, (50, 1)) * n
+        exact = np.sign(kappa) * (1 / abs(kappa) - np.linalg.norm(p - centre, axis=1))
+        assert np.allclose(curved_offset((p - c) @ t, (p - c) @ n, kappa), exact, atol=1e-9)
+    assert curved_offset(3.0, 0.7, 0.0) == 0.7  # a straight frame: the offset along the normal
+
+
 @pytest.mark.parametrize("example", ["map-kackertstrasse-truck.toml", "map-kackertstrasse-semitrailer.toml"])
 def test_the_strip_prototype_keeps_the_exact_rectangles_in_the_real_corridor(example):
     """docs/map-corridor.md: the fixed-projection strips, re-projected until they settle, on N = 40."""

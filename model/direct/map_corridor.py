@@ -40,6 +40,8 @@ from model.scene.geometry import clearance
 MARGIN = 0.5  # m added to each disc's radius for the window of ``conservative``
 OPEN_END = 15.0  # m: how far the strips' corridor continues beyond the route's end edges (``open_ends``)
 CRACK = 1e-3  # m: the caps overlap the corridor by this much
+CURVED_WINDOW = 1.5  # the curved strips' bounds: the least over this many trust radii of arclength either side
+FLAT = 1e-6  # 1/m: a frame curvature below this is a straight line (the curved row is the linear one)
 
 
 @dataclass
@@ -154,21 +156,30 @@ def fixed_nodes(ocp: OCP, intervals: int) -> dict[str, tuple[int, ...]]:
 
 
 def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: dict[str, np.ndarray],
-                          trust: float | None = None, relax: bool = False) -> None:  # fmt: skip
+                          trust: float | None = None, relax: bool = False, curved: bool = False) -> None:  # fmt: skip
     """For every body, disc and node: the disc centre in the strip at its fixed arclength (linear rows).
 
     No rows at the nodes where the boundary values fix the body's pose (``fixed_nodes``).
     ``trust`` (m): also keep each disc centre within that distance of its fixed arclength along the
     frame's tangent there, a trust region in which the strip stands for the corridor.
     ``relax``: each strip row gets a slack (m, >= 0, on both sides), collected in ``m.strip_slacks``.
+    ``curved``: the lateral offset measured from the frame's osculating circle at the fixed arclength
+    (``curved_offset``) instead of along its normal line, so that a disc sliding along the tangent keeps
+    its offset from the curving lane; with ``trust`` the bounds are then the least over the arclengths the
+    trust region reaches (``CURVED_WINDOW`` x ``trust`` either side).
     """
     poses = ocp.vehicle.body_poses()
     fixed = fixed_nodes(ocp, len(m.nodes) - 1)
     for name, (offsets, _) in st.covers.items():
         s = s_fixed[name]
         c, tangent, n = st.frame.at(s)
-        hi = np.interp(s, st.frame.s, st.upper[name])
-        lo = np.interp(s, st.frame.s, st.lower[name])
+        upper, lower = st.upper[name], st.lower[name]
+        if curved and trust is not None:
+            upper = conservative(st.frame, upper, CURVED_WINDOW * trust)
+            lower = -conservative(st.frame, -lower, CURVED_WINDOW * trust)
+        kappa = st.frame.curvature(s) if curved else None
+        hi = np.interp(s, st.frame.s, upper)
+        lo = np.interp(s, st.frame.s, lower)
         narrow = lo > hi  # the strip is narrower than the disc there: its centre line, and the validation judges
         lo[narrow] = hi[narrow] = (lo[narrow] + hi[narrow]) / 2
         m.narrow_rows = getattr(m, "narrow_rows", 0) + int(narrow.sum())
@@ -180,7 +191,8 @@ def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: d
                 m.add_component(f"slack_left_{name}_{j}", slack[0])
                 m.add_component(f"slack_right_{name}_{j}", slack[1])
                 m.strip_slacks = [*getattr(m, "strip_slacks", []), *slack]
-            rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j], slack, fixed[name])
+            bend = None if kappa is None else (tangent[:, j], kappa[:, j])
+            rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j], slack, fixed[name], bend)
             m.add_component(f"strip_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
             if trust is not None:
                 bound = np.full(len(s), float(trust))
@@ -189,9 +201,10 @@ def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: d
 
 
 def _strip_rule(m: pyo.ConcreteModel, centre, c: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                slack=None, skip: tuple[int, ...] = ()):  # fmt: skip
+                slack=None, skip: tuple[int, ...] = (), bend: tuple[np.ndarray, np.ndarray] | None = None):  # fmt: skip
     """The rule ``lo_k <= n_k . (centre(t_k) - c_k) <= hi_k`` over the nodes t_k but those in ``skip`` (with
-    the pair of slacks ``slack``: ``- left[t] + right[t]`` added to the middle term)."""
+    the pair of slacks ``slack``: ``- left[t] + right[t]`` added to the middle term). ``bend``: the
+    tangents and curvatures at c_k; the middle term is then ``curved_offset`` instead."""
     index = {t: k for k, t in enumerate(m.nodes)}
 
     def rule(_m, t):
@@ -200,11 +213,26 @@ def _strip_rule(m: pyo.ConcreteModel, centre, c: np.ndarray, n: np.ndarray, lo: 
             return pyo.Constraint.Skip
         x, y = centre(t)
         lateral = n[k, 0] * (x - c[k, 0]) + n[k, 1] * (y - c[k, 1])
+        if bend is not None and abs(bend[1][k]) > FLAT:
+            along = bend[0][k, 0] * (x - c[k, 0]) + bend[0][k, 1] * (y - c[k, 1])
+            lateral = curved_offset(along, lateral, float(bend[1][k]), pyo.sqrt)
         if slack is not None:
             lateral = lateral - slack[0][t] + slack[1][t]
         return (float(lo[k]), lateral, float(hi[k]))
 
     return rule
+
+
+def curved_offset(along, across, kappa: float, sqrt=np.sqrt):
+    """Signed offset (m, > 0 left) of a point from the circle of curvature ``kappa`` (1/m, > 0 left) that
+    touches the frame at c with tangent t, normal n: ``along`` = t . (p - c), ``across`` = n . (p - c).
+
+    ``R - |p - o|`` with o = c + n / kappa, R = 1 / kappa, written without R so that it tends to ``across``
+    as kappa -> 0: ``(2 across - kappa (along^2 + across^2)) / (1 + sqrt((1 - kappa across)^2 + (kappa along)^2))``.
+    ``sqrt``: numpy's or Pyomo's (the expression is then a Pyomo expression).
+    """
+    num = 2 * across - kappa * (along**2 + across**2)
+    return num / (1 + sqrt((1 - kappa * across) ** 2 + (kappa * along) ** 2))
 
 
 def centre_line_start(ocp: OCP, intervals: int, st: Strips, speed_fraction: float = 0.5) -> Start:
@@ -258,10 +286,10 @@ def _violation(m: pyo.ConcreteModel) -> tuple[float, float]:
 
 def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0.05, options: dict | None = None,
               st: Strips | None = None, trust: float | None = None, relax: bool = False, start: Start | None = None,
-              deadline: float | None = None,
+              deadline: float | None = None, curved: bool = False,
               on_iterate: Callable[[Iterate], None] | None = None) -> Result:  # fmt: skip
     """The sequence of strip solves from the centre-line start (see the module docstring); ``trust``
-    as in ``add_strip_constraints``. ``relax``: the minimal-violation sequence instead (the strip
+    and ``curved`` as in ``add_strip_constraints``. ``relax``: the minimal-violation sequence instead (the strip
     rows widened by slacks, their sum minimised plus 1e-4 m per second of Tf, as the roads'
     ``diagnosis``); ``Iterate.violation`` is the sum and the largest slack.
 
@@ -276,7 +304,7 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
     for k in range(iterations):
         if k and deadline is not None and time.monotonic() >= deadline:
             break
-        it, s_new = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, _timed(options, deadline))
+        it, s_new = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, _timed(options, deadline), curved)
         result.iterates.append(it)
         if on_iterate is not None:
             on_iterate(it)
@@ -303,12 +331,13 @@ def _timed(options: dict | None, deadline: float | None) -> dict:
 
 
 def _strip_solve(ocp: OCP, intervals: int, st: Strips, s_fixed: dict[str, np.ndarray], start: Start,
-                 trust: float | None, relax: bool, options: dict) -> tuple[Iterate, dict[str, np.ndarray]]:  # fmt: skip
+                 trust: float | None, relax: bool, options: dict,
+                 curved: bool = False) -> tuple[Iterate, dict[str, np.ndarray]]:  # fmt: skip
     """One solve with the strips at the fixed projections ``s_fixed``, from ``start``; and its answer's projections."""
     t0 = time.perf_counter()
     with paused_gc():
         m = build_model(ocp, intervals)
-        add_strip_constraints(m, ocp, st, s_fixed, trust, relax)
+        add_strip_constraints(m, ocp, st, s_fixed, trust, relax, curved)
         if relax:
             _minimal_violation(m, ocp)
         load_start(m, start)

@@ -52,6 +52,12 @@ class Frame:
         line = shapely.LineString(self.points)
         return np.asarray(shapely.line_locate_point(line, shapely.points(np.asarray(xy, float))))
 
+    def curvature(self, s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Signed curvature (1/m, > 0 turning left) at arclengths ``s``: the tangent's turn rate per metre
+        at the samples, linear between them."""
+        theta = np.unwrap(np.arctan2(self.tangents[:, 1], self.tangents[:, 0]))
+        return np.interp(np.clip(np.asarray(s, float), self.s[0], self.s[-1]), self.s, np.gradient(theta, self.s))
+
     def lateral(self, xy: NDArray[np.float64], s: NDArray[np.float64]) -> NDArray[np.float64]:
         """Signed offset (m, > 0 left) of each point from the frame's point at ``s``, along its normal."""
         c, _, n = self.at(s)
