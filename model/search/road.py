@@ -57,6 +57,8 @@ ROAD_FALLBACK_STARTS = ((2.0, "arc"),)  # tried where the first fails
 ZERO_VIOLATION = 1e-6  # m, summed slack below which the relaxed solution is a feasible trajectory
 CORNERS = "corners"
 CONVERGED = ("optimal", "validation_failed")  # Ipopt converged (a check of the validation may have failed)
+MV_OPTIONS = {"tol": 1e-4}
+FEASIBILITY_SCALES = (1.0, 0.0)  # feasibility first: the scenario's road straight from the roomiest road's answer
 
 
 def road_steps(search: Search, best: Solution, fallback: bool, geometry: bool = True) -> Solution:
@@ -143,10 +145,11 @@ def geometry_continuation(search: Search, best: Solution | None) -> Solution | N
             found = sol if found is None or _converged_first(sol, found) else found
         return found
 
-    def reached(sol: Solution) -> bool:  # feasibility first: a converged answer the accuracy step may refine ends it
-        return sol.ok or (feasibility_first and bool(grid_failures(sol)))
+    def reached(sol: Solution) -> bool:  # feasibility first: a converged answer the accuracy step may refine ends it,
+        return sol.ok or (feasibility_first and (bool(grid_failures(sol)) or refused_with_evidence(sol)))  # or evidence
 
-    found, record = shrink_road(search.ocp, step, search.progress, search.expired, reached)
+    scales = FEASIBILITY_SCALES if feasibility_first else None
+    found, record = shrink_road(search.ocp, step, search.progress, search.expired, reached, scales)
     if found is not None and found.ok and clearly_better(found, best):
         scales = ", ".join(f"x{s['scale']:g}" for s in record["scales"])
         found.diagnosis = {"kind": "recovered", "via": "geometry continuation", "walk": record,
@@ -161,6 +164,19 @@ def geometry_continuation(search: Search, best: Solution | None) -> Solution | N
             return found  # a converged trajectory of the scenario's road (a finer grid may validate it)
         best.diagnosis = best.diagnosis or found.diagnosis
     return best
+
+
+def refused_with_evidence(sol: Solution | None) -> bool:
+    """Whether ``sol`` is a refusal the search ends on: the minimal-violation problem on the scenario's road
+    converged (Ipopt's status "optimal"; the answer's "validation_failed") with the bodies still outside the
+    corridor (``feasibility_diagnosis``).
+
+    Evidence, not proof: a local solve of the problem whose every feasible point has zero slack, from
+    the roomiest relaxed road's answer, still needs the violation; the cold starts and the time
+    problem's own steps after it are local solves of the harder, constrained problem.
+    """
+    diagnosis = (sol.diagnosis or {}) if sol is not None and not sol.ok else {}
+    return diagnosis.get("kind") == "minimal violation" and diagnosis.get("relaxed_status") in CONVERGED
 
 
 def cuts_inner_edge(ocp: OCP) -> bool:
@@ -179,7 +195,7 @@ def feasible_then_fastest(search: Search, last: Solution) -> Solution | None:
     two (None if the time limit left neither begun); one that does not validate carries the
     ``diagnosis`` of ``feasibility_diagnosis``, the evidence the search reports.
     """
-    relaxed = search.solve(search.intervals, "none", [search.values("none", last.columns)], relax=True,
+    relaxed = search.solve(search.intervals, "none", [search.values("none", last.columns)], MV_OPTIONS, relax=True,
                            formulation=CORNERS)  # fmt: skip
     if not relaxed:
         return None
@@ -195,6 +211,7 @@ def feasible_then_fastest(search: Search, last: Solution) -> Solution | None:
             found = sol if _converged_first(sol, found) else found
     if not found.ok:
         found.diagnosis = feasibility_diagnosis(search.ocp, mv, violation, fast)
+        search.evidence.append(found.diagnosis)
     return found
 
 
@@ -282,9 +299,10 @@ def failed_road(search: Search, best: Solution, start: Start) -> Solution:
             again[0].diagnosis = {"kind": "recovered", "via": "minimal violation", "message": message}
             return again[0]
     best.diagnosis = road_diagnosis(search.ocp, relaxed[0], violation)
+    search.evidence.append(best.diagnosis)
     return best
 
 
 __all__ = ["CONVERGED", "ROAD_FALLBACK_STARTS", "ZERO_VIOLATION", "cuts_inner_edge", "failed_road",
-           "feasibility_diagnosis", "feasible_then_fastest", "geometry_continuation", "road_steps",
-           "second_opinion"]  # fmt: skip
+           "feasibility_diagnosis", "feasible_then_fastest", "geometry_continuation", "refused_with_evidence",
+           "road_steps", "second_opinion"]  # fmt: skip
