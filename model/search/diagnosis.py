@@ -121,6 +121,7 @@ def time_limit_diagnosis(best: Solution, attempts: list[dict], search: dict) -> 
     return {
         "kind": "time limit",
         "time_limit_s": search.get("time_limit"),
+        "clock": search.get("clock", "wall"),
         "attempts_by_status": dict(tried),
         "starts_skipped": skipped,
         "steps_skipped": search.get("steps_skipped", []),

@@ -31,6 +31,11 @@
    feasibility first, the minimal-violation problem (corners) from the last relaxed answer, then,
    from a trajectory with zero violation at the nodes, the time problem (``feasible_then_fastest``).
    Its outcome, answered or not, is the evidence the search reports (``feasibility_diagnosis``).
+   With a time limit the walk goes from the roomiest road (x1) straight to the scenario's
+   (``FEASIBILITY_SCALES``; halved towards x1 if that fails), and a minimal violation that converged
+   with the bodies still outside ends the search (``refused_with_evidence``): on the design table's
+   WB-62 at ICD 25 m the walk x1 -> x0.5 spent the budget on a time problem that did not converge and
+   left no evidence; straight from x1 the minimal violation converges (trailer 6.47 m over the island).
 
 Each step is skipped once the search's time limit has passed (``Search.skip``).
 """
@@ -145,10 +150,12 @@ def geometry_continuation(search: Search, best: Solution | None) -> Solution | N
             found = sol if found is None or _converged_first(sol, found) else found
         return found
 
-    def reached(sol: Solution) -> bool:  # feasibility first: a converged answer the accuracy step may refine ends it,
-        return sol.ok or (feasibility_first and (bool(grid_failures(sol)) or refused_with_evidence(sol)))  # or evidence
+    budgeted = feasibility_first and search.time_limit is not None  # (without a budget the walk is as it was)
 
-    scales = FEASIBILITY_SCALES if feasibility_first else None
+    def reached(sol: Solution) -> bool:  # feasibility first: a converged answer the accuracy step may refine ends it,
+        return sol.ok or (feasibility_first and bool(grid_failures(sol))) or (budgeted and refused_with_evidence(sol))
+
+    scales = FEASIBILITY_SCALES if budgeted else None
     found, record = shrink_road(search.ocp, step, search.progress, search.expired, reached, scales)
     if found is not None and found.ok and clearly_better(found, best):
         scales = ", ".join(f"x{s['scale']:g}" for s in record["scales"])
