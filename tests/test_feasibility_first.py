@@ -102,8 +102,8 @@ def test_a_converged_answer_a_finer_grid_may_cure_ends_the_walk(wb62):
 def test_a_converged_minimal_violation_on_the_scenarios_road_is_a_refusal_with_evidence():
     """Only a converged minimal-violation diagnosis ends the search; a cut one or a valid answer does not."""
 
-    def answer(ok, kind, status):
-        return SimpleNamespace(ok=ok, diagnosis={"kind": kind, "relaxed_status": status})
+    def answer(ok, kind, status, metres=0.5):
+        return SimpleNamespace(ok=ok, diagnosis={"kind": kind, "relaxed_status": status, "encroachment_m": metres})
 
     assert road.refused_with_evidence(answer(False, "minimal violation", "validation_failed"))
     assert road.refused_with_evidence(answer(False, "minimal violation", "optimal"))
@@ -111,6 +111,7 @@ def test_a_converged_minimal_violation_on_the_scenarios_road_is_a_refusal_with_e
     assert not road.refused_with_evidence(answer(False, "minimal violation not converged", "optimal"))
     assert not road.refused_with_evidence(answer(True, "minimal violation", "optimal"))
     assert not road.refused_with_evidence(None)
+    assert not road.refused_with_evidence(answer(False, "minimal violation", "optimal", 0.004))  # within tolerance
 
 
 def test_feasibility_first_walks_from_the_roomiest_road_straight_to_the_scenarios(wb62):
