@@ -97,3 +97,34 @@ def test_a_converged_answer_a_finer_grid_may_cure_ends_the_walk(wb62):
     assert len(asked) == len(gc.SCALES) and found.status == "validation_failed"
     _, asked = walk(None)
     assert len(asked) > len(gc.SCALES)
+
+
+def test_a_converged_minimal_violation_on_the_scenarios_road_is_a_refusal_with_evidence():
+    """Only a converged minimal-violation diagnosis ends the search; a cut one or a valid answer does not."""
+
+    def answer(ok, kind, status, metres=0.5):
+        return SimpleNamespace(ok=ok, diagnosis={"kind": kind, "relaxed_status": status, "encroachment_m": metres})
+
+    assert road.refused_with_evidence(answer(False, "minimal violation", "validation_failed"))
+    assert road.refused_with_evidence(answer(False, "minimal violation", "optimal"))
+    assert not road.refused_with_evidence(answer(False, "minimal violation", "wall_time_limit"))
+    assert not road.refused_with_evidence(answer(False, "minimal violation not converged", "optimal"))
+    assert not road.refused_with_evidence(answer(True, "minimal violation", "optimal"))
+    assert not road.refused_with_evidence(None)
+    assert not road.refused_with_evidence(answer(False, "minimal violation", "optimal", 0.004))  # within tolerance
+
+
+def test_feasibility_first_walks_from_the_roomiest_road_straight_to_the_scenarios(wb62):
+    """``FEASIBILITY_SCALES``: x1 then the scenario's road; a failed last step is halved (x0.5) as before."""
+    from model.search import geometry_continuation as gc
+
+    asked = []
+
+    def step(problem, last):
+        asked.append(problem.name)
+        own = "relaxed" not in problem.name
+        return SimpleNamespace(ok=False, status="validation_failed" if own else "optimal", objective=60.0)
+
+    gc.shrink_road(wb62, step, lambda line: None, lambda: False, lambda sol: False, road.FEASIBILITY_SCALES)
+    assert asked[:2] == [f"{wb62.name} (relaxed x1)", wb62.name]
+    assert asked[2] == f"{wb62.name} (relaxed x0.5)"

@@ -116,9 +116,12 @@ def run(script: str, *args) -> None:
 
 def test_table_scripts_on_one_small_cell(tmp_path):
     cell = tmp_path / "cells" / "P_icd40_apron0.json"
-    run("studies_roads_cell.py", "--template", TEMPLATE, "--cell", "P_icd40_apron0", "--intervals", 20, "--out", cell)
+    run("studies_roads_cell.py", "--template", TEMPLATE, "--cell", "P_icd40_apron0", "--intervals", 20,
+        "--time-limit", 60, "--clock", "cpu", "--out", cell)  # fmt: skip
     data = json.loads(cell.read_text())
     assert data["time"]["valid"] and data["energy"]["valid"]
+    assert data["time_limit_clock"] == "cpu" and 0.0 < data["cpu_seconds"] < 60.0
+    assert data["energy"]["intervals_asked"] == data["time"]["intervals"]  # the energy solve on the answer's grid
     assert data["energy"]["final_time"] == pytest.approx(1.2 * data["time"]["final_time"])
     assert data["energy"]["energy"] < data["time"]["energy"]
     assert data["measures"]["apron_used_m"] == 0.0 and 2.0 < data["measures"]["swept_width_m"] < 4.5

@@ -10,6 +10,7 @@ import time
 import pytest
 
 from model.direct.solve import wall_time_options
+from model.problem.scenario import load_scenario
 from tests.conftest import EXAMPLE, ROOT
 
 ROAD = ROOT / "examples" / "roundabout-truck.toml"
@@ -128,7 +129,8 @@ def test_the_search_counts_what_the_budget_left_out_and_says_so_once(monkeypatch
 
     calls = []
 
-    def fake_solve_starts(ocp, n, passing, starts, verbose, options, relax, analyse, formulation, deadline, first):
+    def fake_solve_starts(ocp, n, passing, starts, verbose, options, relax, analyse, formulation, deadline, first,
+                          clock="wall"):
         calls.append((len(starts), first))
         return [_Answer("wall_time_limit")] if first else []  # past the deadline only a floored first start runs
 
@@ -181,3 +183,33 @@ def test_the_callers_own_ipopt_wall_time_is_not_the_search_time_limit():
                                            continuation=False)  # fmt: skip
     assert sol.status == "wall_time_limit"
     assert sol.search["time_limit"] is None and sol.search["stopped_by_time_limit"] is False
+
+
+def test_a_cpu_clock_counts_the_process_time_and_bounds_ipopt_by_max_cpu_time():
+    """With ``clock="cpu"`` sleeping spends none of the budget, and a run gets ``max_cpu_time``, not the wall's."""
+    from model.search import context
+
+    search = context.Search(load_scenario(EXAMPLE).ocp, 20, time_limit=0.05, clock="cpu")
+    time.sleep(0.1)  # wall time passes, hardly any CPU
+    assert not search.expired()
+    wall = context.Search(load_scenario(EXAMPLE).ocp, 20, time_limit=0.05)
+    time.sleep(0.1)
+    assert wall.expired()
+    capped = wall_time_options({}, time.process_time() + 5.0, clock="cpu")
+    assert set(capped) == {"max_cpu_time"} and 4.0 < capped["max_cpu_time"] <= 5.0
+    assert search.record_of_search("default")["clock"] == "cpu"
+    with pytest.raises(ValueError, match="clock"):
+        context.Search(load_scenario(EXAMPLE).ocp, 20, clock="sundial")
+
+
+def test_the_search_keeps_the_first_converged_minimal_violation_as_its_evidence():
+    from model.search import context
+
+    search = context.Search(load_scenario(EXAMPLE).ocp, 20)
+    assert search.best_evidence() is None
+    cut = {"kind": "minimal violation", "relaxed_status": "wall_time_limit", "message": "cut"}
+    search.evidence.append(cut)
+    assert search.best_evidence() is cut  # the only one, though its solve was cut
+    done = {"kind": "minimal violation", "relaxed_status": "validation_failed", "message": "converged"}
+    search.evidence += [done, {"kind": "minimal violation", "relaxed_status": "optimal", "message": "later"}]
+    assert search.best_evidence() is done

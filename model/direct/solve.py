@@ -66,6 +66,7 @@ def solve_starts(
     formulation: str = DEFAULT_FORMULATION,
     deadline: float | None = None,
     first_wall_time: float | None = None,
+    clock: str = "wall",
 ) -> list[Solution]:
     """Build the model of one pass direction once; solve it from each start in turn.
 
@@ -75,9 +76,10 @@ def solve_starts(
     ``deadline``: a ``time.monotonic()`` instant; each Ipopt run gets the time left as
     ``max_wall_time`` and the starts not begun by then are left out (the list is shorter; empty,
     and no model built, if the deadline has passed already). ``first_wall_time``: the first start
-    runs in any case, for at least these seconds.
+    runs in any case, for at least these seconds. ``clock``: "wall" (the default), or "cpu": ``deadline``
+    is a ``time.process_time()`` instant and each run gets Ipopt's ``max_cpu_time`` instead (``CLOCKS``).
     """
-    if first_wall_time is None and wall_time_options({}, deadline) is None:
+    if first_wall_time is None and wall_time_options({}, deadline, clock=clock) is None:
         return []
     t0 = time.perf_counter()
     # Pyomo creates many small objects: with the collector on, its full collections over the
@@ -89,7 +91,7 @@ def solve_starts(
         nlp, sols, timings = None, [], {}
         opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
         for i, start in enumerate(starts, 1):
-            budget = wall_time_options(opts, deadline, first_wall_time if i == 1 else None)
+            budget = wall_time_options(opts, deadline, first_wall_time if i == 1 else None, clock)
             if budget is None:
                 LOG.debug("the time limit is reached: %d of %d starts left out", len(starts) - i + 1, len(starts))
                 break
@@ -106,17 +108,23 @@ def solve_starts(
     return sols
 
 
-def wall_time_options(options: dict, deadline: float | None, floor: float | None = None) -> dict | None:
-    """``options`` with ``max_wall_time`` at most the seconds left until ``deadline`` (but at least ``floor``,
-    if given); None if none are left."""
+CLOCKS = {"wall": (time.monotonic, "max_wall_time"), "cpu": (time.process_time, "max_cpu_time")}
+"""A time limit's clock: the function its deadline is an instant of, and the Ipopt option that bounds a run."""
+
+
+def wall_time_options(options: dict, deadline: float | None, floor: float | None = None,
+                      clock: str = "wall") -> dict | None:  # fmt: skip
+    """``options`` with ``max_wall_time`` (``clock`` "cpu": ``max_cpu_time``) at most the seconds left until
+    ``deadline`` (but at least ``floor``, if given); None if none are left."""
     if deadline is None:
         return options
-    left = deadline - time.monotonic()
+    now, key = CLOCKS[clock]
+    left = deadline - now()
     if floor is not None:
         left = max(left, floor)
     if left <= 0.0:
         return None
-    return {**options, "max_wall_time": min(left, float(options.get("max_wall_time", left)))}
+    return {**options, key: min(left, float(options.get(key, left)))}
 
 
 def load_start(m: pyo.ConcreteModel, start: Start) -> None:
@@ -223,6 +231,7 @@ def node_columns(m: pyo.ConcreteModel, ocp: OCP) -> dict[str, np.ndarray]:
 
 
 __all__ = [
+    "CLOCKS",
     "Start",
     "finish",
     "load_start",

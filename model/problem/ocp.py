@@ -246,7 +246,8 @@ class OCP:
         **options
             Passed to the method: ``verbose`` (Ipopt log), ``options`` (Ipopt options),
             ``guess`` (a trajectory DataFrame to start from), ``starts``, ``progress``,
-            ``formulation`` (the bodies' NLP formulation on a road), ``time_limit`` (seconds).
+            ``formulation`` (the bodies' NLP formulation on a road), ``time_limit`` (seconds), ``clock``
+            (what the time limit counts: "wall" or "cpu" seconds).
 
         Returns
         -------

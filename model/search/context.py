@@ -12,14 +12,13 @@ failure; screening solves (guesses only) get no such grace.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from model.analysis.columns import Columns
 from model.direct.bodies import DEFAULT_FORMULATION
 from model.direct.solution import Solution
-from model.direct.solve import Start, solve_starts
+from model.direct.solve import CLOCKS, Start, solve_starts
 from model.problem.ocp import OCP
 from model.search.starts import distinct_starts, passes_to_try, start_values
 
@@ -68,6 +67,8 @@ class Search:
         tight road so that a first start cannot spend the whole budget before the geometry continuation.
     reserve : seconds at the end of the time limit no run begins or continues in (``deadline`` is that
         much earlier): the last run's analysis and the output files of a road with bodies take them.
+    clock : what ``time_limit`` counts (``model.direct.solve.CLOCKS``): "wall" seconds (the default) or the
+        process's "cpu" seconds (a study's cells on shared cores: the same budget whatever the load).
     """
 
     ocp: OCP
@@ -77,7 +78,7 @@ class Search:
     formulation: str = DEFAULT_FORMULATION
     progress: Reporter = field(default_factory=lambda: Reporter(None))
     time_limit: float | None = None
-    started: float = field(default_factory=time.monotonic)
+    started: float | None = None  # the clock's reading at the start (None: now)
     attempts: list[dict] = field(default_factory=list)
     solutions: list[Solution] = field(default_factory=list)
     starts_skipped: int = 0
@@ -85,15 +86,27 @@ class Search:
     stopped: bool = False  # the time limit cut something short
     run_cap: float | None = None  # s: no one Ipopt run of the search takes longer (None: only the time limit)
     reserve: float = 0.0  # s of the time limit kept for analysing the last run and writing the results
+    clock: str = "wall"
+    evidence: list[dict] = field(default_factory=list)  # the minimal-violation diagnoses computed (shared by copies)
+
+    def __post_init__(self) -> None:
+        if self.clock not in CLOCKS:
+            raise ValueError(f"clock must be one of {', '.join(CLOCKS)}, got {self.clock!r}")
+        if self.started is None:
+            self.started = self.now()
+
+    def now(self) -> float:
+        """The search clock's reading (``time.monotonic()`` or ``time.process_time()``)."""
+        return CLOCKS[self.clock][0]()
 
     @property
     def deadline(self) -> float | None:
-        """The ``time.monotonic()`` instant the budget ends, ``reserve`` before the limit (None: no limit)."""
+        """The clock's instant the budget ends, ``reserve`` before the limit (None: no limit)."""
         return None if self.time_limit is None else self.started + self.time_limit - self.reserve
 
     def remaining(self) -> float | None:
         """Seconds left (negative once over; None: no limit)."""
-        return None if self.deadline is None else self.deadline - time.monotonic()
+        return None if self.deadline is None else self.deadline - self.now()
 
     def expired(self) -> bool:
         """Whether the time limit has passed."""
@@ -111,6 +124,14 @@ class Search:
         self.starts_skipped += starts
         self.stop()
         return True
+
+    def best_evidence(self) -> dict | None:
+        """The evidence of a failure the search computed (``evidence``): the first minimal violation whose
+        solve converged, else the last one (None if none), so that a refusal keeps it whatever ended the search."""
+        converged = [e for e in self.evidence if e.get("relaxed_status") in ("optimal", "validation_failed")]
+        if converged:
+            return converged[0]
+        return self.evidence[-1] if self.evidence else None
 
     def answered(self) -> bool:
         """Whether a start has been solved and analysed (validated): an answer or the evidence of a failure."""
@@ -141,11 +162,11 @@ class Search:
         ``formulation``: another body formulation than the search's for this call.
         """
         first = MIN_WALL_TIME if analyse and not self.answered() else None  # the search's first answer always comes
-        capped = {"max_wall_time": self.run_cap} if self.run_cap is not None else {}
+        capped = {CLOCKS[self.clock][1]: self.run_cap} if self.run_cap is not None else {}
         distinct, index = distinct_starts(list(starts))  # a start equal to an earlier one gets its answer
         solved = solve_starts(self.ocp, intervals, passing, distinct, self.verbose,
                               {**capped, **(extra or {}), **self.options}, relax, analyse,
-                              formulation or self.formulation, self.deadline, first)  # fmt: skip
+                              formulation or self.formulation, self.deadline, first, self.clock)  # fmt: skip
         answered = next((k for k, i in enumerate(index) if i >= len(solved)), len(index))  # those the budget left
         sols = [solved[i] for i in index[:answered]]
         if len(sols) < len(starts):
@@ -177,8 +198,9 @@ class Search:
 
     def record_of_search(self, level: str) -> dict:
         """summary.json's ``search``: the level, the time limit and whether it cut the search short."""
-        return {"level": level, "time_limit": self.time_limit, "stopped_by_time_limit": self.stopped,
-                "starts_skipped": self.starts_skipped, "steps_skipped": list(self.steps_skipped)}  # fmt: skip
+        return {"level": level, "time_limit": self.time_limit, "clock": self.clock,
+                "stopped_by_time_limit": self.stopped, "starts_skipped": self.starts_skipped,
+                "steps_skipped": list(self.steps_skipped)}  # fmt: skip
 
 
 def better(a: Solution, b: Solution) -> bool:

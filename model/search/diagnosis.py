@@ -134,6 +134,7 @@ def time_limit_diagnosis(best: Solution, attempts: list[dict], search: dict) -> 
     return {
         "kind": "time limit",
         "time_limit_s": search.get("time_limit"),
+        "clock": search.get("clock", "wall"),
         "attempts_by_status": dict(tried),
         "starts_skipped": skipped,
         "steps_skipped": search.get("steps_skipped", []),
@@ -141,7 +142,8 @@ def time_limit_diagnosis(best: Solution, attempts: list[dict], search: dict) -> 
         "last_primal_infeasibility": evidence["last_primal_infeasibility"],
         "failed_checks": evidence["failed_checks"],
         "message": (
-            f"no valid trajectory within the time limit of {search.get('time_limit'):g} s: {sum(tried.values())} "
+            f"no valid trajectory within the time limit of {search.get('time_limit'):g} s"
+            f"{' of CPU' if search.get('clock') == 'cpu' else ''}: {sum(tried.values())} "
             f"starts tried ({', '.join(f'{n} {k}' for k, n in tried.items())}), {skipped} skipped; best: "
             f"{evidence['status']}" + (f", checks failed: {', '.join(evidence['failed_checks'])}"
                                        if evidence["failed_checks"] else "") + "; a longer --time-limit may find one"

@@ -75,7 +75,7 @@ Step = Callable[[OCP, Solution | None], Solution | None]
 
 def shrink_road(
     ocp: OCP, step: Step, progress: Callable[[str], None], out_of_time: Callable[[], bool],
-    reached: Callable[[Solution], bool] | None = None,
+    reached: Callable[[Solution], bool] | None = None, scales: tuple[float, ...] | None = None,
 ) -> tuple[Solution | None, dict]:  # fmt: skip
     """Walk the relaxation from ``SCALES[0]`` down to the scenario's road (module docstring).
 
@@ -88,6 +88,8 @@ def shrink_road(
     out_of_time : True once the budget is spent (the walk stops).
     reached : whether an answer on the scenario's road ends the walk (default: it validates; the
         feasibility-first step also ends it on a converged answer a finer grid may cure).
+    scales : the relaxations to walk (default ``SCALES``), from the roomiest to 0 (the scenario's road);
+        a failed step is halved towards the last one that converged as with the default.
 
     Returns
     -------
@@ -99,7 +101,7 @@ def shrink_road(
     record: dict = {"scales": [], "least_validated_scale": None}
     last: Solution | None = None
     own: Solution | None = None
-    todo, done = list(SCALES), None
+    todo, done = list(scales or SCALES), None
     while todo and not out_of_time():
         scale = todo.pop(0)
         sol = step(relaxed_ocp(ocp, scale), last)
@@ -110,7 +112,7 @@ def shrink_road(
         outcome = f"{word}, objective {sol.objective:.6g}" if ok else "failed"
         progress(f"geometry continuation: road relaxed x{scale:g}: {outcome}")
         if scale == 0.0 and ok:
-            return sol, record | {"least_validated_scale": 0.0}
+            return sol, record | {"least_validated_scale": 0.0 if sol.ok else done}
         if scale == 0.0 and sol is not None:
             own = sol  # the scenario's road answered, not validated: kept unless a later try validates
         if ok:

@@ -30,7 +30,7 @@ from model.search.context import MIN_WALL_TIME, Reporter, Search, better, clearl
 from model.search.curves import curve_routes, tf_scales
 from model.search.diagnosis import bound_diagnosis, refined_diagnosis, solver_diagnosis, time_limit_diagnosis
 from model.search.guess import reeds_shepp_start_path
-from model.search.road import cuts_inner_edge, geometry_continuation, road_steps
+from model.search.road import cuts_inner_edge, geometry_continuation, refused_with_evidence, road_steps
 from model.search.screening import REFINE_OPTIONS, screen_starts, screening_intervals
 from model.search.starts import passes_to_try, reeds_shepp_ends, resample, start_values
 
@@ -61,6 +61,7 @@ def solve_ocp(
     search: str = "default",
     formulation: str = DEFAULT_FORMULATION,
     time_limit: float | None = None,
+    clock: str = "wall",
 ) -> Solution:
     """Solve every pass direction asked for and keep the best validated solution.
 
@@ -90,6 +91,8 @@ def solve_ocp(
         as ``max_wall_time``; once it is spent the remaining steps are skipped and the best
         answer so far is returned, ``search`` (summary.json) saying so; if none validated, the
         ``diagnosis`` is the time limit's (what was tried, the solver's evidence).
+    clock : what ``time_limit`` counts: "wall" seconds, or the process's "cpu" seconds (Ipopt's
+        ``max_cpu_time``; a study's cells on shared cores get the same budget whatever the load).
 
     Returns
     -------
@@ -101,7 +104,7 @@ def solve_ocp(
     if time_limit is not None and not time_limit > 0:
         raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
     ctx = Search(ocp, intervals, verbose, dict(options or {}), check_formulation(formulation), reporter(progress),
-                 time_limit)  # fmt: skip
+                 time_limit, clock=clock)  # fmt: skip
     if time_limit is not None and ocp.road is not None and ocp.bodies:  # room for the geometry continuation
         ctx.run_cap, ctx.reserve = ROAD_RUN_SHARE * time_limit, ROAD_FINISH_SHARE * time_limit
     proof = refusal_from_bounds(ocp) if guess is None and starts is None else None
@@ -119,6 +122,8 @@ def solve_ocp(
 def _finish(ctx: Search, best: Solution, level: str, start: float) -> Solution:
     """The answer with the search's record: attempts, ``search``, timings (from ``start``, perf_counter); the
     time limit's diagnosis if due."""
+    if not best.ok and best.diagnosis is None:  # the minimal-violation evidence computed on the way, if any
+        best.diagnosis = dict(ctx.best_evidence() or {}) or None
     if ctx.stopped and not best.ok and (best.diagnosis or {}).get("kind") != "proven bound":  # a proof stands
         diagnosis = time_limit_diagnosis(best, ctx.attempts, ctx.record_of_search(level))
         if best.diagnosis:  # the evidence found before the limit, in the one line too
@@ -140,7 +145,8 @@ def _refuse(ctx: Search, proof: dict) -> Solution:
     """A road problem a bound proves infeasible: one start, cut at ``PROOF_SECONDS``, for the trajectory to
     report beside the proof. Should that start validate anyway, the proof is wrong: said, and the search goes on."""
     ctx.progress(f"refused before the search: {proof['message']}")
-    quick = Search(ctx.ocp, ctx.intervals, ctx.verbose, ctx.options, ctx.formulation, ctx.progress, PROOF_SECONDS)
+    quick = Search(ctx.ocp, ctx.intervals, ctx.verbose, ctx.options, ctx.formulation, ctx.progress, PROOF_SECONDS,
+                   clock=ctx.clock)  # fmt: skip
     first = search_starts(ctx.ocp, "quick")[:1]
     sol = cold_starts(quick, first, None, None)
     ctx.attempts.extend(quick.attempts)
@@ -165,6 +171,9 @@ def _search(ctx: Search, guess: Columns | None, starts, screen, level: str) -> S
     if early:  # the arc start cannot be followed forwards: the budget goes to the continuation (module docstring)
         ctx.progress("the steady turn at the outer curb cuts the inner edge: continuation in the geometry first")
         best = geometry_continuation(ctx, None)
+        if refused_with_evidence(best):  # the minimal violation on the scenario's road stands: the search ends
+            ctx.progress(f"refused: {best.diagnosis['message']}")
+            return best
         if best is not None and (best.ok or grid_failures(best)):
             return road_steps(ctx, best, curves, geometry=False)
     elif coarse is not None:
@@ -263,13 +272,13 @@ def _continue_or_diagnose(ctx: Search, best: Solution, continuation: bool) -> So
         def solve(problem, guess=None):
             left = ctx.remaining()
             inner = solve_ocp(problem, ctx.intervals, ctx.verbose, ctx.options, guess=guess, continuation=False,
-                              formulation=ctx.formulation,
+                              formulation=ctx.formulation, clock=ctx.clock,
                               time_limit=None if left is None else max(left, MIN_WALL_TIME))  # fmt: skip
             ctx.absorb(inner.search)
             return inner
 
         def budget():
-            options = wall_time_options({}, ctx.deadline)
+            options = wall_time_options({}, ctx.deadline, clock=ctx.clock)
             if options is None:
                 ctx.stop()
             return options
@@ -288,7 +297,8 @@ def _continue_or_diagnose(ctx: Search, best: Solution, continuation: bool) -> So
                                  "valid": bool(found and found.ok), "objective": objective})  # fmt: skip
             if found is not None and found.ok:
                 return found
-    best.diagnosis = proof or solver_diagnosis(best)
+    evidence = ctx.best_evidence()
+    best.diagnosis = proof or (dict(evidence) if evidence else None) or solver_diagnosis(best)
     if least_time is not None and not proof:
         best.diagnosis["least_time_found_s"] = least_time
         best.diagnosis["message"] += f"; the least time found is {least_time:.4g} s > Tf = {ocp.final_time:g} s"

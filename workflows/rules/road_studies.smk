@@ -51,9 +51,8 @@ rule road_study_cell:
         f"{ROAD_STUDY_DIR}/table/{{road_grid}}/cells/{{road_cell}}.json",
     params:
         intervals=lambda wc: config["road_studies_grids"][wc.road_grid]["intervals"],
-        time_limit=lambda wc: (lambda s: f"--time-limit {s}" if s else "")(
-            config["road_studies_grids"][wc.road_grid].get("time_limit")
-        ),
+        time_limit=lambda wc: (lambda g: f"--time-limit {g['time_limit']} --clock {g.get('time_limit_clock', 'wall')}"
+                               if g.get("time_limit") else "")(config["road_studies_grids"][wc.road_grid]),
     log:
         "results/logs/studies/roads-{road_grid}/{road_cell}.log",
     shell:

@@ -20,13 +20,24 @@ def load(cells: list[Path]) -> list[dict]:
     return [json.loads(p.read_text()) for p in cells]
 
 
+def why(d: dict) -> str | None:
+    """A refusal's diagnosis in a few words, saying whether it is a proof or evidence (a local solve's)."""
+    if d.get("kind") == "proven bound":
+        return f"proof: {d.get('message')}"
+    if d.get("kind") == "time limit":
+        limit = f"time limit ({d.get('time_limit_s'):g} s{' of CPU' if d.get('clock') == 'cpu' else ''})"
+        before = why(d["before_the_limit"]) if d.get("before_the_limit") else None
+        return f"{limit}; before it, {before}" if before else f"{limit}, no evidence yet"
+    if d.get("body") and d.get("edge") and d.get("encroachment_m") is not None:  # what must give way, by how much
+        return (f"evidence (minimal violation, a local solve): the {d['body']} crosses the {d['edge']} by "
+                f"{d['encroachment_m']:.2f} m")  # fmt: skip
+    return d.get("message")
+
+
 def flat(c: dict) -> dict:
     t, e, m = c["time"], c.get("energy") or {}, c.get("measures") or {}
     d = {} if t["valid"] else (t.get("diagnosis") or {})
-    if d.get("body") and d.get("edge") and d.get("encroachment_m") is not None:  # what must give way, by how much
-        diag = f"the {d['body']} crosses the {d['edge']} by {d['encroachment_m']:.2f} m"
-    else:
-        diag = d.get("message")
+    diag = why(d) if d else None
     return {
         "preset": c["preset"],
         "icd": c["icd"],
@@ -46,6 +57,7 @@ def flat(c: dict) -> dict:
         "diagnosis_edge": (t.get("diagnosis") or {}).get("edge") if not t["valid"] else None,
         "diagnosis_m": (t.get("diagnosis") or {}).get("encroachment_m") if not t["valid"] else None,
         "seconds": c.get("seconds"),
+        "cpu_seconds": c.get("cpu_seconds"),
     }
 
 
@@ -149,6 +161,7 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
     leg = rb["legs"][0]
     n_fail = int((~df.feasible).sum())
     cpu = df.seconds.sum()
+    process = df.cpu_seconds.sum() if df.cpu_seconds.notna().all() else None
     aprons = sorted(df.apron.unique())
     lines = [
         "## Design vehicles and roundabout sizes",
@@ -163,7 +176,8 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
             if mode != "full"
             else "."
         )
-        + f" {len(df)} cells, {n_fail} without a valid trajectory; {fmt(cpu, 3)} s of solving in all.",
+        + f" {len(df)} cells, {n_fail} without a valid trajectory; {fmt(cpu, 3)} s of solving in all"
+        + (f" ({fmt(process, 3)} s of CPU)." if process is not None else "."),
         "",
         f"The roundabout (workflows/scenarios/roads/left-turn.toml): circulatory width {rb['circulatory_width']:g} m,"
         f" lanes {leg['lane_width']:g} m wide, curb fillets {leg['entry_radius']:g} m (entry) and"
