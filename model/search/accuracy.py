@@ -26,6 +26,8 @@ from collections.abc import Callable
 from model.direct.solution import Solution
 from model.problem.ocp import OCP
 
+CONVERGED = ("optimal", "validation_failed")  # Ipopt converged (a check of the validation may have failed)
+
 GOAL_ACCURACY = 1e-3
 MAX_DOUBLINGS = 1
 MAX_GRID_DOUBLINGS = 2  # a solution failing only the between-node checks may be refined up to 4N
@@ -55,7 +57,7 @@ def goal_drift(sol: Solution, accuracy: float = GOAL_ACCURACY) -> tuple[float, s
 def grid_failures(sol: Solution) -> list[str]:
     """What a finer grid may cure in a converged solution: ``integration_error`` beyond the clearance, and
     ``dense_clearance`` if it is the only failed check ([] if nothing, or if another check fails)."""
-    if sol.status not in ("optimal", "validation_failed"):
+    if sol.status not in CONVERGED:
         return []
     failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
     if not set(failed) <= GRID_CHECKS:

@@ -20,6 +20,7 @@ from model.direct.bodies import DEFAULT_FORMULATION
 from model.direct.solution import Solution
 from model.direct.solve import CLOCKS, Start, solve_starts
 from model.problem.ocp import OCP
+from model.search.accuracy import CONVERGED
 from model.search.starts import distinct_starts, passes_to_try, start_values
 
 MIN_WALL_TIME = 0.1  # s: the first start of a search runs at least this long whatever the budget left
@@ -128,7 +129,7 @@ class Search:
     def best_evidence(self) -> dict | None:
         """The evidence of a failure the search computed (``evidence``): the first minimal violation whose
         solve converged, else the last one (None if none), so that a refusal keeps it whatever ended the search."""
-        converged = [e for e in self.evidence if e.get("relaxed_status") in ("optimal", "validation_failed")]
+        converged = [e for e in self.evidence if e.get("relaxed_status") in CONVERGED]
         if converged:
             return converged[0]
         return self.evidence[-1] if self.evidence else None

@@ -51,7 +51,7 @@ from model.analysis.bounds import ring_fit
 from model.direct.solution import Solution
 from model.direct.solve import Start
 from model.problem.ocp import OCP
-from model.search.accuracy import grid_failures
+from model.search.accuracy import CONVERGED, grid_failures
 from model.search.context import Search, better, clearly_better, cold_starts
 from model.search.diagnosis import finite, road_diagnosis
 from model.search.geometry_continuation import shrink_road
@@ -61,7 +61,6 @@ from model.search.starts import THREE_POINT
 ROAD_FALLBACK_STARTS = ((2.0, "arc"),)  # tried where the first fails
 ZERO_VIOLATION = 1e-6  # m, summed slack below which the relaxed solution is a feasible trajectory
 CORNERS = "corners"
-CONVERGED = ("optimal", "validation_failed")  # Ipopt converged (a check of the validation may have failed)
 EVIDENCE_M = 0.01  # m: a converged minimal violation ends the search only if a body is at least this far outside
 FEASIBILITY_SCALES = (1.0, 0.0)  # feasibility first: the scenario's road straight from the roomiest road's answer
 
