@@ -2,16 +2,16 @@
 
 Usage: python benchmarks/bench_mpc_road.py [--cases truck semitrailer] [--controllers rti ipopt]
        [--reference-intervals 100] [--no-peer] [--compiled] [--qp-max-changes K]
-       [--qp-solver qpoases|hpipm] [--hpipm-mode MODE] [--hpipm-iter-max K]
+       [--qp-solver qpoases|hpipm] [--hpipm-mode MODE] [--hpipm-iter-max K] [--interval-samples K]
 
 Cases: the rigid truck (examples/roundabout-truck.toml), the EU semitrailer
 (examples/roundabout-semitrailer.toml) and the truck with a crossing car (examples/crossing-car.toml)
-through the roundabout, sampled at 10 Hz with a 4 s horizon
-(40 intervals). The open-loop optimum (``ocp.solve``, ``--reference-intervals``) is the reference;
-the closed loop is ``model.simulation.loop.simulate`` with the nominal plant (the vehicle's own
-dynamics, no disturbance). Controllers: ``rti`` is ``MPC(settings=MPCSettings(realtime=True))``
-(one condensed SQP step per sample, warm-started Ipopt the fallback), ``ipopt`` the warm-started
-Ipopt MPC (the default controller).
+through the roundabout, sampled at 10 Hz with a 4 s horizon (40 samples; since the fifth round in 20
+prediction intervals of 2 samples, ``--interval-samples``). The open-loop optimum (``ocp.solve``,
+``--reference-intervals``) is the reference; the closed loop is ``model.simulation.loop.simulate`` with
+the nominal plant (the vehicle's own dynamics, no disturbance). Controllers: ``rti`` is
+``MPC(settings=MPCSettings(realtime=True))`` (one condensed SQP step per sample, warm-started Ipopt the
+fallback), ``ipopt`` the warm-started Ipopt MPC (the default controller).
 
 The peer shadows the controller in the same run: after each of the MPC's steps it is handed the same
 horizon problem (every active row and the objective of the horizon's Pyomo model: the body discs,
@@ -140,6 +140,7 @@ from model.simulation.mpc.horizon import node_fraction  # noqa: E402
 CASES = {"truck": "examples/roundabout-truck.toml", "semitrailer": "examples/roundabout-semitrailer.toml",
          "crossing-car": "examples/crossing-car.toml"}  # fmt: skip
 SAMPLE, HORIZON = 0.1, 40  # 10 Hz, 4 s
+INTERVAL_SAMPLES = 2  # samples per prediction interval: 20 intervals of 0.2 s
 BIG = 1e20  # Ipopt reads |bound| >= 1e19 as none
 
 
@@ -258,12 +259,13 @@ class Shadowed:
 
 
 def run(case: str, controller: str, reference_intervals: int, peer: bool, compiled: bool = False,
-        qp_changes: int = 0, qp_solver: str = "qpoases", hpipm: dict | None = None) -> dict:  # fmt: skip
+        qp_changes: int = 0, qp_solver: str = "qpoases", hpipm: dict | None = None,
+        interval_samples: int = INTERVAL_SAMPLES) -> dict:  # fmt: skip
     sc = load_scenario(ROOT / CASES[case])
     t0 = time.perf_counter()
     sol = sc.ocp.solve(intervals=reference_intervals)
     solve_seconds = time.perf_counter() - t0
-    control, disturbance = ControlSettings(SAMPLE, HORIZON), Disturbance()
+    control, disturbance = ControlSettings(SAMPLE, HORIZON, interval_samples), Disturbance()
     qp_options = {"nWSR": qp_changes} if qp_changes else {}
     if qp_solver == "hpipm":  # the stagewise QP: its options are hpipm's
         qp_options = dict(hpipm or {})
@@ -338,17 +340,22 @@ def main(argv: list[str] | None = None) -> int:
                     help="the RTI's QP: condensed and dense (qpoases) or stagewise (hpipm)")
     ap.add_argument("--hpipm-mode", default=None, help="hpipm's mode (speed_abs, speed, balance, robust)")
     ap.add_argument("--hpipm-iter-max", type=int, default=0, help="hpipm's iteration cap (0: the default)")
+    ap.add_argument("--interval-samples", type=int, default=INTERVAL_SAMPLES,
+                    help="samples per prediction interval (control.interval_samples; must divide the horizon)")
     args = ap.parse_args(argv)
+    if args.interval_samples < 1 or HORIZON % args.interval_samples or HORIZON // args.interval_samples < 2:
+        ap.error(f"--interval-samples must divide the horizon of {HORIZON} samples into at least 2 intervals")
     hpipm = {k: v for k, v in (("mode", args.hpipm_mode), ("iter_max", args.hpipm_iter_max)) if v}
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, CasADi {ca.__version__}, load average {os.getloadavg()[0]:.2f}; "
-          f"{SAMPLE:g} s samples, horizon {HORIZON} intervals ({SAMPLE * HORIZON:g} s)")  # fmt: skip
+          f"{SAMPLE:g} s samples, horizon {HORIZON} samples ({SAMPLE * HORIZON:g} s) in "
+          f"{HORIZON // args.interval_samples} intervals of {args.interval_samples}")  # fmt: skip
     print(HEAD)
     print("|" + "---|" * (HEAD.count("|") - 1))
     for case in args.cases:
         for controller in args.controllers:
             row = run(case, controller, args.reference_intervals, not args.no_peer, args.compiled, args.qp_max_changes,
-                      args.qp_solver, hpipm)  # fmt: skip
+                      args.qp_solver, hpipm, interval_samples=args.interval_samples)  # fmt: skip
             print(line(row), flush=True)
     return 0
 

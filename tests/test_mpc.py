@@ -321,10 +321,14 @@ def test_a_real_time_iteration_is_a_fixed_point_at_the_optimum_and_repairs_a_pus
     assert hm.violation(step.x) < 0.02 * before
 
 
-def test_real_time_steps_follow_the_road(road):
+@pytest.mark.parametrize("interval_samples", [1, 2])
+def test_real_time_steps_follow_the_road(road, interval_samples):
     """Real-time iterations in the closed loop (pushed 0.2 m at two samples): each step is used,
-    most of them real-time iterations, and the controls stay finite and inside their bounds."""
-    mpc = MPC(road, ControlSettings(0.1, 40), settings=MPCSettings(realtime=True, budget=100.0))
+    most of them real-time iterations, and the controls stay finite and inside their bounds; with
+    two samples per interval the same 4 s horizon has half the intervals."""
+    control = ControlSettings(0.1, 40, interval_samples)
+    mpc = MPC(road, control, settings=MPCSettings(realtime=True, budget=100.0))
+    assert mpc.horizon.n == 40 // interval_samples and mpc.horizon_time == pytest.approx(4.0)
     cols = road.columns
     for t in np.arange(0.0, 0.6, 0.1):
         y = np.array([np.interp(t, cols["t"], cols[k]) for k in road.ocp.vehicle.states])

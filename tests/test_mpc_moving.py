@@ -15,12 +15,14 @@ import pyomo.environ as pyo
 import pytest
 
 from model.analysis.bodies import moving_clearances
+from model.direct.moving import moving_rows
 from model.problem.closed_loop import ControlSettings
 from model.problem.methods import DEFAULT_SOLVE, load_method
 from model.problem.scenario import load_scenario
 from model.simulation.loop import simulate
 from model.simulation.mpc import MPC, MPCSettings
 from tests.conftest import ROOT
+from tests.test_mpc import rti_problem
 
 CROSSING = ROOT / "examples" / "crossing-car.toml"
 CONTROL = ControlSettings(0.2, 20)
@@ -74,3 +76,36 @@ def test_probe_the_frozen_car_collides_and_the_summary_fails_the_run(crossing):
     s = simulate(sc, sol, mpc, sc.disturbance, CONTROL).summary
     assert s["min_distance_moving"] < sc.ocp.moving_obstacles[0].safety
     assert s["collided"] and not s["reached_goal"]
+
+
+def test_a_real_time_step_meets_every_moving_row_by_raising_its_shared_slack(crossing):
+    """The car's discs put 0.3 m beside the truck's planned nodes: a real-time iteration cannot move
+    the truck off them in one step, so its slacks carry the rows. Each body's slack at a node is
+    shared by the rows of the car's discs there, and the rows are met from above (``(r - s)^2 - d^2
+    <= 0``): at the step's point every moving row holds, each shared slack raised by the largest
+    need among its rows."""
+    sc, sol = crossing
+    mpc = MPC(sol, CONTROL, sc.disturbance, MPCSettings(realtime=True, budget=1e3))
+    hm, m = mpc.horizon, mpc.horizon.model
+    x0 = rti_problem(mpc, 1.0, 0.0)
+    px, py = sc.ocp.vehicle.position
+    X, Y = x0[hm.node_cols[px]], x0[hm.node_cols[py]]
+    for (i, j, t) in m.moving_cx:
+        k = list(m.nodes).index(t)
+        m.moving_cx[i, j, t].set_value(float(X[k]) + 0.3 + 0.5 * j)
+        m.moving_cy[i, j, t].set_value(float(Y[k]))
+        m.moving_vx[i, j, t].set_value(0.0)
+        m.moving_vy[i, j, t].set_value(0.0)
+    hm.nlp.refresh_parameters()
+    rows = np.concatenate([hm.nlp.rows_of(c) for _, c in moving_rows(m)])
+    rows = rows[rows >= 0]
+    nlp = hm.nlp
+    nlp.set_primals(x0)
+    g0 = nlp.evaluate_constraints()[rows]
+    lb, ub = nlp.constraints_lb()[rows], nlp.constraints_ub()[rows]
+    assert np.max(np.maximum(lb - g0, g0 - ub)) > 1.0  # the start violates the rows by metres squared
+    step = mpc.rti.step(x0)
+    assert step.success
+    nlp.set_primals(step.x)
+    g = nlp.evaluate_constraints()[rows]
+    assert np.all(g >= lb - 1e-6) and np.all(g <= ub + 1e-6)

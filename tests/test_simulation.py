@@ -15,7 +15,7 @@ from scipy.integrate import solve_ivp
 
 from model.cli import main
 from model.errors import InputError
-from model.problem.closed_loop import ControlSettings, Disturbance
+from model.problem.closed_loop import ControlSettings, Disturbance, parse_closed_loop
 from model.problem.scenario import Scenario, load_scenario, parse_scenario
 from model.simulation.controllers import OpenLoop, Tracking
 from model.simulation.loop import SUMMARY_KEYS, simulate
@@ -136,7 +136,23 @@ BAD = {
     "negative_noise": (("noise = 0.03", "noise = -0.03"), "disturbance.noise"),
     "zero_speed_gain": (("speed_gain = 0.95", "speed_gain = 0.0"), "disturbance.speed_gain"),
     "horizon_one": (("horizon = 40", "horizon = 1"), "control.horizon"),
+    "interval_not_dividing": (("horizon = 40", "horizon = 40\ninterval_samples = 3"), "control.interval_samples"),
+    "interval_zero": (("horizon = 40", "horizon = 40\ninterval_samples = 0"), "control.interval_samples"),
+    "one_interval": (("horizon = 40", "horizon = 40\ninterval_samples = 40"), "control.interval_samples"),
 }
+
+
+def test_interval_samples_divide_the_horizon():
+    """``control.interval_samples`` gives the MPC's prediction intervals; the default is one per sample."""
+    assert ControlSettings(0.1, 40).intervals == 40
+    assert ControlSettings(0.1, 40, 2).intervals == 20
+    assert ControlSettings(0.1, "shrinking").intervals is None
+    with pytest.raises(ValueError, match="does not divide"):
+        _ = ControlSettings(0.1, 40, 3).intervals
+    _, control = parse_closed_loop({"control": {"horizon": 40, "interval_samples": 4}})
+    assert control.intervals == 10
+    with pytest.raises(InputError, match="shrinking"):
+        parse_closed_loop({"control": {"horizon": "shrinking", "interval_samples": 2}})
 
 
 @pytest.mark.parametrize("case", BAD, ids=list(BAD))

@@ -16,7 +16,7 @@ from model.problem.tables import is_number, no_unknown, number, table_of
 from model.vehicles import Vehicle
 
 DISTURBANCE_KEYS = {"speed_gain", "steering_bias", "drift", "wheelbase", "delay", "noise", "seed"}
-CONTROL_KEYS = {"sample_time", "horizon"}
+CONTROL_KEYS = {"sample_time", "horizon", "interval_samples"}
 MULTIPLE_TOL = 1e-9  # relative: delay / sample_time within this of a whole number
 
 
@@ -46,10 +46,28 @@ class Disturbance:
 
 @dataclass(frozen=True)
 class ControlSettings:
-    """Sample time (s) of the zero-order hold and the MPC horizon (samples, or "shrinking")."""
+    """Sample time (s) of the zero-order hold, the MPC horizon (samples, or "shrinking") and the
+    samples per interval of the MPC's prediction grid (``interval_samples``)."""
 
     sample_time: float = 0.1
     horizon: int | str = 40
+    interval_samples: int = 1
+
+    @property
+    def intervals(self) -> int | None:
+        """The MPC's prediction intervals (``horizon / interval_samples``); None when shrinking.
+
+        Raises
+        ------
+        ValueError
+            If ``interval_samples`` does not divide the horizon.
+        """
+        if self.horizon == "shrinking":
+            return None
+        count, rest = divmod(int(self.horizon), self.interval_samples)
+        if rest:
+            raise ValueError(f"interval_samples = {self.interval_samples} does not divide horizon = {self.horizon}")
+        return count
 
     def delay_samples(self, disturbance: Disturbance) -> int:
         """The actuator delay in whole samples."""
@@ -95,7 +113,23 @@ def _control(table: dict[str, Any]) -> ControlSettings:
     horizon = table.get("horizon", ControlSettings.horizon)
     if horizon != "shrinking" and (isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 2):
         raise InputError("control.horizon", f'must be a whole number >= 2 or "shrinking", got {horizon!r}')
-    return ControlSettings(sample_time=sample_time, horizon=horizon)
+    samples = _interval_samples(table, horizon)
+    return ControlSettings(sample_time=sample_time, horizon=horizon, interval_samples=samples)
+
+
+def _interval_samples(table: dict[str, Any], horizon: int | str) -> int:
+    """``control.interval_samples``: a whole number >= 1 that divides the horizon into >= 2 intervals."""
+    key = "control.interval_samples"
+    samples = table.get("interval_samples", ControlSettings.interval_samples)
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise InputError(key, f"must be a whole number >= 1, got {samples!r}")
+    if samples == 1:
+        return samples
+    if horizon == "shrinking":
+        raise InputError(key, 'must be 1 with horizon = "shrinking" (the scenario\'s own intervals are used)')
+    if horizon % samples or horizon // samples < 2:
+        raise InputError(key, f"must divide control.horizon = {horizon} into at least 2 intervals, got {samples}")
+    return samples
 
 
 def _disturbance(table: dict[str, Any], vehicle: Vehicle | None) -> Disturbance:

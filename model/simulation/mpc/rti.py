@@ -54,6 +54,7 @@ from model.nlp.casadi_nlp import CasadiNLP
 from model.simulation.mpc.qp_buffer import BufferedQP
 from model.simulation.mpc.stagewise import StagewiseQP
 
+REPAIR_PASSES = 3  # evaluations of the soft rows when raising their slacks after a step
 QP_SOLVERS = ("qpoases", "daqp", "hpipm")  # hpipm: the stagewise QP (``stagewise``), not condensed
 # qpOASES dense, with the settings of its MPC preset (``Options::setToMPC``: no ramping, far bounds,
 # no flipping bounds, no full linear-independence or zero-curvature tests, no drift correction, no
@@ -311,19 +312,41 @@ class RealTimeIteration:
                           iterations, self.qp_seconds)  # fmt: skip
 
     def _repair(self, x: np.ndarray, data: np.ndarray) -> np.ndarray:
-        """Raise each soft row's slack by what ``x`` lacks on the row (its coefficient from ``data``, the
-        Jacobian at the step's start), within the slack's bounds."""
+        """Raise each soft row's slack by what ``x`` lacks on the row, within the slack's bounds.
+
+        A row is met from below (``g >= lb``, the slack's coefficient positive) or from above (``g <= ub``,
+        e.g. a moving obstacle's ``(r - s)^2 - d^2 <= 0``, coefficient negative). The coefficient is the
+        Jacobian's at the step's start (``data``), then the secant through the row's last two values (the
+        rows may be nonlinear in their slack). A slack shared by several rows is raised by the largest
+        need among them; the rows are evaluated again, up to ``REPAIR_PASSES`` times, and a slack whose rows
+        still lack then goes to its upper bound (where a keep-out row's margin is zero).
+        """
         if not len(self._soft_k):
             return x
-        nlp = self.nlp
-        nlp.set_primals(x)
-        g = nlp.evaluate_constraints()
-        lack = np.maximum(nlp.constraints_lb()[self._soft_rows] - g[self._soft_rows], 0.0)
-        coef = data[self._soft_k]
-        raise_by = np.where(coef > 1e-12, lack / np.maximum(coef, 1e-12), 0.0)
-        out = x.copy()
-        cols = self._soft_cols
-        out[cols] = np.minimum(out[cols] + raise_by, nlp.primals_ub()[cols])
+        nlp, cols = self.nlp, self._soft_cols
+        slope = data[self._soft_k]
+        lb, ub = nlp.constraints_lb()[self._soft_rows], nlp.constraints_ub()[self._soft_rows]
+        top = nlp.primals_ub()[cols]
+        out, before = x.copy(), None
+        for rounds in range(REPAIR_PASSES + 1):
+            nlp.set_primals(out)
+            g = nlp.evaluate_constraints()[self._soft_rows]
+            if before is not None:
+                moved = out[cols] - before[1]
+                slope = np.where(moved > 1e-12, (g - before[0]) / np.maximum(moved, 1e-12), slope)
+            below = np.where(slope > 1e-12, np.maximum(lb - g, 0.0) / np.maximum(slope, 1e-12), 0.0)
+            above = np.where(slope < -1e-12, np.maximum(g - ub, 0.0) / np.maximum(-slope, 1e-12), 0.0)
+            need = np.maximum(below, above)
+            if not np.any(need > 0):
+                break
+            raise_by = np.zeros(len(out))
+            np.maximum.at(raise_by, cols, need)
+            if rounds == REPAIR_PASSES:  # still lacking (a row flat in its slack near its root): the bound
+                lacking = (raise_by[cols] > 0) & np.isfinite(top)
+                out[cols[lacking]] = top[lacking]
+                break
+            before = (g, out[cols].copy())
+            out[cols] = np.minimum(out[cols] + raise_by[cols], top)
         return out
 
     def _hessian_blocks(self) -> None:
