@@ -106,6 +106,12 @@ ms; goals missed: the interior point takes 14-29 iterations when it converges (t
 With the Opti peer (``--controllers rti``, N = 40, x86_64 2 shared cores, load 12 -> 7): CPU mean / max
 ms 11.8 / 25.4 (truck, ratio 0.107), 26.6 / 64.1 (semitrailer, 0.108), 23.3 / 78.4 (crossing car,
 0.130); same closed loops, all checks held; the 10 / 30 ms target is not met (README).
+
+Fifth round (20c7296, idle, load 0.5-0.8): 20 prediction intervals of 2 samples (``--interval-samples 2``,
+the default here), ``MPCSettings.rti_regularization`` 0.1, the slack repair sign-aware. With the Opti peer,
+CPU mean / worst ms: truck 3.6 / 8.6 (ratio to Opti's wall mean 0.137), semitrailer 8.2 / 21.0 (0.125),
+crossing car 6.9 / 16.6 (0.162; another run of it 7.7 / 30.5); every step RTI, goals reached, 0 samples
+outside the exact corridor, the car >= 0.825 m away. The 10 / 30 ms target is met (README).
 """
 
 from __future__ import annotations
