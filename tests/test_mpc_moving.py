@@ -10,16 +10,18 @@ removed (the car frozen where the first fill put it) collides.
 
 from __future__ import annotations
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pyomo.environ as pyo
 import pytest
 
 from model.analysis.bodies import moving_clearances
 from model.direct.moving import moving_rows
+from model.plotting.closed_loop import closed_loop_figure
 from model.problem.closed_loop import ControlSettings
 from model.problem.methods import DEFAULT_SOLVE, load_method
 from model.problem.scenario import load_scenario
-from model.simulation.loop import simulate
+from model.simulation.loop import make_controller, simulate
 from model.simulation.mpc import MPC, MPCSettings
 from tests.conftest import ROOT
 from tests.test_mpc import rti_problem
@@ -109,3 +111,21 @@ def test_a_real_time_step_meets_every_moving_row_by_raising_its_shared_slack(cro
     nlp.set_primals(step.x)
     g = nlp.evaluate_constraints()[rows]
     assert np.all(g >= lb - 1e-6) and np.all(g <= ub + 1e-6)
+
+
+def test_the_scenario_s_own_control_table_drives_a_real_time_mpc_past_the_car(crossing):
+    """``[control] realtime = true`` (as ``roundabout simulate --controller mpc`` reads it): every step
+    a real-time iteration on 20 intervals of two samples; no failed step, the car cleared, the goal."""
+    sc, sol = crossing
+    assert sc.control.realtime and sc.control.intervals == 20
+    mpc = make_controller("mpc", sol, sc.control, sc.disturbance)()
+    assert mpc.settings.realtime and "real-time iteration, 20 intervals of 2 samples" in mpc.name
+    run = simulate(sc, sol, mpc, sc.disturbance, sc.control)
+    s = run.summary
+    assert all(step["realtime"] for step in mpc.steps)
+    assert s["failed_steps"] == 0 and not s["collided"] and s["reached_goal"]
+    assert s["min_distance_moving"] >= sc.ocp.moving_obstacles[0].safety
+    fig = closed_loop_figure(sc.ocp, sol.columns, run.columns, s)  # the car and the bodies drawn to scale
+    labels = {p.get_label() for p in fig.axes[0].patches}
+    assert {"other vehicle", "truck"} <= labels and "least distance to another vehicle" in fig._suptitle.get_text()
+    plt.close(fig)

@@ -139,6 +139,7 @@ BAD = {
     "interval_not_dividing": (("horizon = 40", "horizon = 40\ninterval_samples = 3"), "control.interval_samples"),
     "interval_zero": (("horizon = 40", "horizon = 40\ninterval_samples = 0"), "control.interval_samples"),
     "one_interval": (("horizon = 40", "horizon = 40\ninterval_samples = 40"), "control.interval_samples"),
+    "realtime_not_bool": (("horizon = 40", 'horizon = 40\nrealtime = "yes"'), "control.realtime"),
 }
 
 

@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from model.plotting.figures import PALETTE, apply_style, draw_obstacles, tex, unit
-from model.plotting.roads import draw_roundabout, draw_scale_bar
+from model.plotting.roads import draw_poses, draw_roundabout, draw_scale_bar, frame_plan, pose_nodes
 from model.problem.ocp import OCP
 
 
@@ -44,16 +44,20 @@ def closed_loop_figure(
     fig = plt.figure(figsize=(9.5, 4.6), layout="constrained")
     grid = fig.add_gridspec(max(1, len(controls)), 2, width_ratios=(1.25, 1))
     ax = fig.add_subplot(grid[:, 0])
-    if ocp.road is not None:
+    if ocp.road is not None:  # the driven bodies to scale, and the other vehicles at the same times
         draw_roundabout(ax, ocp, label=False)
         draw_scale_bar(ax)
+        draw_poses(ax, ocp, driven, pose_nodes(ocp, driven))
     else:
         draw_obstacles(ax, ocp.obstacles)
     ax.plot(optimum[px], optimum[py], color="0.35", ls="--", lw=1.2, label="open-loop optimum")
     ax.plot(driven[px], driven[py], color=PALETTE[0], label=f"closed loop: {summary.get('controller', '')}")
     ax.plot(driven[px][-1], driven[py][-1], "o", color=PALETTE[3], ms=4, label="final position")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set(xlabel=f"{px} (m)", ylabel=f"{py} (m)")
+    if ocp.road is not None:
+        frame_plan(ax, ocp, driven)  # the roundabout and the driven bodies, the scale bar for the scale
+    else:
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set(xlabel=f"{px} (m)", ylabel=f"{py} (m)")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=7, frameon=False)
     for row, name in enumerate(controls):
         panel = fig.add_subplot(grid[row, 1])
@@ -72,11 +76,13 @@ def _title(ocp: OCP, summary: Mapping) -> str:
     reached = "goal reached" if summary.get("reached_goal") else "goal NOT reached within the tolerance"
     err = summary.get("final_position_error")
     head = summary.get("final_heading_error")
+    moving = summary.get("min_distance_moving")
     numbers = ", ".join(
         part
         for part in (
             f"final position error {err:.3g} m" if err is not None else "",
             f"heading error {head:.3g} rad" if head is not None else "",
+            f"least distance to another vehicle {moving:.2f} m" if moving is not None else "",
         )
         if part
     )

@@ -273,6 +273,20 @@ def _draw_bodies(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray], nodes: 
                                       label=label))  # fmt: skip
 
 
+def draw_poses(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray], nodes: np.ndarray) -> None:
+    """The bodies to scale at the rows ``nodes`` of ``cols`` (t and the states) and, with moving
+    obstacles, each other vehicle where it was at those times, both marked with the time."""
+    _draw_bodies(ax, ocp, cols, nodes)
+    if not ocp.moving_obstacles:
+        return
+    t = np.asarray(cols["t"], float)
+    draw_moving_obstacles(ax, ocp, t[nodes], float(t[-1]))
+    px, py = ocp.vehicle.position
+    for k in nodes:
+        ax.annotate(f"{t[k]:.1f} s", (cols[px][k], cols[py][k]), fontsize=5.5, color="black",
+                    ha="center", va="center", zorder=9)  # fmt: skip
+
+
 def _draw_tracks(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray]) -> None:
     for name, xy in axle_tracks(ocp, cols).items():
         color = BODY_COLORS["trailer"] if name == "trailer axle" else "black"
@@ -319,13 +333,7 @@ def road_figure(
     draw_roundabout(ax, ocp)
     _draw_envelopes(ax, ocp, cols)
     nodes = np.arange(0, len(cols["t"]), every) if every else pose_nodes(ocp, cols)
-    _draw_bodies(ax, ocp, cols, nodes)
-    if ocp.moving_obstacles:  # where each other vehicle was when the bodies were, both marked with the time
-        draw_moving_obstacles(ax, ocp, cols["t"][nodes], float(cols["t"][-1]))
-        px, py = v.position
-        for k in nodes:
-            ax.annotate(f"{cols['t'][k]:.1f} s", (cols[px][k], cols[py][k]), fontsize=5.5, color="black",
-                        ha="center", va="center", zorder=9)  # fmt: skip
+    draw_poses(ax, ocp, cols, nodes)
     _draw_tracks(ax, ocp, cols)
     frame_plan(ax, ocp, cols)
     draw_scale_bar(ax)

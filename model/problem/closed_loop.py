@@ -16,7 +16,7 @@ from model.problem.tables import is_number, no_unknown, number, table_of
 from model.vehicles import Vehicle
 
 DISTURBANCE_KEYS = {"speed_gain", "steering_bias", "drift", "wheelbase", "delay", "noise", "seed"}
-CONTROL_KEYS = {"sample_time", "horizon", "interval_samples"}
+CONTROL_KEYS = {"sample_time", "horizon", "interval_samples", "realtime"}
 MULTIPLE_TOL = 1e-9  # relative: delay / sample_time within this of a whole number
 
 
@@ -47,11 +47,13 @@ class Disturbance:
 @dataclass(frozen=True)
 class ControlSettings:
     """Sample time (s) of the zero-order hold, the MPC horizon (samples, or "shrinking") and the
-    samples per interval of the MPC's prediction grid (``interval_samples``)."""
+    samples per interval of the MPC's prediction grid (``interval_samples``); ``realtime``: each MPC
+    step one real-time iteration (warm-started Ipopt its fallback) instead of a warm-started Ipopt solve."""
 
     sample_time: float = 0.1
     horizon: int | str = 40
     interval_samples: int = 1
+    realtime: bool = False
 
     @property
     def intervals(self) -> int | None:
@@ -114,7 +116,10 @@ def _control(table: dict[str, Any]) -> ControlSettings:
     if horizon != "shrinking" and (isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 2):
         raise InputError("control.horizon", f'must be a whole number >= 2 or "shrinking", got {horizon!r}')
     samples = _interval_samples(table, horizon)
-    return ControlSettings(sample_time=sample_time, horizon=horizon, interval_samples=samples)
+    realtime = table.get("realtime", ControlSettings.realtime)
+    if not isinstance(realtime, bool):
+        raise InputError("control.realtime", f"must be true or false, got {realtime!r}")
+    return ControlSettings(sample_time=sample_time, horizon=horizon, interval_samples=samples, realtime=realtime)
 
 
 def _interval_samples(table: dict[str, Any], horizon: int | str) -> int:

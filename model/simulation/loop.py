@@ -75,7 +75,8 @@ def make_controller(
 ) -> Callable[[], Controller]:
     """A factory of fresh controllers named as on the command line: open-loop, tracking or mpc.
 
-    ``mpc`` imports ``model.simulation.mpc`` on first use (an ImportError if it is absent).
+    ``mpc`` imports ``model.simulation.mpc`` on first use (an ImportError if it is absent); with
+    ``control.realtime`` each of its steps is a real-time iteration.
     """
     from model.simulation.controllers import OpenLoop, Tracking
 
@@ -84,9 +85,9 @@ def make_controller(
     if name == "tracking":
         return lambda: Tracking(solution, control, disturbance)
     if name == "mpc":
-        from model.simulation.mpc import MPC
+        from model.simulation.mpc import MPC, MPCSettings
 
-        return lambda: MPC(solution, control, disturbance)
+        return lambda: MPC(solution, control, disturbance, MPCSettings(realtime=control.realtime))
     raise ValueError(f"unknown controller {name!r} (open-loop, tracking, mpc)")
 
 

@@ -224,7 +224,8 @@ class MPC:
         kind = "offset-free mpc" if self.offset_free else "mpc"
         samples = control.interval_samples
         grid = f"{intervals} intervals" + (f" of {samples} samples" if samples > 1 else "")
-        self.name = f"{kind} (warm-started Ipopt, {grid}, {control.horizon} horizon)"
+        step = "real-time iteration" if self.settings.realtime else "warm-started Ipopt"
+        self.name = f"{kind} ({step}, {grid}, {control.horizon} horizon)"
         self.failed = self.truncated = False
         self.steps: list[dict] = []
         self.plan = self.warm = self._reference_plan()
