@@ -457,3 +457,58 @@ def test_the_truck_moved_along_its_plan_stays_on_its_route_lanes(tmp_path):
         traci.close()
     assert ":r1_1_0" in lanes and "out1_0" in lanes, "the truck left by its exit's internal lane"
     assert set(lanes) <= allowed, sorted(set(lanes) - allowed)
+
+
+def _replayed_lanes(scenario, folder: Path, poses: dict) -> tuple[list[str], set[str]]:
+    """The truck's lane after each ``moveToXY(keepRoute=2)`` of ``poses`` (truck alone), and its route's lanes."""
+    import xml.etree.ElementTree as ET
+
+    from model.traffic.cosim import start_sumo
+    from model.traffic.sumo import find_sumo
+
+    root = ET.parse(folder / "net.net.xml").getroot()
+    traci = start_sumo(find_sumo(), folder, "routes_free_flow.rou.xml")
+    lanes, allowed = [], set()
+    try:
+        while traci.simulation.getTime() < max(poses) - 1e-9:
+            t_next = round(traci.simulation.getTime() + scenario.traffic.step, 6)
+            if t_next in poses and "truck" in traci.vehicle.getIDList():
+                if not allowed:
+                    route = traci.vehicle.getRoute("truck")
+                    pairs = zip(route[:-1], route[1:], strict=True)
+                    vias = {root.find(f"connection[@from='{a}'][@to='{b}']").get("via") for a, b in pairs}
+                    allowed = {f"{e}_0" for e in route} | vias
+                traci.vehicle.moveToXY("truck", "", -1, *poses[t_next], keepRoute=2)
+            traci.simulationStep()
+            if allowed and "truck" in traci.vehicle.getIDList():
+                lanes.append(traci.vehicle.getLaneID("truck"))
+    finally:
+        traci.close()
+    return lanes, allowed
+
+
+def test_the_semitrailer_at_its_entry_merge_stays_on_its_route_lanes(tmp_path, monkeypatch):
+    """The recorded poses of semitrailer right 450 veh/h seed 4 (the bench's cell) stay on the route's lanes.
+
+    With netconvert's default internal-link detail (5) SUMO mapped the semitrailer's front, at the
+    merge of its entry's internal lane ``:r0_2_0`` with the ring's ``:r0_1_0``, onto the ring's
+    (t = 28.7 s; a ring car braked at 9 m/s^2, benchmarks/traffic.md round 3); with
+    ``INTERNAL_LINK_DETAIL`` (20) it is not. Fixture: benchmarks/traffic/record_poses.py.
+    """
+    from benchmarks.bench_traffic import document as cell
+    from model.traffic import network
+    from model.traffic.cosim import write_sumo_files
+    from model.traffic.sumo import find_sumo
+
+    fixture = ROOT / "tests" / "data" / "traffic" / "semitrailer-right-450-seed4.csv"
+    rows = np.loadtxt(fixture, delimiter=",", skiprows=1)
+    poses = {round(float(r[0]), 6): tuple(map(float, r[1:])) for r in rows}
+    scenario = parse_scenario(cell("semitrailer", "right", 450.0))
+    write_sumo_files(scenario, tmp_path / "now", find_sumo(), 4)
+    lanes, allowed = _replayed_lanes(scenario, tmp_path / "now", poses)
+    assert ":r0_2_0" in lanes and "out1_0" in lanes, "the truck entered by its entry's internal lane and left"
+    assert set(lanes) <= allowed, sorted(set(lanes) - allowed)
+    monkeypatch.setattr(network, "INTERNAL_LINK_DETAIL", 5)  # netconvert's default: the step off the route
+    write_sumo_files(scenario, tmp_path / "default", find_sumo(), 4)
+    lanes, allowed = _replayed_lanes(scenario, tmp_path / "default", poses)
+    assert not set(lanes) <= allowed, "the fixture no longer shows the mapping off the route"
