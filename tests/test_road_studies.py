@@ -117,8 +117,9 @@ def run(script: str, *args) -> None:
 def test_table_scripts_on_one_small_cell(tmp_path):
     cell = tmp_path / "cells" / "P_icd40_apron0.json"
     run("studies_roads_cell.py", "--template", TEMPLATE, "--cell", "P_icd40_apron0", "--intervals", 20,
-        "--time-limit", 60, "--clock", "cpu", "--out", cell)  # fmt: skip
+        "--time-limit", 60, "--clock", "cpu", "--energy-time-limit", 60, "--out", cell)  # fmt: skip
     data = json.loads(cell.read_text())
+    assert data["energy_time_limit"] == 60.0
     assert data["time"]["valid"] and data["energy"]["valid"]
     assert data["time_limit_clock"] == "cpu" and 0.0 < data["cpu_seconds"] < 60.0
     assert data["energy"]["intervals_asked"] == data["time"]["intervals"]  # the energy solve on the answer's grid
@@ -142,11 +143,14 @@ def test_table_scripts_on_one_small_cell(tmp_path):
     assert (tmp_path / "table" / "table.png").exists()
 
 
-def test_a_cell_with_a_bad_time_limit_is_refused_in_one_line(tmp_path):
-    """``--time-limit`` (the full grid's per-cell budget) must be positive: one line, exit 2, nothing written."""
+@pytest.mark.parametrize("flag", ["--time-limit", "--energy-time-limit"])
+def test_a_cell_with_a_bad_time_limit_is_refused_in_one_line(tmp_path, flag):
+    """``--time-limit`` and ``--energy-time-limit`` (the full grid's per-cell budgets) must be positive: one line
+    naming the flag, exit 2, nothing written."""
     cell = tmp_path / "cell.json"
     done = subprocess.run([sys.executable, str(SCRIPTS / "studies_roads_cell.py"), "--template", str(TEMPLATE),
-                           "--cell", "P_icd40_apron0", "--intervals", "20", "--time-limit", "0", "--out", str(cell)],
+                           "--cell", "P_icd40_apron0", "--intervals", "20", flag, "0", "--out", str(cell)],
                           capture_output=True, text=True)  # fmt: skip
-    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "--time-limit" in done.stderr
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+    assert done.stderr.startswith(f"{flag}:")
     assert not cell.exists()

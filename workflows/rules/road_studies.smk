@@ -52,6 +52,7 @@ rule road_study_cell:
     params:
         intervals=lambda wc: config["road_studies_grids"][wc.road_grid]["intervals"],
         time_limit=lambda wc: (lambda g: f"--time-limit {g['time_limit']} --clock {g.get('time_limit_clock', 'wall')}"
+                               + (f" --energy-time-limit {g['energy_time_limit']}" if g.get("energy_time_limit") else "")
                                if g.get("time_limit") else "")(config["road_studies_grids"][wc.road_grid]),
     log:
         "results/logs/studies/roads-{road_grid}/{road_cell}.log",

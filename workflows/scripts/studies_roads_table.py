@@ -156,6 +156,16 @@ def matrix(df: pd.DataFrame) -> str:
     return table(rows, {"preset": "vehicle", **{f"{i:g}": f"ICD {i:g} m" for i in icds}})
 
 
+def budgets(grid: dict) -> str:
+    """The grid's per-cell budgets in a sentence ("" without any)."""
+    clock = " of CPU" if grid.get("time_limit_clock") == "cpu" else ""
+    named = (("time_limit", "the minimum-time search"), ("energy_time_limit", "the energy-optimal search"))
+    parts = [f"{what} {grid[key]:g} s{clock}" for key, what in named if grid.get(key)]
+    if not parts:
+        return ""
+    return f" Budgets per cell: {' and '.join(parts)} (past it, the best validated answer or a refusal)."
+
+
 def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, ratio: float, caption: str) -> str:
     rb = template["roundabout"]
     leg = rb["legs"][0]
@@ -177,7 +187,8 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
             else "."
         )
         + f" {len(df)} cells, {n_fail} without a valid trajectory; {fmt(cpu, 3)} s of solving in all"
-        + (f" ({fmt(process, 3)} s of CPU)." if process is not None else "."),
+        + (f" ({fmt(process, 3)} s of CPU)." if process is not None else ".")
+        + budgets(grid),
         "",
         f"The roundabout (workflows/scenarios/roads/left-turn.toml): circulatory width {rb['circulatory_width']:g} m,"
         f" lanes {leg['lane_width']:g} m wide, curb fillets {leg['entry_radius']:g} m (entry) and"
