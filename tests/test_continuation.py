@@ -45,3 +45,17 @@ def test_a_minimum_time_solution_slowed_down_is_a_feasible_energy_start():
     none, least_again = slowed_minimum_time(too_short, lambda problem, guess=None: solve_ocp(
         problem, 40, guess=guess, continuation=False))  # fmt: skip
     assert none is None and least_again == pytest.approx(least, rel=1e-6)
+
+
+def test_no_homotopy_below_the_least_time_found(monkeypatch):
+    """Tf = 2.1 s, below the example's minimum time (2.65 s on N = 40) and above its bounds: the search reports
+    the least time found and does not walk a homotopy towards a Tf no start reached."""
+    import model.search.continuation as continuation
+
+    monkeypatch.setattr(continuation, "final_time_homotopy", lambda *a, **k: pytest.fail("homotopy tried"))
+    lines = []
+    ocp = dataclasses.replace(load_scenario(EXAMPLE).ocp, final_time=2.1, passing="ccw")
+    found = solve_ocp(ocp, 40, progress=lines.append)
+    assert not found.ok
+    assert found.diagnosis["least_time_found_s"] > 2.1 * 1.02
+    assert any(line.startswith("no final-time homotopy") for line in lines)
