@@ -128,3 +128,57 @@ def test_feasibility_first_walks_from_the_roomiest_road_straight_to_the_scenario
     gc.shrink_road(wb62, step, lambda line: None, lambda: False, lambda sol: False, road.FEASIBILITY_SCALES)
     assert asked[:2] == [f"{wb62.name} (relaxed x1)", wb62.name]
     assert asked[2] == f"{wb62.name} (relaxed x0.5)"
+
+
+def _coarse_search(wb62, time_limit, answer):
+    asked = []
+
+    def fake_solve(intervals, passing, starts, extra=None, relax=False, analyse=True, formulation=None):
+        asked.append((intervals, relax, formulation))
+        return [answer]
+
+    search = SimpleNamespace(ocp=wb62, intervals=60, time_limit=time_limit, solve=fake_solve, evidence=[],
+                             values=lambda passing, guess=None, intervals=None: intervals,
+                             record=lambda *a: None)  # fmt: skip
+    return search, asked
+
+
+@pytest.mark.parametrize("node_metres, refused", [(3.7, True), (0.2, False)])
+def test_a_far_too_tight_road_is_refused_on_half_the_grid(wb62, monkeypatch, node_metres, refused):
+    """With a time limit the minimal violation is solved on N / 2 first; it ends the search only where a body
+    is at least ``COARSE_EVIDENCE_M`` outside at the nodes, else the search goes on on N (None)."""
+    answer = _solved("validation_failed", {"passed": False}, slack=5.0)
+    diagnosis = {"kind": "minimal violation", "relaxed_status": "validation_failed", "encroachment_m": node_metres,
+                 "node_encroachment_m": node_metres, "message": "the trailer crosses the island"}  # fmt: skip
+    monkeypatch.setattr(road, "feasibility_diagnosis", lambda ocp, mv, violation, fast: dict(diagnosis))
+    search, asked = _coarse_search(wb62, 60.0, answer)
+    got = road.coarse_refusal(search, _solved("optimal", {"passed": False}))
+    assert asked == [(30, True, "corners")]
+    assert (got is answer) is refused
+    if refused:
+        assert got.diagnosis["intervals"] == 30 and "on N = 30" in got.diagnosis["message"]
+        assert road.refused_with_evidence(got) and search.evidence == [got.diagnosis]
+
+
+def test_no_coarse_refusal_without_a_time_limit_or_from_a_zero_violation(wb62):
+    search, asked = _coarse_search(wb62, None, None)
+    assert road.coarse_refusal(search, _solved("optimal", {"passed": False})) is None and asked == []
+    search, asked = _coarse_search(wb62, 60.0, _solved("validation_failed", {"passed": False}, slack=1e-9))
+    assert road.coarse_refusal(search, _solved("optimal", {"passed": False})) is None and len(asked) == 1
+
+
+def test_the_wb67_in_a_40_m_ring_is_refused_on_half_the_grid():
+    """The design table's WB-67 at ICD 40 m without apron: its trailer metres over the island on N = 30 already
+    (measured 3.70 m; 3.62 m on N = 60), so the search ends there with that evidence."""
+    import tomllib
+
+    from model.problem.scenario import parse_scenario
+    from model.studies.roads import cell_document
+
+    template = tomllib.loads((ROOT / "workflows" / "scenarios" / "roads" / "left-turn.toml").read_text())
+    ocp = parse_scenario(cell_document(template, "WB-67", 40, 0, 60)).ocp
+    sol = multistart.solve_ocp(ocp, intervals=60, time_limit=60.0, clock="cpu")
+    assert not sol.ok and sol.diagnosis["intervals"] == 30
+    assert sol.diagnosis["body"] == "trailer" and sol.diagnosis["node_encroachment_m"] > 2.0
+    routes = [a.get("route", "") for a in sol.attempts]
+    assert any(r.startswith("geometry continuation, minimal violation on N = 30") for r in routes)

@@ -34,9 +34,8 @@ def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
     """
     nodes = relaxed.columns
     between = substeps(nodes, [*ocp.vehicle.states, "t"])
-    name, value, edge, point, t, where = min(
-        (_deepest(ocp, nodes, "node"), _deepest(ocp, between, "between nodes")), key=lambda w: w[1]
-    )
+    at_nodes = _deepest(ocp, nodes, "node")
+    name, value, edge, point, t, where = min((at_nodes, _deepest(ocp, between, "between nodes")), key=lambda w: w[1])
     depth = max(0.0, -value)
     return {
         "kind": "minimal violation",
@@ -44,6 +43,7 @@ def road_diagnosis(ocp: OCP, relaxed: Solution, violation: float) -> dict:
         "body": name,
         "edge": edge,
         "encroachment_m": depth,
+        "node_encroachment_m": max(0.0, -at_nodes[1]),
         "at_time_s": t,
         "at_point": [float(point[0]), float(point[1])],
         "where": where,

@@ -36,6 +36,9 @@
    with the bodies still outside ends the search (``refused_with_evidence``): on the design table's
    WB-62 at ICD 25 m the walk x1 -> x0.5 spent the budget on a time problem that did not converge and
    left no evidence; straight from x1 the minimal violation converges (trailer 6.47 m over the island).
+   With a time limit the minimal violation is first solved on N / 2 (``coarse_refusal``): a body at
+   least ``COARSE_EVIDENCE_M`` outside at the nodes there ends the search with that evidence, in about
+   half the time; less, and the coarse answer is thrown away and the step runs on N as before.
 
 Each step is skipped once the search's time limit has passed (``Search.skip``).
 """
@@ -63,6 +66,8 @@ ZERO_VIOLATION = 1e-6  # m, summed slack below which the relaxed solution is a f
 CORNERS = "corners"
 EVIDENCE_M = 0.01  # m: a converged minimal violation ends the search only if a body is at least this far outside
 FEASIBILITY_SCALES = (1.0, 0.0)  # feasibility first: the scenario's road straight from the roomiest road's answer
+COARSE_EVIDENCE_M = 0.5  # m: with a time limit, a minimal violation on N / 2 this far out at the nodes ends it
+COARSE_MIN_INTERVALS = 20  # the coarse minimal violation's least N
 
 
 def road_steps(search: Search, best: Solution, fallback: bool, geometry: bool = True) -> Solution:
@@ -203,6 +208,9 @@ def feasible_then_fastest(search: Search, last: Solution) -> Solution | None:
     two (None if the time limit left neither begun); one that does not validate carries the
     ``diagnosis`` of ``feasibility_diagnosis``, the evidence the search reports.
     """
+    coarse = coarse_refusal(search, last)
+    if coarse is not None:
+        return coarse
     relaxed = search.solve(search.intervals, "none", [search.values("none", last.columns)], relax=True,
                            formulation=CORNERS)  # fmt: skip
     if not relaxed:
@@ -221,6 +229,36 @@ def feasible_then_fastest(search: Search, last: Solution) -> Solution | None:
         found.diagnosis = feasibility_diagnosis(search.ocp, mv, violation, fast)
         search.evidence.append(found.diagnosis)
     return found
+
+
+def coarse_refusal(search: Search, last: Solution) -> Solution | None:
+    """With a time limit: the minimal-violation problem on N / 2 from ``last``; its answer, refused with the
+    evidence, if it converged with a body at least ``COARSE_EVIDENCE_M`` outside at the nodes, else None (the
+    search goes on on N as before, the coarse solve a guess thrown away).
+
+    Half the cost where a road is far too tight (the design table's WB-67 at ICD 40 m without apron: 12.4 s
+    instead of 26.5 s of search, the trailer 3.70 m over the island on N = 30, 3.62 m on N = 60). Half a metre
+    at the nodes is far more than the coarser grid's own error, so no road a finer grid passes is refused.
+    """
+    n = max(COARSE_MIN_INTERVALS, search.intervals // 2)
+    if search.time_limit is None or n >= search.intervals:
+        return None
+    sols = search.solve(n, "none", [search.values("none", last.columns, intervals=n)], relax=True,
+                        formulation=CORNERS)  # fmt: skip
+    if not sols:
+        return None
+    mv = sols[0]
+    search.record(mv, "none", 1.0, f"geometry continuation, minimal violation on N = {n} ({search.ocp.name}, corners)")
+    violation = float(pyo.value(mv.model.slack_total))
+    if mv.status not in CONVERGED or violation <= ZERO_VIOLATION:
+        return None
+    diagnosis = feasibility_diagnosis(search.ocp, mv, violation, None)
+    if diagnosis.get("node_encroachment_m", 0.0) < COARSE_EVIDENCE_M:
+        return None
+    diagnosis["message"] += f" (on N = {n}: at least {COARSE_EVIDENCE_M:g} m outside at the nodes)"
+    mv.diagnosis = diagnosis | {"intervals": n}
+    search.evidence.append(mv.diagnosis)
+    return mv
 
 
 def feasibility_diagnosis(ocp: OCP, mv: Solution, violation: float, fast: Solution | None) -> dict:
