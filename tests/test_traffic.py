@@ -341,6 +341,29 @@ def test_the_approach_keeps_the_plan_pace_while_a_stop_at_the_line_stays_possibl
     assert name == "stop at the line" and late.rate < 1.0 and late.s <= late.give_way
 
 
+@pytest.mark.parametrize("gap,keeps_pace", [(1.005, False), (1.6, True)])
+def test_a_predicted_gap_within_the_prediction_margin_is_not_accepted(gap, keeps_pace):
+    """A committed car just ahead at the truck's speed (8 m/s, close to the curb: it does not yield).
+
+    Its constant-speed prediction keeps ``gap`` at every instant. 1.005 m is within the predictions'
+    error (PREDICTION_MARGIN per second ahead; traced in truck left 700 seed 0: predicted 1.0049 m one
+    step ahead, 0.9962 m measured): the truck must not hold its pace. 1.6 m: it does.
+    """
+    from model.scene.moving import MovingVehicle
+    from model.traffic.autopilot import PREDICTION_MARGIN
+
+    pilot = straight_pilot()
+    car = MovingVehicle(4.5, 1.8, start=(-27.25, -2.0, 0.0), speed=8.0)  # front at x = -25 (5.1 m outside the curb)
+    pilot.s, pilot.rate = (-29.5 - gap - 6.5 + 50.0) / 8.0, 1.0  # the truck's front ``gap`` behind the car's rear
+    tau = pilot.instants(0.1)
+    gaps = pilot.clearances(next(pilot.profiles(tau))[2], pilot.predicted([car], tau))
+    assert gaps.min() == pytest.approx(gap, abs=1e-6) and gaps.min() >= 1.0  # safe without the margin
+    name, _ = pilot.decide([car], 0.1)
+    assert (name == "rate 1") == keeps_pace
+    assert (pilot.rate == 1.0) == keeps_pace
+    assert PREDICTION_MARGIN * 0.1 > 1.005 - 1.0
+
+
 def test_an_entering_car_that_can_stop_is_expected_to_yield_one_that_cannot_goes_on():
     """On leg 1's entry lane (x = 2, heading north): 20 m before the curb at 10 m/s it stops at the curb;
     3 m before it at 10 m/s (16.7 m/s^2 needed) it keeps its speed."""

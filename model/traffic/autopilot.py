@@ -13,7 +13,9 @@ vehicle is predicted as a ``MovingVehicle`` at constant speed and yaw rate from 
 if at the instants 0, step, 0.25, 0.5, ..., ``HORIZON`` s every body of the truck (exact
 rectangle at the plan time the profile reaches) keeps at least ``safety_distance`` from every
 predicted rectangle: the gap acceptance compares the truck's own planned occupancy with the
-predictions, no fixed critical gap or time margin. The profiles, fastest first:
+predictions, no fixed critical gap or time margin. A prediction tau seconds ahead errs more the
+larger tau is, so the instant tau > 0 needs ``safety_distance + PREDICTION_MARGIN * tau`` (the
+present, tau = 0, is measured, not chosen: it is not checked). The profiles, fastest first:
 
 - ``rate q`` for q in ``TARGETS`` (1, 0.875, ..., 0.125): r moves to q at ``RATE_SLOPE`` per second
   and stays there (r = 1 is the plan's own pace); before the give-way line a slower q only if it
@@ -61,6 +63,7 @@ SUMO_TAU = 1.0  # s: the headway of SUMO's car-following model (Krauss tau): its
 ENTRY_INSTANTS = 1  # the checked instants inside the entry junction for vehicles behind the truck in it
 MAP_MARGIN = 1.0  # m: the ring's internal lane this much farther from the front than the exit's may still be chosen
 TURNING_IN_COS = 0.5  # inside the exit's junction, a vehicle heading within 60 degrees of the centre still turns in
+PREDICTION_MARGIN = 0.1  # m/s: an instant tau ahead needs safety_distance + this * tau (the predictions' error grows)
 
 
 @dataclass
@@ -289,14 +292,15 @@ class Autopilot:
         t0, c0 = time.perf_counter(), time.process_time()
         tau = self.instants(step)
         theirs = self.predicted(others, tau)
-        best, best_gap = None, -math.inf
+        best, best_gap, best_net = None, -math.inf, -math.inf
         for name, rates, s in self.profiles(tau):
-            gap = self.least_distance(s, theirs)
-            if gap >= self.scenario.traffic.safety_distance and not self.junction_conflict(tau, s, theirs):
-                best, best_gap = (name, rates), gap
+            gaps = self.clearances(s, theirs)
+            net = float(np.min(gaps[1:] - PREDICTION_MARGIN * tau[1:]))  # the present pose is not chosen
+            if net >= self.scenario.traffic.safety_distance and not self.junction_conflict(tau, s, theirs):
+                best, best_gap = (name, rates), float(gaps.min())
                 break
-            if gap > best_gap:
-                best, best_gap = (name, rates), gap
+            if net > best_net:
+                best, best_gap, best_net = (name, rates), float(gaps.min()), net
         name, rates = best
         new_rate = float(np.interp(step, tau, rates))
         advance = 0.5 * (self.rate + new_rate) * step
@@ -354,15 +358,32 @@ class Autopilot:
 
     def least_distance(self, s: np.ndarray, theirs: np.ndarray) -> float:
         """Least distance between the truck's bodies at plan times ``s`` and the predicted corners ``theirs``."""
+        return float(self.clearances(s, theirs).min())
+
+    def clearances(self, s: np.ndarray, theirs: np.ndarray) -> np.ndarray:
+        """Per instant, the least distance (m) between the truck's bodies at plan times ``s`` and ``theirs``.
+
+        Parameters
+        ----------
+        s : numpy.ndarray
+            The plan times (T,) the profile reaches at the checked instants.
+        theirs : numpy.ndarray
+            The predicted corners (n, T, 4, 2) of the other vehicles (``predicted``).
+
+        Returns
+        -------
+        numpy.ndarray
+            (T,) exact rectangle distances, the least over bodies and vehicles; inf without vehicles.
+        """
         if len(theirs) == 0:
-            return math.inf
+            return np.full(len(s), math.inf)
         ocp = self.scenario.ocp
         states = self.plan.at(s)
         flat = theirs.reshape(-1, 4, 2)  # vehicle-major: (n * len(s), 4, 2)
-        least = math.inf
+        least = np.full(len(s), math.inf)
         for name, body in ocp.bodies.items():
             mine = np.tile(body.corners(*self.body_poses[name](states)), (len(theirs), 1, 1))
-            least = min(least, float(rectangle_gaps(mine, flat).min()))
+            least = np.minimum(least, rectangle_gaps(mine, flat).reshape(len(theirs), len(s)).min(axis=0))
         return least
 
     def state(self) -> dict[str, float]:
@@ -392,6 +413,6 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 
 __all__ = [
-    "GIVE_WAY_MARGIN", "HORIZON", "LINE_SLACK", "MAP_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS",
-    "TURNING_IN_COS", "YAW_WINDOW", "Autopilot", "Plan", "plan_of", "predict",
+    "GIVE_WAY_MARGIN", "HORIZON", "LINE_SLACK", "MAP_MARGIN", "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE",
+    "SUMO_TAU", "TARGETS", "TURNING_IN_COS", "YAW_WINDOW", "Autopilot", "Plan", "plan_of", "predict",
 ]  # fmt: skip
