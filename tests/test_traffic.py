@@ -312,10 +312,12 @@ def ring_car(degrees: float, speed: float = 7.0):
     return predict(row, a + math.pi / 2 - speed / r * 0.5, 0.5)
 
 
-@pytest.mark.parametrize("degrees,enters", [(140.0, False), (90.0, True)])
+@pytest.mark.parametrize("degrees,enters", [(140.0, False), (60.0, True)])
 def test_the_truck_at_its_line_waits_for_a_car_in_its_window_and_enters_a_big_gap(degrees, enters):
     """Standing at the line: a car 40 degrees upstream crosses the truck's planned occupancy (wait);
-    90 degrees upstream it comes after the truck's bodies have passed (enter at the plan's pace)."""
+    120 degrees upstream it comes after the truck's bodies have passed and, following the truck
+    starting from standstill, brakes less than FOLLOWER_DECEL (enter at the plan's pace; 90 degrees
+    upstream it would have to brake 9 m/s^2: the next test)."""
     pilot = straight_pilot()
     pilot.s, pilot.rate = pilot.give_way - 0.01, 0.0
     name, gap = pilot.decide([ring_car(degrees)], 0.1)
@@ -324,6 +326,50 @@ def test_the_truck_at_its_line_waits_for_a_car_in_its_window_and_enters_a_big_ga
         assert gap >= 1.0 and pilot.rate > 0.0
     else:
         assert name in ("approach", "stop at the line", "stand") and pilot.s <= pilot.give_way  # it stays out
+
+
+@pytest.mark.parametrize("rule", [True, False])
+def test_an_entry_gap_clear_of_the_distance_that_makes_a_follower_brake_hard_is_refused(rule):
+    """Standing at the line, a car on the ring 90 degrees upstream at 7 m/s: the gap keeps the safety
+    distance (the truck's bodies pass first, least predicted distance > 3 m), but the car, following
+    the truck that starts from standstill as SUMO's Krauss driver would, must brake 9 m/s^2 (its
+    emergency braking; traced in truck right 450 seed 4, 9.0 m/s^2): the follower rule refuses the
+    entry, the truck stays out. Without the rule it enters at the plan's pace."""
+    from model.traffic.autopilot import FOLLOWER_DECEL, PREDICTION_MARGIN
+
+    pilot = straight_pilot()
+    pilot.follow_rule = rule
+    pilot.s, pilot.rate = pilot.give_way - 0.01, 0.0
+    car = ring_car(90.0)
+    tau = pilot.instants(0.1)
+    name, rates, s = next(pilot.profiles(tau))
+    theirs = pilot.predicted([car], tau)
+    assert name == "rate 1"
+    assert np.min(pilot.clearances(s, theirs)[1:] - PREDICTION_MARGIN * tau[1:]) > 3.0  # clear of the distance
+    rule_free = straight_pilot()
+    assert rule_free.follower_braking(tau, rates, s, theirs) > FOLLOWER_DECEL  # the follower brakes hard
+    name, _ = pilot.decide([car], 0.1)
+    assert (name == "rate 1") != rule
+    if rule:
+        assert name in ("approach", "stop at the line", "stand") and pilot.s <= pilot.give_way
+
+
+def test_a_car_turning_out_or_past_the_merge_point_is_no_follower():
+    """The follower rule counts only vehicles circulating toward the merge point: a car on the ring
+    heading 60 degrees off the tangent (turning out) and one just past the merge point ask nothing."""
+    from model.scene.moving import MovingVehicle
+
+    pilot = straight_pilot()
+    pilot.s, pilot.rate = pilot.give_way - 0.01, 0.0
+    tau = pilot.instants(0.1)
+    name, rates, s = next(pilot.profiles(tau))
+    a = math.radians(90.0)
+    out = MovingVehicle(4.5, 1.8, start=(17.0 * math.cos(a), 17.0 * math.sin(a), a + math.pi / 2 + math.radians(60.0)),
+                        speed=7.0)  # fmt: skip
+    assert pilot.follower_braking(tau, rates, s, pilot.predicted([out], tau)) == 0.0
+    past = ring_car(200.0)  # 20 degrees past the entry's axis: the truck follows it, not it the truck
+    assert pilot.follower_braking(tau, rates, s, pilot.predicted([past], tau)) == 0.0
+    assert pilot.follower_braking(tau, rates, s, pilot.predicted([ring_car(90.0)], tau)) > 4.0
 
 
 def test_the_approach_keeps_the_plan_pace_while_a_stop_at_the_line_stays_possible():

@@ -30,9 +30,10 @@ present, tau = 0, is measured, not chosen: it is not checked). The profiles, fas
   the last such moment comes with no safe gap (it never slows for a conflict it can still wait out);
 - ``stop at the line`` (r falls linearly to 0 exactly at the line), ``stand``.
 
-The first safe profile (distance kept, and SUMO's junction rule of ``junction_conflict`` kept when
-the network's junctions are given) is taken; if none is, the one with the largest least predicted
-distance (whatever the junction rule says).
+The first safe profile (distance kept, SUMO's junction rule of ``junction_conflict`` kept when
+the network's junctions are given, and no circulating follower made to brake harder than
+``FOLLOWER_DECEL``, ``follower_braking``) is taken; if none is, the one with the largest least
+predicted distance among the profiles keeping those rules, or among all if none keeps them.
 A vehicle too far to come within ``safety_distance`` during the horizon, whatever it and the truck
 do at their speeds, is not checked.
 """
@@ -49,6 +50,8 @@ import numpy as np
 from model.analysis.bodies import rectangle_gaps
 from model.problem.scenario import Scenario
 from model.scene.moving import MovingVehicle
+from model.traffic.cosim import truck_geometry
+from model.traffic.network import ring_radius
 
 HORIZON = 5.0  # s looked ahead
 SAMPLE = 0.25  # s between the predicted instants (plus the first step's end)
@@ -64,6 +67,10 @@ ENTRY_INSTANTS = 1  # the checked instants inside the entry junction for vehicle
 MAP_MARGIN = 1.0  # m: the ring's internal lane this much farther from the front than the exit's may still be chosen
 TURNING_IN_COS = 0.5  # inside the exit's junction, a vehicle heading within 60 degrees of the centre still turns in
 PREDICTION_MARGIN = 0.1  # m/s: an instant tau ahead needs safety_distance + this * tau (the predictions' error grows)
+FOLLOWER_DECEL = 4.0  # m/s^2: the hardest braking an entry may ask of a circulating follower (SUMO's car: 4.5)
+FOLLOW_MIN_GAP = 2.5  # m: the follower's standstill gap behind the truck (SUMO's passenger minGap)
+FOLLOW_HEADING = math.radians(30.0)  # a vehicle on the ring heading within this of the ring's tangent circulates
+EMERGENCY_DECEL = 9.0  # m/s^2: the follower's hardest braking (SUMO's passenger emergencyDecel)
 
 
 @dataclass
@@ -111,6 +118,13 @@ class Autopilot:
     reach: float = field(init=False)
     top_speed: float = field(init=False)
     windows: tuple[tuple[float, float], tuple[float, float]] | None = field(init=False, default=None)
+    follow_rule: bool = True  # refuse an entry that makes a circulating follower brake above FOLLOWER_DECEL
+    merge_point: tuple[float, float] | None = None  # where SUMO's entry lane joins the ring; None: on the entry's axis
+    merge: np.ndarray = field(init=False, repr=False)  # the merge point used
+    front_arc: tuple[np.ndarray, np.ndarray] = field(init=False, repr=False)  # plan times, the front's path length
+    merge_arc: float = field(init=False)  # the front's path length where it passes nearest the merge point
+    merge_time: float = field(init=False)  # the plan time there
+    length: float = field(init=False)  # SUMO's length of the truck (the straight vehicle's overall length)
 
     def __post_init__(self) -> None:
         self.give_way = self._give_way_time()
@@ -121,6 +135,22 @@ class Autopilot:
         poses = v.body_poses()
         self.body_poses = {name: v.state_function(list(poses[name])) for name in self.scenario.ocp.bodies}
         self.reach, self.top_speed = self._reach()
+        self.length = truck_geometry(self.scenario)["length"]
+        self._merge_geometry()
+
+    def _merge_geometry(self) -> None:
+        """The merge point of the entry, the front's path length along the plan and at the merge point."""
+        road = self.scenario.ocp.road
+        ra, angle = road.roundabout, road.roundabout.legs[road.route.enter].angle
+        self.merge = np.asarray(ra.center, float) + ring_radius(ra) * np.array([math.cos(angle), math.sin(angle)])
+        if self.merge_point is not None:
+            self.merge = np.asarray(self.merge_point, float)
+        s = np.linspace(0.0, self.plan.duration, 2001)
+        p = self._front(s)
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
+        self.front_arc = (s, arc)
+        k = int(np.argmin(np.linalg.norm(p - self.merge, axis=1)))
+        self.merge_arc, self.merge_time = float(arc[k]), float(s[k])
 
     def _reach(self) -> tuple[float, float]:
         """Farthest body corner from the reference point along the plan, and the plan's top speed (m, m/s)."""
@@ -250,6 +280,74 @@ class Autopilot:
         dist = arc[np.arange(len(arc)), first] - arc[:, k]
         return which & ~inside[:, k] & hits & (dist < gap[:, k])
 
+    def follower_braking(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray) -> float:
+        """The hardest braking (m/s^2) an entry along this profile asks of a circulating follower; 0 if none.
+
+        Only until the truck's front reaches the merge point (``merge_time``: standing or slowing
+        just past the line still makes a follower brake) and for a profile that crosses the
+        give-way line. A follower is a
+        predicted vehicle circulating on the ring: its front between the inner and the outer curb,
+        heading within ``FOLLOW_HEADING`` of the ring's tangent in the circulation direction (a
+        vehicle turning out to an exit deviates more and is no follower). It is taken to follow the
+        ring to the merge point (``merge_point``, the end of SUMO's internal lane from the entry
+        into the ring; without it the ring lane's centre on the entry leg's axis): its distance to it
+        is the arc of the ring lane's centre line (radius ``ring_radius``) from its front's angle to
+        the merge point's, in the circulation direction (the ring's geometry, not its predicted path:
+        a constant yaw rate from the last ``YAW_WINDOW`` misleads where SUMO's ring lane bends at a
+        junction). From the instant the truck's front crosses the line, SUMO's follower treats the
+        truck as its leader (if the truck's front is the nearer to the merge point): gap = (the
+        follower's distance to the merge point) - (the front's path length to it) - the truck's
+        length - ``FOLLOW_MIN_GAP``. The follower, at its speed now, is driven by Krauss' safe speed
+        v_l + (g - v_l tau) / ((v + v_l) / (2 b) + tau) (tau = ``SUMO_TAU``, b = ``YIELD_DECEL``,
+        v_l the truck's speed), never faster than now and braking at most ``EMERGENCY_DECEL``, at
+        every ``step`` of the horizon; its largest deceleration is returned.
+
+        Parameters
+        ----------
+        tau : numpy.ndarray
+            The checked instants (``instants``); tau[1] is the step.
+        rates, s : numpy.ndarray
+            The profile's progress rates and plan times at ``tau``.
+        theirs : numpy.ndarray
+            The predicted corners (n, len(tau), 4, 2).
+
+        Returns
+        -------
+        float
+            The largest deceleration of the simulated followers, m/s^2.
+        """
+        if not self.follow_rule or self.s >= self.merge_time or s[-1] <= self.give_way or len(theirs) == 0:
+            return 0.0
+        step = float(tau[1])
+        ahead = self._ring_to_merge(theirs, step)
+        if not ahead:
+            return 0.0
+        grid = np.arange(0.0, tau[-1] + 1e-9, step)
+        s_t = np.interp(grid, tau, s)
+        v_l = np.abs(self.plan.at(s_t)[self.scenario.ocp.vehicle.roles.speed]) * np.interp(grid, tau, rates)
+        to_merge = self.merge_arc - np.interp(s_t, *self.front_arc)  # the front's path length to the merge point
+        inside = s_t > self.give_way
+        return max(_krauss_follower(d, v, to_merge, v_l, inside, self.length, step) for d, v in ahead)
+
+    def _ring_to_merge(self, theirs: np.ndarray, step: float) -> list[tuple[float, float]]:
+        """The circulating vehicles' (distance along the ring to the merge point, speed now), m and m/s."""
+        ra = self.scenario.ocp.road.roundabout
+        c = np.asarray(ra.center, float)
+        front = theirs[:, 0, 1:3, :].mean(axis=1)  # (n, 2): now
+        axis = front - theirs[:, 0, [0, 3], :].mean(axis=1)
+        axis /= np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-9)
+        rel = front - c
+        r = np.linalg.norm(rel, axis=-1)
+        angle = np.arctan2(rel[:, 1], rel[:, 0])
+        tangent = angle + ra.circulation * math.pi / 2.0
+        along = axis[:, 0] * np.cos(tangent) + axis[:, 1] * np.sin(tangent)
+        ring = (r >= ra.inner_radius) & (r <= ra.outer_radius) & (along >= math.cos(FOLLOW_HEADING))
+        m = self.merge - c
+        turn = np.mod(ra.circulation * (math.atan2(m[1], m[0]) - angle), 2.0 * math.pi)
+        distance = ring_radius(ra) * turn
+        speed = np.linalg.norm(theirs[:, 1, 1:3, :].mean(axis=1) - front, axis=-1) / step
+        return [(float(distance[k]), float(speed[k])) for k in np.nonzero(ring)[0]]
+
     def instants(self, step: float) -> np.ndarray:
         """The checked instants: now, the end of the step, then every ``SAMPLE`` up to ``HORIZON``."""
         return np.unique(np.concatenate([[0.0, step], np.arange(SAMPLE, HORIZON + 1e-9, SAMPLE)]))
@@ -292,15 +390,18 @@ class Autopilot:
         t0, c0 = time.perf_counter(), time.process_time()
         tau = self.instants(step)
         theirs = self.predicted(others, tau)
-        best, best_gap, best_net = None, -math.inf, -math.inf
+        best, tried = None, []
         for name, rates, s in self.profiles(tau):
             gaps = self.clearances(s, theirs)
             net = float(np.min(gaps[1:] - PREDICTION_MARGIN * tau[1:]))  # the present pose is not chosen
-            if net >= self.scenario.traffic.safety_distance and not self.junction_conflict(tau, s, theirs):
+            if net >= self.scenario.traffic.safety_distance and self._keeps_rules(tau, rates, s, theirs):
                 best, best_gap = (name, rates), float(gaps.min())
                 break
-            if net > best_net:
-                best, best_gap, best_net = (name, rates), float(gaps.min()), net
+            tried.append((net, name, rates, s, float(gaps.min())))
+        if best is None:  # none safe: the largest least distance among those keeping the rules, else among all
+            keeps = [t for t in tried if self._keeps_rules(tau, t[2], t[3], theirs)]
+            _, name, rates, _, best_gap = max(keeps or tried, key=lambda t: t[0])
+            best = (name, rates)
         name, rates = best
         new_rate = float(np.interp(step, tau, rates))
         advance = 0.5 * (self.rate + new_rate) * step
@@ -311,6 +412,12 @@ class Autopilot:
         self.decision_seconds.append(time.perf_counter() - t0)
         self.decision_cpu_seconds.append(time.process_time() - c0)
         return name, best_gap
+
+    def _keeps_rules(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray) -> bool:
+        """Whether a profile keeps SUMO's junction rule (when given) and asks no follower above ``FOLLOWER_DECEL``."""
+        if self.junction_conflict(tau, s, theirs):
+            return False
+        return self.follower_braking(tau, rates, s, theirs) <= FOLLOWER_DECEL
 
     def expect(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
         """``other`` as the roundabout's rule expects it: an entering vehicle that can still stop yields.
@@ -395,6 +502,29 @@ class Autopilot:
         return row
 
 
+def _krauss_follower(distance: float, speed: float, to_merge: np.ndarray, v_l: np.ndarray, inside: np.ndarray,
+                     length: float, step: float) -> float:  # fmt: skip
+    """The largest deceleration of a Krauss follower ``distance`` before the merge point behind the truck.
+
+    At each step where the truck is ``inside`` (its front past the give-way line) and its front is
+    nearer to the merge point than the follower's (else the follower is ahead), the follower's gap
+    is its distance to the merge point minus the truck front's (``to_merge``) minus ``length`` and
+    ``FOLLOW_MIN_GAP``; it slows to Krauss' safe speed for the truck's speed ``v_l`` (never below
+    ``speed`` - ``EMERGENCY_DECEL`` step per step, never faster than ``speed``).
+    """
+    x, v, worst = 0.0, speed, 0.0
+    b, tau = YIELD_DECEL, SUMO_TAU
+    for k in range(len(to_merge)):
+        if inside[k] and to_merge[k] <= distance - x:  # the truck's front is the nearer to the merge point
+            g = distance - x - to_merge[k] - length - FOLLOW_MIN_GAP
+            safe = v_l[k] + (g - v_l[k] * tau) / ((v + v_l[k]) / (2.0 * b) + tau)
+            new = min(v, max(safe, v - EMERGENCY_DECEL * step, 0.0))
+            worst = max(worst, (v - new) / step)
+            v = new
+        x += v * step
+    return worst
+
+
 def _integral(r: np.ndarray, tau: np.ndarray) -> np.ndarray:
     """Cumulative trapezoid integral of ``r`` over ``tau`` from 0."""
     return np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * np.diff(tau))])
@@ -413,6 +543,7 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 
 __all__ = [
-    "GIVE_WAY_MARGIN", "HORIZON", "LINE_SLACK", "MAP_MARGIN", "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE",
-    "SUMO_TAU", "TARGETS", "TURNING_IN_COS", "YAW_WINDOW", "Autopilot", "Plan", "plan_of", "predict",
+    "EMERGENCY_DECEL", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP", "GIVE_WAY_MARGIN", "HORIZON",
+    "LINE_SLACK", "MAP_MARGIN", "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS",
+    "TURNING_IN_COS", "YAW_WINDOW", "Autopilot", "Plan", "plan_of", "predict",
 ]  # fmt: skip

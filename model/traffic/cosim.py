@@ -166,7 +166,8 @@ def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, s
 
 
 def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: str = "routes.rou.xml",
-                    junction_rule: bool = False, entry_rule: bool = False) -> Pass:  # fmt: skip
+                    junction_rule: bool = False, entry_rule: bool = False,
+                    follow_rule: bool = True) -> Pass:  # fmt: skip
     """The autopilot's pass: each step, predict the others, choose the progress, move ``truck`` there.
 
     The loop is the contract's replay loop with the poses made online, so replaying ``DIR/sumo``
@@ -174,6 +175,8 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     ``junction_rule``: give the driver SUMO's exit junction rule (``Autopilot.junction_conflict``);
     off by default (``roundabout traffic``): measured worse, benchmarks/traffic.md. ``entry_rule``: its
     entry half (``Autopilot(entry_rule=True)``), alone or with the exit half; off by default.
+    ``follow_rule``: refuse an entry that makes a circulating follower brake above ``FOLLOWER_DECEL``
+    (``Autopilot.follower_braking``, the merge point the end of SUMO's internal entry lane); on by default.
     """
     from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
 
@@ -190,8 +193,9 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
         lanes = None  # no exit half: the mapped window is empty
     if not (junction_rule or entry_rule):
         junctions = None
+    merge = tuple(via_lane_shape(net, edges[0], edges[1])[-1])  # where the entry's internal lane joins the ring
     pilot = Autopilot(scenario, plan, geo["front"], line_radius=line, junctions=junctions, exit_lanes=lanes,
-                      entry_rule=entry_rule)  # fmt: skip
+                      entry_rule=entry_rule, follow_rule=follow_rule, merge_point=merge)  # fmt: skip
     # the plan's solve leaves large object graphs: collect them now and keep the survivors out of the
     # collector's scans while driving, so that no decision pays for a full collection (measured: 1.7 CPU s)
     gc.collect()
