@@ -354,6 +354,25 @@ def test_an_entry_gap_clear_of_the_distance_that_makes_a_follower_brake_hard_is_
         assert name in ("approach", "stop at the line", "stand") and pilot.s <= pilot.give_way
 
 
+def test_a_car_signalling_its_exit_before_the_merge_point_is_no_follower():
+    """SUMO's car shows its exit-side blinker ahead of its exit: 90 degrees upstream and signalling,
+    it leaves before the merge point, so the gap of the previous test is taken; 30 degrees upstream
+    (within EXIT_SIGNAL_MIN) the signal may mean the exit after the entry: it still follows."""
+    from model.traffic.autopilot import EXIT_SIGNAL_MIN, FOLLOWER_DECEL
+
+    pilot = straight_pilot()
+    pilot.s, pilot.rate = pilot.give_way - 0.01, 0.0
+    car = ring_car(90.0)
+    assert pilot.decide([car], 0.1, frozenset({car.key}))[0] == "rate 1"
+    near = straight_pilot()
+    near.s, near.rate = near.give_way - 0.01, 0.0
+    tau = near.instants(0.1)
+    _, rates, s = next(near.profiles(tau))
+    close = near.predicted([ring_car(150.0)], tau)  # its front 6.7 m (22 degrees) before the merge point
+    assert near._ring_to_merge(close, 0.1)[0][0] < EXIT_SIGNAL_MIN
+    assert near.follower_braking(tau, rates, s, close, np.array([True])) > FOLLOWER_DECEL
+
+
 def test_a_car_turning_out_or_past_the_merge_point_is_no_follower():
     """The follower rule counts only vehicles circulating toward the merge point: a car on the ring
     heading 60 degrees off the tangent (turning out) and one just past the merge point ask nothing."""

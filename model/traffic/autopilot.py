@@ -70,6 +70,7 @@ PREDICTION_MARGIN = 0.1  # m/s: an instant tau ahead needs safety_distance + thi
 FOLLOWER_DECEL = 4.0  # m/s^2: the hardest braking an entry may ask of a circulating follower (SUMO's car: 4.5)
 FOLLOW_MIN_GAP = 2.5  # m: the follower's standstill gap behind the truck (SUMO's passenger minGap)
 FOLLOW_HEADING = math.radians(30.0)  # a vehicle on the ring heading within this of the ring's tangent circulates
+EXIT_SIGNAL_MIN = 8.0  # m: a car signalling its exit this near the merge point may mean the next exit: it follows
 EMERGENCY_DECEL = 9.0  # m/s^2: the follower's hardest braking (SUMO's passenger emergencyDecel)
 
 
@@ -280,7 +281,8 @@ class Autopilot:
         dist = arc[np.arange(len(arc)), first] - arc[:, k]
         return which & ~inside[:, k] & hits & (dist < gap[:, k])
 
-    def follower_braking(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray) -> float:
+    def follower_braking(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray,
+                         exiting: np.ndarray | None = None) -> float:  # fmt: skip
         """The hardest braking (m/s^2) an entry along this profile asks of a circulating follower; 0 if none.
 
         Only until the truck's front reaches the merge point (``merge_time``: standing or slowing
@@ -288,7 +290,10 @@ class Autopilot:
         give-way line. A follower is a
         predicted vehicle circulating on the ring: its front between the inner and the outer curb,
         heading within ``FOLLOW_HEADING`` of the ring's tangent in the circulation direction (a
-        vehicle turning out to an exit deviates more and is no follower). It is taken to follow the
+        vehicle turning out to an exit deviates more and is no follower), and not showing the exit
+        side's turn signal (``decide(..., exiting=...)``: SUMO's car signals about 50 degrees before
+        its exit's junction; ``exiting``) unless it is within ``EXIT_SIGNAL_MIN`` of the merge point
+        (there it may signal for the exit after the entry). It is taken to follow the
         ring to the merge point (``merge_point``, the end of SUMO's internal lane from the entry
         into the ring; without it the ring lane's centre on the entry leg's axis): its distance to it
         is the arc of the ring lane's centre line (radius ``ring_radius``) from its front's angle to
@@ -310,6 +315,8 @@ class Autopilot:
             The profile's progress rates and plan times at ``tau``.
         theirs : numpy.ndarray
             The predicted corners (n, len(tau), 4, 2).
+        exiting : numpy.ndarray, optional
+            (n,) booleans: the vehicle shows the exit side's turn signal.
 
         Returns
         -------
@@ -319,7 +326,7 @@ class Autopilot:
         if not self.follow_rule or self.s >= self.merge_time or s[-1] <= self.give_way or len(theirs) == 0:
             return 0.0
         step = float(tau[1])
-        ahead = self._ring_to_merge(theirs, step)
+        ahead = self._ring_to_merge(theirs, step, exiting)
         if not ahead:
             return 0.0
         grid = np.arange(0.0, tau[-1] + 1e-9, step)
@@ -329,7 +336,8 @@ class Autopilot:
         inside = s_t > self.give_way
         return max(_krauss_follower(d, v, to_merge, v_l, inside, self.length, step) for d, v in ahead)
 
-    def _ring_to_merge(self, theirs: np.ndarray, step: float) -> list[tuple[float, float]]:
+    def _ring_to_merge(self, theirs: np.ndarray, step: float,
+                       exiting: np.ndarray | None = None) -> list[tuple[float, float]]:  # fmt: skip
         """The circulating vehicles' (distance along the ring to the merge point, speed now), m and m/s."""
         ra = self.scenario.ocp.road.roundabout
         c = np.asarray(ra.center, float)
@@ -345,6 +353,8 @@ class Autopilot:
         m = self.merge - c
         turn = np.mod(ra.circulation * (math.atan2(m[1], m[0]) - angle), 2.0 * math.pi)
         distance = ring_radius(ra) * turn
+        if exiting is not None:
+            ring &= ~(np.asarray(exiting, bool) & (distance > EXIT_SIGNAL_MIN))  # signalling an exit before the merge
         speed = np.linalg.norm(theirs[:, 1, 1:3, :].mean(axis=1) - front, axis=-1) / step
         return [(float(distance[k]), float(speed[k])) for k in np.nonzero(ring)[0]]
 
@@ -385,21 +395,28 @@ class Autopilot:
                      s1 + first * after - 0.5 * RATE_SLOPE * after**2)  # fmt: skip
         return r, np.minimum(s, self.give_way)
 
-    def decide(self, others: list[MovingVehicle], step: float) -> tuple[str, float]:
-        """Choose the profile for the next step; advance s and rate; return (name, least predicted distance)."""
+    def decide(self, others: list[MovingVehicle], step: float,
+               exiting: frozenset[str] = frozenset()) -> tuple[str, float]:  # fmt: skip
+        """Choose the profile for the next step; advance s and rate; return (name, least predicted distance).
+
+        ``exiting``: the keys of the vehicles showing the exit side's turn signal (no followers, see
+        ``follower_braking``).
+        """
         t0, c0 = time.perf_counter(), time.process_time()
         tau = self.instants(step)
-        theirs = self.predicted(others, tau)
+        near = self._near(others, tau)
+        theirs = self._predict(near, tau)
+        signalling = np.array([o.key in exiting for o in near], bool)
         best, tried = None, []
         for name, rates, s in self.profiles(tau):
             gaps = self.clearances(s, theirs)
             net = float(np.min(gaps[1:] - PREDICTION_MARGIN * tau[1:]))  # the present pose is not chosen
-            if net >= self.scenario.traffic.safety_distance and self._keeps_rules(tau, rates, s, theirs):
+            if net >= self.scenario.traffic.safety_distance and self._keeps_rules(tau, rates, s, theirs, signalling):
                 best, best_gap = (name, rates), float(gaps.min())
                 break
             tried.append((net, name, rates, s, float(gaps.min())))
         if best is None:  # none safe: the largest least distance among those keeping the rules, else among all
-            keeps = [t for t in tried if self._keeps_rules(tau, t[2], t[3], theirs)]
+            keeps = [t for t in tried if self._keeps_rules(tau, t[2], t[3], theirs, signalling)]
             _, name, rates, _, best_gap = max(keeps or tried, key=lambda t: t[0])
             best = (name, rates)
         name, rates = best
@@ -413,11 +430,12 @@ class Autopilot:
         self.decision_cpu_seconds.append(time.process_time() - c0)
         return name, best_gap
 
-    def _keeps_rules(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray) -> bool:
+    def _keeps_rules(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray,
+                     exiting: np.ndarray | None = None) -> bool:  # fmt: skip
         """Whether a profile keeps SUMO's junction rule (when given) and asks no follower above ``FOLLOWER_DECEL``."""
         if self.junction_conflict(tau, s, theirs):
             return False
-        return self.follower_braking(tau, rates, s, theirs) <= FOLLOWER_DECEL
+        return self.follower_braking(tau, rates, s, theirs, exiting) <= FOLLOWER_DECEL
 
     def expect(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
         """``other`` as the roundabout's rule expects it: an entering vehicle that can still stop yields.
@@ -450,15 +468,22 @@ class Autopilot:
         and of its rectangle) exceeds what both can close in ``tau[-1]`` seconds plus the safety distance.
         The others are predicted as ``expect`` says.
         """
+        return self._predict(self._near(others, tau), tau)
+
+    def _near(self, others: list[MovingVehicle], tau: np.ndarray) -> list[MovingVehicle]:
+        """The vehicles that can come near within the horizon (``predicted``)."""
         if not others:
-            return np.empty((0, len(tau), 4, 2))
+            return []
         here = self.plan.at(self.s)
         v = self.scenario.ocp.vehicle
         x, y = (float(here[n][0]) for n in v.position)
         reach = self.reach + self.top_speed * tau[-1] + self.scenario.traffic.safety_distance
-        near = [o for o in others
+        return [o for o in others
                 if math.hypot(o.start[0] - x, o.start[1] - y) <= reach + abs(o.speed) * tau[-1]
                 + 0.5 * math.hypot(o.length, o.width)]  # fmt: skip
+
+    def _predict(self, near: list[MovingVehicle], tau: np.ndarray) -> np.ndarray:
+        """The predicted corners (n, len(tau), 4, 2) of ``near`` (``expect``)."""
         if not near:
             return np.empty((0, len(tau), 4, 2))
         return np.stack([self.expect(o, tau).corners(tau) for o in near])
@@ -543,7 +568,7 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 
 __all__ = [
-    "EMERGENCY_DECEL", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP", "GIVE_WAY_MARGIN", "HORIZON",
-    "LINE_SLACK", "MAP_MARGIN", "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS",
+    "EMERGENCY_DECEL", "EXIT_SIGNAL_MIN", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP", "GIVE_WAY_MARGIN",
+    "HORIZON", "LINE_SLACK", "MAP_MARGIN", "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS",
     "TURNING_IN_COS", "YAW_WINDOW", "Autopilot", "Plan", "plan_of", "predict",
 ]  # fmt: skip

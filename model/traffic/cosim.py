@@ -204,13 +204,14 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     out, t_end = Pass(), traffic.warmup + traffic.time_limit
     seen: dict[str, list[tuple[float, float]]] = {}  # id -> (t, heading) over the last YAW_WINDOW seconds
     last: list[tuple] = []
+    ra, exiting = road.roundabout, frozenset()
     try:
         while traci.simulation.getTime() < t_end - 1e-9:
             t_next = round(traci.simulation.getTime() + traffic.step, TIME_DIGITS)
             if t_next >= traffic.warmup - 1e-9 and "truck" in traci.vehicle.getIDList():
                 if out.states:
                     others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
-                    name, _ = pilot.decide(others, traffic.step)
+                    name, _ = pilot.decide(others, traffic.step, exiting)
                     out.decisions.append(name)
                 row = pilot.state()
                 th = row[v.roles.heading]
@@ -224,6 +225,7 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
             n = len(out.rows)
             _record(traci, t, out)
             last = out.rows[n:]
+            exiting = _exiting(traci, last, ra, follow_rule and t >= traffic.warmup - 1e-9)
             seen = {r[1]: [*(h for h in seen.get(r[1], []) if h[0] >= t - YAW_WINDOW - 1e-9), (t, r[5])] for r in last}
             if out.states and pilot.s >= plan.duration - 1e-12:
                 out.arrived = True
@@ -235,6 +237,23 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     out.decision_seconds = pilot.decision_seconds
     out.decision_cpu_seconds = pilot.decision_cpu_seconds
     return out
+
+
+def _exiting(traci, rows: list[tuple], roundabout, query: bool = True) -> frozenset[str]:
+    """Keys (``traffic <id>``) of the vehicles near the ring showing the exit side's turn signal.
+
+    SUMO switches a vehicle's blinker on ahead of a turning link: its exit from the ring is a right
+    turn in counter-clockwise circulation (``VEH_SIGNAL_BLINKER_RIGHT``, bit 0), a left turn in
+    clockwise (bit 1). Only vehicles whose centre is within the outer curb + 5 m are asked (one
+    TraCI call each); none without ``query``.
+    """
+    if not query:
+        return frozenset()
+    bit = 1 if roundabout.circulation > 0 else 2
+    cx, cy = roundabout.center
+    reach = roundabout.outer_radius + 5.0
+    return frozenset(f"traffic {r[1]}" for r in rows
+                     if math.hypot(r[3] - cx, r[4] - cy) <= reach and traci.vehicle.getSignals(r[1]) & bit)  # fmt: skip
 
 
 def _earlier(history: list[tuple[float, float]], t: float) -> tuple[float | None, float]:
