@@ -373,6 +373,22 @@ def test_a_car_signalling_its_exit_before_the_merge_point_is_no_follower():
     assert near.follower_braking(tau, rates, s, close, np.array([True])) > FOLLOWER_DECEL
 
 
+def test_the_follower_safe_speed_is_sumos_stop_speed():
+    """SUMO's Euler stop speed: it stops within the gap after the 1 s headway braking at 4.5 m/s^2 a
+    step, close to the continuous -b tau + sqrt(b^2 tau^2 + 2 b g); the follower of a truck braking at
+    LEADER_DECEL adds its braking distance (traced 200 veh/h: gap 3.5 m at 6.7 m/s behind the truck
+    at 8.45 m/s, SUMO's car braked 2.7, Krauss' original formula said 6.9)."""
+    from model.traffic.autopilot import LEADER_DECEL, _safe_stop_speed
+
+    for gap in (0.5, 3.0, 10.0, 40.0):
+        v = _safe_stop_speed(gap, 4.5, 1.0, 0.1)
+        assert v == pytest.approx(-4.5 + math.sqrt(4.5**2 + 9.0 * gap), abs=0.2)
+        n = int(v / 0.45) + 1
+        assert v * 1.0 + sum(max(v - 0.45 * k, 0.0) * 0.1 for k in range(1, n + 1)) <= gap + 0.5
+    assert _safe_stop_speed(0.0, 4.5, 1.0, 0.1) == 0.0
+    assert _safe_stop_speed(3.5 + 8.45**2 / (2 * LEADER_DECEL), 4.5, 1.0, 0.1) > 6.7  # no braking for the truck
+
+
 def test_a_car_turning_out_or_past_the_merge_point_is_no_follower():
     """The follower rule counts only vehicles circulating toward the merge point: a car on the ring
     heading 60 degrees off the tangent (turning out) and one just past the merge point ask nothing."""

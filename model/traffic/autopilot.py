@@ -71,6 +71,8 @@ FOLLOWER_DECEL = 4.0  # m/s^2: the hardest braking an entry may ask of a circula
 FOLLOW_MIN_GAP = 2.5  # m: the follower's standstill gap behind the truck (SUMO's passenger minGap)
 FOLLOW_HEADING = math.radians(30.0)  # a vehicle on the ring heading within this of the ring's tangent circulates
 EXIT_SIGNAL_MIN = 8.0  # m: a car signalling its exit this near the merge point may mean the next exit: it follows
+LEADER_DECEL = 4.0  # m/s^2: the truck's braking SUMO's follower assumes (SUMO's truck and trailer decel)
+FOLLOW_MODEL = "sumo"  # the follower's safe speed: SUMO's ("sumo", stop-distance based) or Krauss' original ("krauss")
 EMERGENCY_DECEL = 9.0  # m/s^2: the follower's hardest braking (SUMO's passenger emergencyDecel)
 
 
@@ -123,6 +125,7 @@ class Autopilot:
     merge_point: tuple[float, float] | None = None  # where SUMO's entry lane joins the ring; None: on the entry's axis
     merge: np.ndarray = field(init=False, repr=False)  # the merge point used
     front_arc: tuple[np.ndarray, np.ndarray] = field(init=False, repr=False)  # plan times, the front's path length
+    front_speed: np.ndarray = field(init=False, repr=False)  # the front's speed along the plan at those plan times
     merge_arc: float = field(init=False)  # the front's path length where it passes nearest the merge point
     merge_time: float = field(init=False)  # the plan time there
     length: float = field(init=False)  # SUMO's length of the truck (the straight vehicle's overall length)
@@ -150,6 +153,7 @@ class Autopilot:
         p = self._front(s)
         arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
         self.front_arc = (s, arc)
+        self.front_speed = np.gradient(arc, s)  # the front bumper's speed along the plan (SUMO's speed of the truck)
         k = int(np.argmin(np.linalg.norm(p - self.merge, axis=1)))
         self.merge_arc, self.merge_time = float(arc[k]), float(s[k])
 
@@ -304,8 +308,9 @@ class Autopilot:
         follower's distance to the merge point) - (the front's path length to it) - the truck's
         length - ``FOLLOW_MIN_GAP``. The follower, at its speed now, is driven by Krauss' safe speed
         v_l + (g - v_l tau) / ((v + v_l) / (2 b) + tau) (tau = ``SUMO_TAU``, b = ``YIELD_DECEL``,
-        v_l the truck's speed), never faster than now and braking at most ``EMERGENCY_DECEL``, at
-        every ``step`` of the horizon; its largest deceleration is returned.
+        v_l the speed of the truck's front bumper, SUMO's speed of the moved truck), never faster
+        than now and braking at most ``EMERGENCY_DECEL``, at every ``step`` of the horizon; its
+        largest deceleration is returned.
 
         Parameters
         ----------
@@ -331,7 +336,7 @@ class Autopilot:
             return 0.0
         grid = np.arange(0.0, tau[-1] + 1e-9, step)
         s_t = np.interp(grid, tau, s)
-        v_l = np.abs(self.plan.at(s_t)[self.scenario.ocp.vehicle.roles.speed]) * np.interp(grid, tau, rates)
+        v_l = np.interp(s_t, self.front_arc[0], self.front_speed) * np.interp(grid, tau, rates)  # the front's
         to_merge = self.merge_arc - np.interp(s_t, *self.front_arc)  # the front's path length to the merge point
         inside = s_t > self.give_way
         return max(_krauss_follower(d, v, to_merge, v_l, inside, self.length, step) for d, v in ahead)
@@ -415,9 +420,15 @@ class Autopilot:
                 best, best_gap = (name, rates), float(gaps.min())
                 break
             tried.append((net, name, rates, s, float(gaps.min())))
-        if best is None:  # none safe: the largest least distance among those keeping the rules, else among all
+        if best is None:  # none safe: the largest least distance among those keeping the rules
             keeps = [t for t in tried if self._keeps_rules(tau, t[2], t[3], theirs, signalling)]
-            _, name, rates, _, best_gap = max(keeps or tried, key=lambda t: t[0])
+            # none keeps them (a follower appeared after the line): the distance-safe one braking it least
+            sure = [t for t in tried if t[0] >= self.scenario.traffic.safety_distance]
+            if keeps or not sure:
+                _, name, rates, _, best_gap = max(keeps or tried, key=lambda t: t[0])
+            else:
+                _, name, rates, _, best_gap = min(
+                    sure, key=lambda t: self.follower_braking(tau, t[2], t[3], theirs, signalling))
             best = (name, rates)
         name, rates = best
         new_rate = float(np.interp(step, tau, rates))
@@ -542,12 +553,31 @@ def _krauss_follower(distance: float, speed: float, to_merge: np.ndarray, v_l: n
     for k in range(len(to_merge)):
         if inside[k] and to_merge[k] <= distance - x:  # the truck's front is the nearer to the merge point
             g = distance - x - to_merge[k] - length - FOLLOW_MIN_GAP
-            safe = v_l[k] + (g - v_l[k] * tau) / ((v + v_l[k]) / (2.0 * b) + tau)
+            if FOLLOW_MODEL == "sumo":
+                safe = _safe_stop_speed(max(g, 0.0) + v_l[k] ** 2 / (2.0 * LEADER_DECEL), b, tau, step)
+            else:
+                safe = v_l[k] + (g - v_l[k] * tau) / ((v + v_l[k]) / (2.0 * b) + tau)
             new = min(v, max(safe, v - EMERGENCY_DECEL * step, 0.0))
             worst = max(worst, (v - new) / step)
             v = new
         x += v * step
     return worst
+
+
+def _safe_stop_speed(gap: float, decel: float, headway: float, step: float) -> float:
+    """SUMO's ``MSCFModel::maximumSafeStopSpeedEuler``: the speed that stops within ``gap`` (m).
+
+    Braking at ``decel`` every step after a reaction of ``headway`` (SUMO 1.28, Euler update). With
+    the leader's braking distance v_l^2 / (2 b_l) added to the gap it is SUMO's
+    ``maximumSafeFollowSpeed``, the Krauss model's follow speed.
+    """
+    g, b = gap - 1e-6, decel * step
+    if g <= 0.0:
+        return 0.0
+    n = math.floor(0.5 - (headway - 0.5 * math.sqrt(step * step + 4.0 * (step * (2.0 * g / b - headway)
+                                                                         + headway * headway))) / step)  # fmt: skip
+    h = 0.5 * n * (n - 1) * b * step + n * b * headway
+    return n * b + (g - h) / (n * step + headway)
 
 
 def _integral(r: np.ndarray, tau: np.ndarray) -> np.ndarray:
