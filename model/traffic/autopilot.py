@@ -14,8 +14,9 @@ if at the instants 0, step, 0.25, 0.5, ..., ``HORIZON`` s every body of the truc
 rectangle at the plan time the profile reaches) keeps at least ``safety_distance`` from every
 predicted rectangle: the gap acceptance compares the truck's own planned occupancy with the
 predictions, no fixed critical gap or time margin. A prediction tau seconds ahead errs more the
-larger tau is, so the instant tau > 0 needs ``safety_distance + PREDICTION_MARGIN * tau`` (the
-present, tau = 0, is measured, not chosen: it is not checked). The profiles, fastest first:
+larger tau is, so the instant tau > 0 needs ``safety_distance + PREDICTION_MARGIN * min(tau,
+MARGIN_HORIZON)`` (the present, tau = 0, is measured, not chosen: it is not checked). The profiles,
+fastest first:
 
 - ``rate q`` for q in ``TARGETS`` (1, 0.875, ..., 0.125): r moves to q at ``RATE_SLOPE`` per second
   and stays there (r = 1 is the plan's own pace); before the give-way line a slower q only if it
@@ -66,6 +67,7 @@ SUMO_TAU = 1.0  # s: the headway of SUMO's car-following model (Krauss tau): its
 ENTRY_INSTANTS = 1  # the checked instants inside the entry junction for vehicles behind the truck in it
 MAP_MARGIN = 1.0  # m: the ring's internal lane this much farther from the front than the exit's may still be chosen
 TURNING_IN_COS = 0.5  # inside the exit's junction, a vehicle heading within 60 degrees of the centre still turns in
+MARGIN_HORIZON = 1.0  # s: the margin grows with tau up to this far ahead, then stays (PREDICTION_MARGIN * 1 s)
 PREDICTION_MARGIN = 0.1  # m/s: an instant tau ahead needs safety_distance + this * tau (the predictions' error grows)
 FOLLOWER_DECEL = 4.0  # m/s^2: the hardest braking an entry may ask of a circulating follower (SUMO's car: 4.5)
 FOLLOW_MIN_GAP = 2.5  # m: the follower's standstill gap behind the truck (SUMO's passenger minGap)
@@ -415,7 +417,7 @@ class Autopilot:
         best, tried = None, []
         for name, rates, s in self.profiles(tau):
             gaps = self.clearances(s, theirs)
-            net = float(np.min(gaps[1:] - PREDICTION_MARGIN * tau[1:]))  # the present pose is not chosen
+            net = float(np.min(gaps[1:] - PREDICTION_MARGIN * np.minimum(tau[1:], MARGIN_HORIZON)))  # not now
             if net >= self.scenario.traffic.safety_distance and self._keeps_rules(tau, rates, s, theirs, signalling):
                 best, best_gap = (name, rates), float(gaps.min())
                 break
@@ -598,7 +600,8 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 
 __all__ = [
-    "EMERGENCY_DECEL", "EXIT_SIGNAL_MIN", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP", "GIVE_WAY_MARGIN",
-    "HORIZON", "LINE_SLACK", "MAP_MARGIN", "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS",
-    "TURNING_IN_COS", "YAW_WINDOW", "Autopilot", "Plan", "plan_of", "predict",
+    "EMERGENCY_DECEL", "EXIT_SIGNAL_MIN", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP", "FOLLOW_MODEL",
+    "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON",
+    "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS", "YAW_WINDOW",
+    "Autopilot", "Plan", "plan_of", "predict",
 ]  # fmt: skip
