@@ -1,7 +1,8 @@
 """Benchmark: the truck autopilot against SUMO's own driver on a grid of traffic cells.
 
 Usage: python benchmarks/bench_traffic.py [--vehicles truck semitrailer] [--turns right straight left]
-       [--rates 200 450 700] [--seeds 5] [--drivers sumo autopilot] [--junction-rule] [--entry-rule] [--out runs.jsonl]
+       [--rates 200 450 700] [--seeds 5] [--drivers sumo autopilot] [--junction-rule] [--entry-rule]
+       [--no-follow-rule] [--out runs.jsonl]
 
 Each cell is a vehicle (the rigid truck of examples/traffic-roundabout.toml, the EU semitrailer
 of examples/roundabout-semitrailer.toml), a turn from leg 0 (right = 1st exit, straight = 2nd,
@@ -66,7 +67,8 @@ def run_grid(args) -> list[dict]:
                         if driver == "autopilot" and plan is None:
                             continue
                         with tempfile.TemporaryDirectory() as tmp:
-                            rules = {"junction_rule": args.junction_rule, "entry_rule": args.entry_rule}
+                            rules = {"junction_rule": args.junction_rule, "entry_rule": args.entry_rule,
+                                     "follow_rule": not args.no_follow_rule}  # fmt: skip
                             summary, _, _ = one_run(scenario, sumo, Path(tmp), driver, seed, plan, **rules)
                         summary |= {"vehicle": vehicle, "turn": turn, "rate": rate}
                         results.append(summary)
@@ -142,6 +144,11 @@ def main(argv: list[str] | None = None) -> int:
         "--entry-rule",
         action="store_true",
         help="the autopilot with the entry half of SUMO's junction rule (off in roundabout traffic)",
+    )
+    ap.add_argument(
+        "--no-follow-rule",
+        action="store_true",
+        help="the autopilot without its follower rule (on in roundabout traffic; FOLLOWER_DECEL)",
     )
     ap.add_argument("--out", default="traffic-runs.jsonl", help="JSON lines, one run each (appended)")
     ap.add_argument("--table", help="only print the table of an existing --out file")

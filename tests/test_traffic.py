@@ -312,10 +312,12 @@ def ring_car(degrees: float, speed: float = 7.0):
     return predict(row, a + math.pi / 2 - speed / r * 0.5, 0.5)
 
 
-@pytest.mark.parametrize("degrees,enters", [(140.0, False), (90.0, True)])
+@pytest.mark.parametrize("degrees,enters", [(140.0, False), (60.0, True)])
 def test_the_truck_at_its_line_waits_for_a_car_in_its_window_and_enters_a_big_gap(degrees, enters):
     """Standing at the line: a car 40 degrees upstream crosses the truck's planned occupancy (wait);
-    90 degrees upstream it comes after the truck's bodies have passed (enter at the plan's pace)."""
+    120 degrees upstream it comes after the truck's bodies have passed and, following the truck
+    starting from standstill, brakes less than FOLLOWER_DECEL (enter at the plan's pace; 90 degrees
+    upstream it would have to brake 9 m/s^2: the next test)."""
     pilot = straight_pilot()
     pilot.s, pilot.rate = pilot.give_way - 0.01, 0.0
     name, gap = pilot.decide([ring_car(degrees)], 0.1)
@@ -324,6 +326,85 @@ def test_the_truck_at_its_line_waits_for_a_car_in_its_window_and_enters_a_big_ga
         assert gap >= 1.0 and pilot.rate > 0.0
     else:
         assert name in ("approach", "stop at the line", "stand") and pilot.s <= pilot.give_way  # it stays out
+
+
+@pytest.mark.parametrize("rule", [True, False])
+def test_an_entry_gap_clear_of_the_distance_that_makes_a_follower_brake_hard_is_refused(rule):
+    """Standing at the line, a car on the ring 90 degrees upstream at 7 m/s: the gap keeps the safety
+    distance (the truck's bodies pass first, least predicted distance > 3 m), but the car, following
+    the truck that starts from standstill as SUMO's Krauss driver would, must brake 9 m/s^2 (its
+    emergency braking; traced in truck right 450 seed 4, 9.0 m/s^2): the follower rule refuses the
+    entry, the truck stays out. Without the rule it enters at the plan's pace."""
+    from model.traffic.autopilot import FOLLOWER_DECEL, PREDICTION_MARGIN
+
+    pilot = straight_pilot()
+    pilot.follow_rule = rule
+    pilot.s, pilot.rate = pilot.give_way - 0.01, 0.0
+    car = ring_car(90.0)
+    tau = pilot.instants(0.1)
+    name, rates, s = next(pilot.profiles(tau))
+    theirs = pilot.predicted([car], tau)
+    assert name == "rate 1"
+    assert np.min(pilot.clearances(s, theirs)[1:] - PREDICTION_MARGIN * tau[1:]) > 3.0  # clear of the distance
+    rule_free = straight_pilot()
+    assert rule_free.follower_braking(tau, rates, s, theirs) > FOLLOWER_DECEL  # the follower brakes hard
+    name, _ = pilot.decide([car], 0.1)
+    assert (name == "rate 1") != rule
+    if rule:
+        assert name in ("approach", "stop at the line", "stand") and pilot.s <= pilot.give_way
+
+
+def test_a_car_signalling_its_exit_before_the_merge_point_is_no_follower():
+    """SUMO's car shows its exit-side blinker ahead of its exit: 90 degrees upstream and signalling,
+    it leaves before the merge point, so the gap of the previous test is taken; 30 degrees upstream
+    (within EXIT_SIGNAL_MIN) the signal may mean the exit after the entry: it still follows."""
+    from model.traffic.autopilot import EXIT_SIGNAL_MIN, FOLLOWER_DECEL
+
+    pilot = straight_pilot()
+    pilot.s, pilot.rate = pilot.give_way - 0.01, 0.0
+    car = ring_car(90.0)
+    assert pilot.decide([car], 0.1, frozenset({car.key}))[0] == "rate 1"
+    near = straight_pilot()
+    near.s, near.rate = near.give_way - 0.01, 0.0
+    tau = near.instants(0.1)
+    _, rates, s = next(near.profiles(tau))
+    close = near.predicted([ring_car(150.0)], tau)  # its front 6.7 m (22 degrees) before the merge point
+    assert near._ring_to_merge(close, 0.1)[0][0] < EXIT_SIGNAL_MIN
+    assert near.follower_braking(tau, rates, s, close, np.array([True])) > FOLLOWER_DECEL
+
+
+def test_the_follower_safe_speed_is_sumos_stop_speed():
+    """SUMO's Euler stop speed: it stops within the gap after the 1 s headway braking at 4.5 m/s^2 a
+    step, close to the continuous -b tau + sqrt(b^2 tau^2 + 2 b g); the follower of a truck braking at
+    LEADER_DECEL adds its braking distance (traced 200 veh/h: gap 3.5 m at 6.7 m/s behind the truck
+    at 8.45 m/s, SUMO's car braked 2.7, Krauss' original formula said 6.9)."""
+    from model.traffic.autopilot import LEADER_DECEL, _safe_stop_speed
+
+    for gap in (0.5, 3.0, 10.0, 40.0):
+        v = _safe_stop_speed(gap, 4.5, 1.0, 0.1)
+        assert v == pytest.approx(-4.5 + math.sqrt(4.5**2 + 9.0 * gap), abs=0.2)
+        n = int(v / 0.45) + 1
+        assert v * 1.0 + sum(max(v - 0.45 * k, 0.0) * 0.1 for k in range(1, n + 1)) <= gap + 0.5
+    assert _safe_stop_speed(0.0, 4.5, 1.0, 0.1) == 0.0
+    assert _safe_stop_speed(3.5 + 8.45**2 / (2 * LEADER_DECEL), 4.5, 1.0, 0.1) > 6.7  # no braking for the truck
+
+
+def test_a_car_turning_out_or_past_the_merge_point_is_no_follower():
+    """The follower rule counts only vehicles circulating toward the merge point: a car on the ring
+    heading 60 degrees off the tangent (turning out) and one just past the merge point ask nothing."""
+    from model.scene.moving import MovingVehicle
+
+    pilot = straight_pilot()
+    pilot.s, pilot.rate = pilot.give_way - 0.01, 0.0
+    tau = pilot.instants(0.1)
+    name, rates, s = next(pilot.profiles(tau))
+    a = math.radians(90.0)
+    out = MovingVehicle(4.5, 1.8, start=(17.0 * math.cos(a), 17.0 * math.sin(a), a + math.pi / 2 + math.radians(60.0)),
+                        speed=7.0)  # fmt: skip
+    assert pilot.follower_braking(tau, rates, s, pilot.predicted([out], tau)) == 0.0
+    past = ring_car(200.0)  # 20 degrees past the entry's axis: the truck follows it, not it the truck
+    assert pilot.follower_braking(tau, rates, s, pilot.predicted([past], tau)) == 0.0
+    assert pilot.follower_braking(tau, rates, s, pilot.predicted([ring_car(90.0)], tau)) > 4.0
 
 
 def test_the_approach_keeps_the_plan_pace_while_a_stop_at_the_line_stays_possible():
@@ -339,6 +420,32 @@ def test_the_approach_keeps_the_plan_pace_while_a_stop_at_the_line_stays_possibl
     late.s, late.rate = late.give_way - 0.3, 1.0  # 2.4 m before the line at 8 m/s: a stop at 4 m/s^2 needs 8 m
     name, _ = late.decide([ring_car(150.0)], 0.1)
     assert name == "stop at the line" and late.rate < 1.0 and late.s <= late.give_way
+
+
+@pytest.mark.parametrize("gap,keeps_pace", [(1.005, False), (1.6, True), (1.3, True)])
+def test_a_predicted_gap_within_the_prediction_margin_is_not_accepted(gap, keeps_pace):
+    """A committed car just ahead at the truck's speed (8 m/s, close to the curb: it does not yield).
+
+    Its constant-speed prediction keeps ``gap`` at every instant. 1.005 m is within the predictions'
+    error (PREDICTION_MARGIN per second ahead; traced in truck left 700 seed 0: predicted 1.0049 m one
+    step ahead, 0.9962 m measured): the truck must not hold its pace. 1.6 m: it does. 1.3 m: it does
+    too, the margin stopping growing at MARGIN_HORIZON (1 s: 1.1 m; growing over the whole horizon it
+    asked 1.33 m where the plan ends 3.3 s ahead, and in truck left 450 seed 1 stopped the truck at
+    its exit behind a car: 3.8 s of delay, 0.0 with the cap).
+    """
+    from model.scene.moving import MovingVehicle
+    from model.traffic.autopilot import PREDICTION_MARGIN
+
+    pilot = straight_pilot()
+    car = MovingVehicle(4.5, 1.8, start=(-27.25, -2.0, 0.0), speed=8.0)  # front at x = -25 (5.1 m outside the curb)
+    pilot.s, pilot.rate = (-29.5 - gap - 6.5 + 50.0) / 8.0, 1.0  # the truck's front ``gap`` behind the car's rear
+    tau = pilot.instants(0.1)
+    gaps = pilot.clearances(next(pilot.profiles(tau))[2], pilot.predicted([car], tau))
+    assert gaps.min() == pytest.approx(gap, abs=1e-6) and gaps.min() >= 1.0  # safe without the margin
+    name, _ = pilot.decide([car], 0.1)
+    assert (name == "rate 1") == keeps_pace
+    assert (pilot.rate == 1.0) == keeps_pace
+    assert PREDICTION_MARGIN * 0.1 > 1.005 - 1.0
 
 
 def test_an_entering_car_that_can_stop_is_expected_to_yield_one_that_cannot_goes_on():

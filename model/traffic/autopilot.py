@@ -13,7 +13,10 @@ vehicle is predicted as a ``MovingVehicle`` at constant speed and yaw rate from 
 if at the instants 0, step, 0.25, 0.5, ..., ``HORIZON`` s every body of the truck (exact
 rectangle at the plan time the profile reaches) keeps at least ``safety_distance`` from every
 predicted rectangle: the gap acceptance compares the truck's own planned occupancy with the
-predictions, no fixed critical gap or time margin. The profiles, fastest first:
+predictions, no fixed critical gap or time margin. A prediction tau seconds ahead errs more the
+larger tau is, so the instant tau > 0 needs ``safety_distance + PREDICTION_MARGIN * min(tau,
+MARGIN_HORIZON)`` (the present, tau = 0, is measured, not chosen: it is not checked). The profiles,
+fastest first:
 
 - ``rate q`` for q in ``TARGETS`` (1, 0.875, ..., 0.125): r moves to q at ``RATE_SLOPE`` per second
   and stays there (r = 1 is the plan's own pace); before the give-way line a slower q only if it
@@ -28,9 +31,10 @@ predictions, no fixed critical gap or time margin. The profiles, fastest first:
   the last such moment comes with no safe gap (it never slows for a conflict it can still wait out);
 - ``stop at the line`` (r falls linearly to 0 exactly at the line), ``stand``.
 
-The first safe profile (distance kept, and SUMO's junction rule of ``junction_conflict`` kept when
-the network's junctions are given) is taken; if none is, the one with the largest least predicted
-distance (whatever the junction rule says).
+The first safe profile (distance kept, SUMO's junction rule of ``junction_conflict`` kept when
+the network's junctions are given, and no circulating follower made to brake harder than
+``FOLLOWER_DECEL``, ``follower_braking``) is taken; if none is, the one with the largest least
+predicted distance among the profiles keeping those rules, or among all if none keeps them.
 A vehicle too far to come within ``safety_distance`` during the horizon, whatever it and the truck
 do at their speeds, is not checked.
 """
@@ -47,6 +51,8 @@ import numpy as np
 from model.analysis.bodies import rectangle_gaps
 from model.problem.scenario import Scenario
 from model.scene.moving import MovingVehicle
+from model.traffic.cosim import truck_geometry
+from model.traffic.network import ring_radius
 
 HORIZON = 5.0  # s looked ahead
 SAMPLE = 0.25  # s between the predicted instants (plus the first step's end)
@@ -61,6 +67,15 @@ SUMO_TAU = 1.0  # s: the headway of SUMO's car-following model (Krauss tau): its
 ENTRY_INSTANTS = 1  # the checked instants inside the entry junction for vehicles behind the truck in it
 MAP_MARGIN = 1.0  # m: the ring's internal lane this much farther from the front than the exit's may still be chosen
 TURNING_IN_COS = 0.5  # inside the exit's junction, a vehicle heading within 60 degrees of the centre still turns in
+MARGIN_HORIZON = 1.0  # s: the margin grows with tau up to this far ahead, then stays (PREDICTION_MARGIN * 1 s)
+PREDICTION_MARGIN = 0.1  # m/s: an instant tau ahead needs safety_distance + this * tau (the predictions' error grows)
+FOLLOWER_DECEL = 4.0  # m/s^2: the hardest braking an entry may ask of a circulating follower (SUMO's car: 4.5)
+FOLLOW_MIN_GAP = 2.5  # m: the follower's standstill gap behind the truck (SUMO's passenger minGap)
+FOLLOW_HEADING = math.radians(30.0)  # a vehicle on the ring heading within this of the ring's tangent circulates
+EXIT_SIGNAL_MIN = 8.0  # m: a car signalling its exit this near the merge point may mean the next exit: it follows
+LEADER_DECEL = 4.0  # m/s^2: the truck's braking SUMO's follower assumes (SUMO's truck and trailer decel)
+FOLLOW_MODEL = "sumo"  # the follower's safe speed: SUMO's ("sumo", stop-distance based) or Krauss' original ("krauss")
+EMERGENCY_DECEL = 9.0  # m/s^2: the follower's hardest braking (SUMO's passenger emergencyDecel)
 
 
 @dataclass
@@ -108,6 +123,14 @@ class Autopilot:
     reach: float = field(init=False)
     top_speed: float = field(init=False)
     windows: tuple[tuple[float, float], tuple[float, float]] | None = field(init=False, default=None)
+    follow_rule: bool = True  # refuse an entry that makes a circulating follower brake above FOLLOWER_DECEL
+    merge_point: tuple[float, float] | None = None  # where SUMO's entry lane joins the ring; None: on the entry's axis
+    merge: np.ndarray = field(init=False, repr=False)  # the merge point used
+    front_arc: tuple[np.ndarray, np.ndarray] = field(init=False, repr=False)  # plan times, the front's path length
+    front_speed: np.ndarray = field(init=False, repr=False)  # the front's speed along the plan at those plan times
+    merge_arc: float = field(init=False)  # the front's path length where it passes nearest the merge point
+    merge_time: float = field(init=False)  # the plan time there
+    length: float = field(init=False)  # SUMO's length of the truck (the straight vehicle's overall length)
 
     def __post_init__(self) -> None:
         self.give_way = self._give_way_time()
@@ -118,6 +141,23 @@ class Autopilot:
         poses = v.body_poses()
         self.body_poses = {name: v.state_function(list(poses[name])) for name in self.scenario.ocp.bodies}
         self.reach, self.top_speed = self._reach()
+        self.length = truck_geometry(self.scenario)["length"]
+        self._merge_geometry()
+
+    def _merge_geometry(self) -> None:
+        """The merge point of the entry, the front's path length along the plan and at the merge point."""
+        road = self.scenario.ocp.road
+        ra, angle = road.roundabout, road.roundabout.legs[road.route.enter].angle
+        self.merge = np.asarray(ra.center, float) + ring_radius(ra) * np.array([math.cos(angle), math.sin(angle)])
+        if self.merge_point is not None:
+            self.merge = np.asarray(self.merge_point, float)
+        s = np.linspace(0.0, self.plan.duration, 2001)
+        p = self._front(s)
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
+        self.front_arc = (s, arc)
+        self.front_speed = np.gradient(arc, s)  # the front bumper's speed along the plan (SUMO's speed of the truck)
+        k = int(np.argmin(np.linalg.norm(p - self.merge, axis=1)))
+        self.merge_arc, self.merge_time = float(arc[k]), float(s[k])
 
     def _reach(self) -> tuple[float, float]:
         """Farthest body corner from the reference point along the plan, and the plan's top speed (m, m/s)."""
@@ -247,6 +287,84 @@ class Autopilot:
         dist = arc[np.arange(len(arc)), first] - arc[:, k]
         return which & ~inside[:, k] & hits & (dist < gap[:, k])
 
+    def follower_braking(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray,
+                         exiting: np.ndarray | None = None) -> float:  # fmt: skip
+        """The hardest braking (m/s^2) an entry along this profile asks of a circulating follower; 0 if none.
+
+        Only until the truck's front reaches the merge point (``merge_time``: standing or slowing
+        just past the line still makes a follower brake) and for a profile that crosses the
+        give-way line. A follower is a
+        predicted vehicle circulating on the ring: its front between the inner and the outer curb,
+        heading within ``FOLLOW_HEADING`` of the ring's tangent in the circulation direction (a
+        vehicle turning out to an exit deviates more and is no follower), and not showing the exit
+        side's turn signal (``decide(..., exiting=...)``: SUMO's car signals about 50 degrees before
+        its exit's junction; ``exiting``) unless it is within ``EXIT_SIGNAL_MIN`` of the merge point
+        (there it may signal for the exit after the entry). It is taken to follow the
+        ring to the merge point (``merge_point``, the end of SUMO's internal lane from the entry
+        into the ring; without it the ring lane's centre on the entry leg's axis): its distance to it
+        is the arc of the ring lane's centre line (radius ``ring_radius``) from its front's angle to
+        the merge point's, in the circulation direction (the ring's geometry, not its predicted path:
+        a constant yaw rate from the last ``YAW_WINDOW`` misleads where SUMO's ring lane bends at a
+        junction). From the instant the truck's front crosses the line, SUMO's follower treats the
+        truck as its leader (if the truck's front is the nearer to the merge point): gap = (the
+        follower's distance to the merge point) - (the front's path length to it) - the truck's
+        length - ``FOLLOW_MIN_GAP``. The follower, at its speed now, is driven by Krauss' safe speed
+        v_l + (g - v_l tau) / ((v + v_l) / (2 b) + tau) (tau = ``SUMO_TAU``, b = ``YIELD_DECEL``,
+        v_l the speed of the truck's front bumper, SUMO's speed of the moved truck), never faster
+        than now and braking at most ``EMERGENCY_DECEL``, at every ``step`` of the horizon; its
+        largest deceleration is returned.
+
+        Parameters
+        ----------
+        tau : numpy.ndarray
+            The checked instants (``instants``); tau[1] is the step.
+        rates, s : numpy.ndarray
+            The profile's progress rates and plan times at ``tau``.
+        theirs : numpy.ndarray
+            The predicted corners (n, len(tau), 4, 2).
+        exiting : numpy.ndarray, optional
+            (n,) booleans: the vehicle shows the exit side's turn signal.
+
+        Returns
+        -------
+        float
+            The largest deceleration of the simulated followers, m/s^2.
+        """
+        if not self.follow_rule or self.s >= self.merge_time or s[-1] <= self.give_way or len(theirs) == 0:
+            return 0.0
+        step = float(tau[1])
+        ahead = self._ring_to_merge(theirs, step, exiting)
+        if not ahead:
+            return 0.0
+        grid = np.arange(0.0, tau[-1] + 1e-9, step)
+        s_t = np.interp(grid, tau, s)
+        v_l = np.interp(s_t, self.front_arc[0], self.front_speed) * np.interp(grid, tau, rates)  # the front's
+        to_merge = self.merge_arc - np.interp(s_t, *self.front_arc)  # the front's path length to the merge point
+        inside = s_t > self.give_way
+        return max(_krauss_follower(d, v, to_merge, v_l, inside, self.length, step) for d, v in ahead)
+
+    def _ring_to_merge(self, theirs: np.ndarray, step: float,
+                       exiting: np.ndarray | None = None) -> list[tuple[float, float]]:  # fmt: skip
+        """The circulating vehicles' (distance along the ring to the merge point, speed now), m and m/s."""
+        ra = self.scenario.ocp.road.roundabout
+        c = np.asarray(ra.center, float)
+        front = theirs[:, 0, 1:3, :].mean(axis=1)  # (n, 2): now
+        axis = front - theirs[:, 0, [0, 3], :].mean(axis=1)
+        axis /= np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-9)
+        rel = front - c
+        r = np.linalg.norm(rel, axis=-1)
+        angle = np.arctan2(rel[:, 1], rel[:, 0])
+        tangent = angle + ra.circulation * math.pi / 2.0
+        along = axis[:, 0] * np.cos(tangent) + axis[:, 1] * np.sin(tangent)
+        ring = (r >= ra.inner_radius) & (r <= ra.outer_radius) & (along >= math.cos(FOLLOW_HEADING))
+        m = self.merge - c
+        turn = np.mod(ra.circulation * (math.atan2(m[1], m[0]) - angle), 2.0 * math.pi)
+        distance = ring_radius(ra) * turn
+        if exiting is not None:
+            ring &= ~(np.asarray(exiting, bool) & (distance > EXIT_SIGNAL_MIN))  # signalling an exit before the merge
+        speed = np.linalg.norm(theirs[:, 1, 1:3, :].mean(axis=1) - front, axis=-1) / step
+        return [(float(distance[k]), float(speed[k])) for k in np.nonzero(ring)[0]]
+
     def instants(self, step: float) -> np.ndarray:
         """The checked instants: now, the end of the step, then every ``SAMPLE`` up to ``HORIZON``."""
         return np.unique(np.concatenate([[0.0, step], np.arange(SAMPLE, HORIZON + 1e-9, SAMPLE)]))
@@ -284,19 +402,36 @@ class Autopilot:
                      s1 + first * after - 0.5 * RATE_SLOPE * after**2)  # fmt: skip
         return r, np.minimum(s, self.give_way)
 
-    def decide(self, others: list[MovingVehicle], step: float) -> tuple[str, float]:
-        """Choose the profile for the next step; advance s and rate; return (name, least predicted distance)."""
+    def decide(self, others: list[MovingVehicle], step: float,
+               exiting: frozenset[str] = frozenset()) -> tuple[str, float]:  # fmt: skip
+        """Choose the profile for the next step; advance s and rate; return (name, least predicted distance).
+
+        ``exiting``: the keys of the vehicles showing the exit side's turn signal (no followers, see
+        ``follower_braking``).
+        """
         t0, c0 = time.perf_counter(), time.process_time()
         tau = self.instants(step)
-        theirs = self.predicted(others, tau)
-        best, best_gap = None, -math.inf
+        near = self._near(others, tau)
+        theirs = self._predict(near, tau)
+        signalling = np.array([o.key in exiting for o in near], bool)
+        best, tried = None, []
         for name, rates, s in self.profiles(tau):
-            gap = self.least_distance(s, theirs)
-            if gap >= self.scenario.traffic.safety_distance and not self.junction_conflict(tau, s, theirs):
-                best, best_gap = (name, rates), gap
+            gaps = self.clearances(s, theirs)
+            net = float(np.min(gaps[1:] - PREDICTION_MARGIN * np.minimum(tau[1:], MARGIN_HORIZON)))  # not now
+            if net >= self.scenario.traffic.safety_distance and self._keeps_rules(tau, rates, s, theirs, signalling):
+                best, best_gap = (name, rates), float(gaps.min())
                 break
-            if gap > best_gap:
-                best, best_gap = (name, rates), gap
+            tried.append((net, name, rates, s, float(gaps.min())))
+        if best is None:  # none safe: the largest least distance among those keeping the rules
+            keeps = [t for t in tried if self._keeps_rules(tau, t[2], t[3], theirs, signalling)]
+            # none keeps them (a follower appeared after the line): the distance-safe one braking it least
+            sure = [t for t in tried if t[0] >= self.scenario.traffic.safety_distance]
+            if keeps or not sure:
+                _, name, rates, _, best_gap = max(keeps or tried, key=lambda t: t[0])
+            else:
+                _, name, rates, _, best_gap = min(
+                    sure, key=lambda t: self.follower_braking(tau, t[2], t[3], theirs, signalling))
+            best = (name, rates)
         name, rates = best
         new_rate = float(np.interp(step, tau, rates))
         advance = 0.5 * (self.rate + new_rate) * step
@@ -307,6 +442,13 @@ class Autopilot:
         self.decision_seconds.append(time.perf_counter() - t0)
         self.decision_cpu_seconds.append(time.process_time() - c0)
         return name, best_gap
+
+    def _keeps_rules(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray,
+                     exiting: np.ndarray | None = None) -> bool:  # fmt: skip
+        """Whether a profile keeps SUMO's junction rule (when given) and asks no follower above ``FOLLOWER_DECEL``."""
+        if self.junction_conflict(tau, s, theirs):
+            return False
+        return self.follower_braking(tau, rates, s, theirs, exiting) <= FOLLOWER_DECEL
 
     def expect(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
         """``other`` as the roundabout's rule expects it: an entering vehicle that can still stop yields.
@@ -339,30 +481,54 @@ class Autopilot:
         and of its rectangle) exceeds what both can close in ``tau[-1]`` seconds plus the safety distance.
         The others are predicted as ``expect`` says.
         """
+        return self._predict(self._near(others, tau), tau)
+
+    def _near(self, others: list[MovingVehicle], tau: np.ndarray) -> list[MovingVehicle]:
+        """The vehicles that can come near within the horizon (``predicted``)."""
         if not others:
-            return np.empty((0, len(tau), 4, 2))
+            return []
         here = self.plan.at(self.s)
         v = self.scenario.ocp.vehicle
         x, y = (float(here[n][0]) for n in v.position)
         reach = self.reach + self.top_speed * tau[-1] + self.scenario.traffic.safety_distance
-        near = [o for o in others
+        return [o for o in others
                 if math.hypot(o.start[0] - x, o.start[1] - y) <= reach + abs(o.speed) * tau[-1]
                 + 0.5 * math.hypot(o.length, o.width)]  # fmt: skip
+
+    def _predict(self, near: list[MovingVehicle], tau: np.ndarray) -> np.ndarray:
+        """The predicted corners (n, len(tau), 4, 2) of ``near`` (``expect``)."""
         if not near:
             return np.empty((0, len(tau), 4, 2))
         return np.stack([self.expect(o, tau).corners(tau) for o in near])
 
     def least_distance(self, s: np.ndarray, theirs: np.ndarray) -> float:
         """Least distance between the truck's bodies at plan times ``s`` and the predicted corners ``theirs``."""
+        return float(self.clearances(s, theirs).min())
+
+    def clearances(self, s: np.ndarray, theirs: np.ndarray) -> np.ndarray:
+        """Per instant, the least distance (m) between the truck's bodies at plan times ``s`` and ``theirs``.
+
+        Parameters
+        ----------
+        s : numpy.ndarray
+            The plan times (T,) the profile reaches at the checked instants.
+        theirs : numpy.ndarray
+            The predicted corners (n, T, 4, 2) of the other vehicles (``predicted``).
+
+        Returns
+        -------
+        numpy.ndarray
+            (T,) exact rectangle distances, the least over bodies and vehicles; inf without vehicles.
+        """
         if len(theirs) == 0:
-            return math.inf
+            return np.full(len(s), math.inf)
         ocp = self.scenario.ocp
         states = self.plan.at(s)
         flat = theirs.reshape(-1, 4, 2)  # vehicle-major: (n * len(s), 4, 2)
-        least = math.inf
+        least = np.full(len(s), math.inf)
         for name, body in ocp.bodies.items():
             mine = np.tile(body.corners(*self.body_poses[name](states)), (len(theirs), 1, 1))
-            least = min(least, float(rectangle_gaps(mine, flat).min()))
+            least = np.minimum(least, rectangle_gaps(mine, flat).reshape(len(theirs), len(s)).min(axis=0))
         return least
 
     def state(self) -> dict[str, float]:
@@ -372,6 +538,48 @@ class Autopilot:
         for c in v.controls:
             row[c] *= self.rate
         return row
+
+
+def _krauss_follower(distance: float, speed: float, to_merge: np.ndarray, v_l: np.ndarray, inside: np.ndarray,
+                     length: float, step: float) -> float:  # fmt: skip
+    """The largest deceleration of a Krauss follower ``distance`` before the merge point behind the truck.
+
+    At each step where the truck is ``inside`` (its front past the give-way line) and its front is
+    nearer to the merge point than the follower's (else the follower is ahead), the follower's gap
+    is its distance to the merge point minus the truck front's (``to_merge``) minus ``length`` and
+    ``FOLLOW_MIN_GAP``; it slows to Krauss' safe speed for the truck's speed ``v_l`` (never below
+    ``speed`` - ``EMERGENCY_DECEL`` step per step, never faster than ``speed``).
+    """
+    x, v, worst = 0.0, speed, 0.0
+    b, tau = YIELD_DECEL, SUMO_TAU
+    for k in range(len(to_merge)):
+        if inside[k] and to_merge[k] <= distance - x:  # the truck's front is the nearer to the merge point
+            g = distance - x - to_merge[k] - length - FOLLOW_MIN_GAP
+            if FOLLOW_MODEL == "sumo":
+                safe = _safe_stop_speed(max(g, 0.0) + v_l[k] ** 2 / (2.0 * LEADER_DECEL), b, tau, step)
+            else:
+                safe = v_l[k] + (g - v_l[k] * tau) / ((v + v_l[k]) / (2.0 * b) + tau)
+            new = min(v, max(safe, v - EMERGENCY_DECEL * step, 0.0))
+            worst = max(worst, (v - new) / step)
+            v = new
+        x += v * step
+    return worst
+
+
+def _safe_stop_speed(gap: float, decel: float, headway: float, step: float) -> float:
+    """SUMO's ``MSCFModel::maximumSafeStopSpeedEuler``: the speed that stops within ``gap`` (m).
+
+    Braking at ``decel`` every step after a reaction of ``headway`` (SUMO 1.28, Euler update). With
+    the leader's braking distance v_l^2 / (2 b_l) added to the gap it is SUMO's
+    ``maximumSafeFollowSpeed``, the Krauss model's follow speed.
+    """
+    g, b = gap - 1e-6, decel * step
+    if g <= 0.0:
+        return 0.0
+    n = math.floor(0.5 - (headway - 0.5 * math.sqrt(step * step + 4.0 * (step * (2.0 * g / b - headway)
+                                                                         + headway * headway))) / step)  # fmt: skip
+    h = 0.5 * n * (n - 1) * b * step + n * b * headway
+    return n * b + (g - h) / (n * step + headway)
 
 
 def _integral(r: np.ndarray, tau: np.ndarray) -> np.ndarray:
@@ -392,6 +600,8 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 
 __all__ = [
-    "GIVE_WAY_MARGIN", "HORIZON", "LINE_SLACK", "MAP_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS",
-    "TURNING_IN_COS", "YAW_WINDOW", "Autopilot", "Plan", "plan_of", "predict",
+    "EMERGENCY_DECEL", "EXIT_SIGNAL_MIN", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP", "FOLLOW_MODEL",
+    "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON",
+    "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS", "YAW_WINDOW",
+    "Autopilot", "Plan", "plan_of", "predict",
 ]  # fmt: skip

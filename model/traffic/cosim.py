@@ -166,7 +166,8 @@ def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, s
 
 
 def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: str = "routes.rou.xml",
-                    junction_rule: bool = False, entry_rule: bool = False) -> Pass:  # fmt: skip
+                    junction_rule: bool = False, entry_rule: bool = False,
+                    follow_rule: bool = True) -> Pass:  # fmt: skip
     """The autopilot's pass: each step, predict the others, choose the progress, move ``truck`` there.
 
     The loop is the contract's replay loop with the poses made online, so replaying ``DIR/sumo``
@@ -174,6 +175,8 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     ``junction_rule``: give the driver SUMO's exit junction rule (``Autopilot.junction_conflict``);
     off by default (``roundabout traffic``): measured worse, benchmarks/traffic.md. ``entry_rule``: its
     entry half (``Autopilot(entry_rule=True)``), alone or with the exit half; off by default.
+    ``follow_rule``: refuse an entry that makes a circulating follower brake above ``FOLLOWER_DECEL``
+    (``Autopilot.follower_braking``, the merge point the end of SUMO's internal entry lane); on by default.
     """
     from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
 
@@ -190,8 +193,9 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
         lanes = None  # no exit half: the mapped window is empty
     if not (junction_rule or entry_rule):
         junctions = None
+    merge = tuple(via_lane_shape(net, edges[0], edges[1])[-1])  # where the entry's internal lane joins the ring
     pilot = Autopilot(scenario, plan, geo["front"], line_radius=line, junctions=junctions, exit_lanes=lanes,
-                      entry_rule=entry_rule)  # fmt: skip
+                      entry_rule=entry_rule, follow_rule=follow_rule, merge_point=merge)  # fmt: skip
     # the plan's solve leaves large object graphs: collect them now and keep the survivors out of the
     # collector's scans while driving, so that no decision pays for a full collection (measured: 1.7 CPU s)
     gc.collect()
@@ -200,13 +204,14 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     out, t_end = Pass(), traffic.warmup + traffic.time_limit
     seen: dict[str, list[tuple[float, float]]] = {}  # id -> (t, heading) over the last YAW_WINDOW seconds
     last: list[tuple] = []
+    ra, exiting = road.roundabout, frozenset()
     try:
         while traci.simulation.getTime() < t_end - 1e-9:
             t_next = round(traci.simulation.getTime() + traffic.step, TIME_DIGITS)
             if t_next >= traffic.warmup - 1e-9 and "truck" in traci.vehicle.getIDList():
                 if out.states:
                     others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
-                    name, _ = pilot.decide(others, traffic.step)
+                    name, _ = pilot.decide(others, traffic.step, exiting)
                     out.decisions.append(name)
                 row = pilot.state()
                 th = row[v.roles.heading]
@@ -220,6 +225,7 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
             n = len(out.rows)
             _record(traci, t, out)
             last = out.rows[n:]
+            exiting = _exiting(traci, last, ra, follow_rule and t >= traffic.warmup - 1e-9)
             seen = {r[1]: [*(h for h in seen.get(r[1], []) if h[0] >= t - YAW_WINDOW - 1e-9), (t, r[5])] for r in last}
             if out.states and pilot.s >= plan.duration - 1e-12:
                 out.arrived = True
@@ -231,6 +237,23 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     out.decision_seconds = pilot.decision_seconds
     out.decision_cpu_seconds = pilot.decision_cpu_seconds
     return out
+
+
+def _exiting(traci, rows: list[tuple], roundabout, query: bool = True) -> frozenset[str]:
+    """Keys (``traffic <id>``) of the vehicles near the ring showing the exit side's turn signal.
+
+    SUMO switches a vehicle's blinker on ahead of a turning link: its exit from the ring is a right
+    turn in counter-clockwise circulation (``VEH_SIGNAL_BLINKER_RIGHT``, bit 0), a left turn in
+    clockwise (bit 1). Only vehicles whose centre is within the outer curb + 5 m are asked (one
+    TraCI call each); none without ``query``.
+    """
+    if not query:
+        return frozenset()
+    bit = 1 if roundabout.circulation > 0 else 2
+    cx, cy = roundabout.center
+    reach = roundabout.outer_radius + 5.0
+    return frozenset(f"traffic {r[1]}" for r in rows
+                     if math.hypot(r[3] - cx, r[4] - cy) <= reach and traci.vehicle.getSignals(r[1]) & bit)  # fmt: skip
 
 
 def _earlier(history: list[tuple[float, float]], t: float) -> tuple[float | None, float]:

@@ -78,11 +78,13 @@ def solve_plan(scenario: Scenario) -> tuple[object, float]:
 
 
 def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int, plan=None,
-            junction_rule: bool = False, entry_rule: bool = False) -> tuple[dict, dict, list]:  # fmt: skip
+            junction_rule: bool = False, entry_rule: bool = False,
+            follow_rule: bool = True) -> tuple[dict, dict, list]:  # fmt: skip
     """One run into ``folder/sumo``: (summary, trajectory columns, traffic rows); ``plan`` for the autopilot.
 
     ``junction_rule``: the autopilot with SUMO's exit junction rule (``autopilot_drive``; off by default);
-    ``entry_rule``: with its entry half (off by default).
+    ``entry_rule``: with its entry half (off by default); ``follow_rule``: the autopilot's follower
+    check at its entry (``Autopilot.follower_braking``; on by default).
     """
     traffic = scenario.traffic
     sumo_dir = folder / "sumo"
@@ -95,7 +97,8 @@ def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int
         poses = {t: p[:3] for t, p in driven.truck.items()}
         scored = replay(sumo, sumo_dir, poses, driven.end, traffic.step)
     else:
-        driven = autopilot_drive(scenario, sumo, sumo_dir, plan, junction_rule=junction_rule, entry_rule=entry_rule)
+        rules = {"junction_rule": junction_rule, "entry_rule": entry_rule, "follow_rule": follow_rule}
+        driven = autopilot_drive(scenario, sumo, sumo_dir, plan, **rules)
         free = autopilot_drive(scenario, sumo, sumo_dir, plan, "routes_free_flow.rou.xml")
         cols = states_of(scenario, driven) if driven.states else {}
         scored = driven
