@@ -308,7 +308,7 @@ def check(path: Path, out: Path) -> dict:
             "checks_pass": bool(passed)}  # fmt: skip
 
 
-def run_case(case: dict, folder: Path, intervals: int, time_limit: float, grid: str = "time") -> dict:
+def run_case(case: dict, folder: Path, intervals: int, time_limit: float, grid: str | None = None) -> dict:
     """Pose, solve in its own process, check."""
     record = dict(case)
     path = write_scenario(case, folder, intervals)
@@ -317,7 +317,7 @@ def run_case(case: dict, folder: Path, intervals: int, time_limit: float, grid: 
     out = folder / path.stem
     start = time.perf_counter()
     run = subprocess.run([sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(out), "--quiet",
-                          "--time-limit", str(time_limit), "--map-grid", grid],
+                          "--time-limit", str(time_limit), *(["--map-grid", grid] if grid else [])],
                          capture_output=True, text=True)  # fmt: skip
     record |= {"exit": run.returncode, "wall_s": round(time.perf_counter() - start, 1)}
     summary_file = out / "summary.json"
@@ -361,8 +361,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--intervals", type=int, default=100)
     ap.add_argument("--time-limit", type=float, default=120.0)
     ap.add_argument("--json", type=Path)
-    ap.add_argument("--map-grid", choices=("time", "arclength", "time+arclength"), default="time",
-                    help="roundabout solve --map-grid")  # fmt: skip
+    ap.add_argument("--map-grid", choices=("time", "arclength", "time+arclength"), default=None,
+                    help="roundabout solve --map-grid (default: its default)")  # fmt: skip
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     todo = [c for c in cases(args.maps, args.vehicles, args.seed)
