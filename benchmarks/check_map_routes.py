@@ -308,7 +308,7 @@ def check(path: Path, out: Path) -> dict:
             "checks_pass": bool(passed)}  # fmt: skip
 
 
-def run_case(case: dict, folder: Path, intervals: int, time_limit: float) -> dict:
+def run_case(case: dict, folder: Path, intervals: int, time_limit: float, grid: str | None = None) -> dict:
     """Pose, solve in its own process, check."""
     record = dict(case)
     path = write_scenario(case, folder, intervals)
@@ -317,7 +317,8 @@ def run_case(case: dict, folder: Path, intervals: int, time_limit: float) -> dic
     out = folder / path.stem
     start = time.perf_counter()
     run = subprocess.run([sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(out), "--quiet",
-                          "--time-limit", str(time_limit)], capture_output=True, text=True)  # fmt: skip
+                          "--time-limit", str(time_limit), *(["--map-grid", grid] if grid else [])],
+                         capture_output=True, text=True)  # fmt: skip
     record |= {"exit": run.returncode, "wall_s": round(time.perf_counter() - start, 1)}
     summary_file = out / "summary.json"
     if not summary_file.exists():
@@ -360,6 +361,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--intervals", type=int, default=100)
     ap.add_argument("--time-limit", type=float, default=120.0)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--map-grid", choices=("time", "arclength", "time+arclength"), default=None,
+                    help="roundabout solve --map-grid (default: its default)")  # fmt: skip
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     todo = [c for c in cases(args.maps, args.vehicles, args.seed)
@@ -368,7 +371,7 @@ def main(argv: list[str] | None = None) -> int:
     for i, case in enumerate(todo, 1):
         print(f"[{i}/{len(todo)}] {case['map']} {case['kind']} {case['movement']} {case['vehicle']} "
               f"apron={case['apron']}", file=sys.stderr, flush=True)  # fmt: skip
-        records.append(run_case(case, args.out, args.intervals, args.time_limit))
+        records.append(run_case(case, args.out, args.intervals, args.time_limit, args.map_grid))
         print(f"    {records[-1]['result']} ({records[-1].get('wall_s', '-')} s)", file=sys.stderr, flush=True)
         if args.json:
             args.json.write_text(json.dumps(records, indent=1, default=str))

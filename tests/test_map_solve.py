@@ -195,3 +195,27 @@ def test_the_map_search_honours_its_time_limit():
     assert any("time limit of 0.01 s reached" in line for line in lines)
     assert sum("solve 1] N = 30" in line for line in lines) == 1
     assert not sol.ok and sol.diagnosis["kind"] == "map corridor"
+
+
+def test_the_arclength_grid_solves_a_u_turn_the_time_grid_refuses(tmp_path):
+    """Thiergarten 106 -> 108 (U-turn, SU-30, N = 100, posed as benchmarks/check_map_routes.py poses it): the
+    time grid's projections creep (refused, 0.518 m outside); ``--map-grid arclength`` validates, and the
+    benchmark's independent checks (its own corridor, re-integration, commonroad.xml) pass."""
+    pytest.importorskip("commonroad")
+    from benchmarks.check_map_routes import MAPS, apron_lanelets, check, write_scenario
+    from model.scene.lanelet_map import dataset_file, read_map
+
+    case = {"map": "Thiergarten", "dataset": MAPS["Thiergarten"], "kind": "U-turn", "movement": "106-108",
+            "vehicle": "SU-30", "apron": True,
+            "apron_lanelets": apron_lanelets(read_map(dataset_file(MAPS["Thiergarten"])))}  # fmt: skip
+    path = write_scenario(case, tmp_path, 100)
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(out), "--quiet",
+                          "--map-grid", "arclength"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["valid"] and summary["min_clearance"] > 0 and summary["min_clearance_dense"] >= 0
+    assert summary["search"]["sequences"][0]["grid"] == "arclength"
+    assert 18.0 < summary["final_time"] < 26.0  # docs/map-corridor.md: 22.05 s
+    assert check(path, out)["checks_pass"]

@@ -426,3 +426,34 @@ def test_the_relaxed_strips_measure_how_far_a_disc_must_leave_them(tmp_path):
     assert per_node[1] > 0.1 and per_node[-2] > 0.1
     assert np.all(per_node[5:-5] < 1e-6)  # in between within the strips
     assert total == pytest.approx(per_node.sum(), abs=1e-9)
+
+
+def test_the_arclength_grid_holds_each_node_at_its_arclength():
+    """docs/map-corridor.md, the arclength grid: node k's reference point lies on the frame's normal at the
+    fixed arclength s_k (``add_node_rows``; its projection is s_k), the steps are free (they sum to Tf and
+    differ) and the answer validates as the time grid's does (N = 40, the truck at Kackertstrasse)."""
+    from model.direct.map_corridor import node_arclengths, solve_map, strips
+
+    ocp = load_scenario(ROOT / "examples" / "map-kackertstrasse-truck.toml").ocp
+    st = strips(ocp)
+    n = 40
+    result = solve_map(ocp, intervals=n, iterations=6, st=st, arclength=True)
+    last = result.iterates[-1]
+    sol = last.solution
+    assert sol.status in ("optimal", "validation_failed") and last.moved < 0.05
+    checks = sol.validation["checks"]
+    assert all(c["passed"] for k, c in checks.items() if k != "body_clearance_dense"), checks
+    xy = np.column_stack([np.asarray(sol.columns[p], float) for p in ocp.vehicle.position])
+    s = node_arclengths(ocp, n, st)
+    c, tangent, _ = st.frame.at(s)
+    assert np.max(np.abs(np.einsum("kd,kd->k", tangent, xy - c))) < 1e-6  # the row: on the normal at s_k
+    # so each node's station is its s_k (the nearest point of the sampled frame: within 2 cm, its kinks)
+    assert np.max(np.abs(st.frame.project(xy) - s)) < 0.03
+    t = np.asarray(sol.columns["t"], float)
+    steps = np.diff(t)
+    assert t[0] == 0.0 and t[-1] == pytest.approx(sol.final_time) and np.all(steps > 0)
+    assert steps.max() > 1.05 * steps.min()  # a free grid, not equal steps of Tf
+    # on the time grid the same nodes' stations are not the equal steps of arclength
+    timed = solve_map(ocp, intervals=n, iterations=6, st=st).iterates[-1].solution
+    xy = np.column_stack([np.asarray(timed.columns[p], float) for p in ocp.vehicle.position])
+    assert np.max(np.abs(st.frame.project(xy) - s)) > 0.1

@@ -78,6 +78,12 @@ def parser() -> argparse.ArgumentParser:
              "validated answer so far is written (summary.json: search.stopped_by_time_limit), "
              "or exit 1 with a diagnosis",
     )  # fmt: skip
+    s.add_argument(
+        "--map-grid", choices=("time", "arclength", "time+arclength"), default=None,
+        help="a map route's nodes: equal steps of a free Tf (time), fixed to equal steps of the route frame's "
+             "arclength with the time free per interval (arclength), or the time grid and, where it validates "
+             "nothing, the arclength grid (time+arclength, the default; docs/map-corridor.md)",
+    )  # fmt: skip
     d = sub.add_parser("derive", help="print the Pontryagin system of a scenario's problem")
     d.add_argument("scenario", type=Path, help="scenario file (TOML)")
     d.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
@@ -427,6 +433,7 @@ def open_loop_solve(scenario, args, options: dict, progress: Progress):
         progress=progress,
         **({"search": args.search} if getattr(args, "search", "default") != "default" else {}),
         **({"time_limit": args.time_limit} if getattr(args, "time_limit", None) is not None else {}),
+        **({"grid": args.map_grid} if getattr(args, "map_grid", None) and scenario.ocp.map_route is not None else {}),
     )
     return sol, t1 - t0
 

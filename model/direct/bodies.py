@@ -91,14 +91,16 @@ def add_body_constraints(
         _add_disc_bodies(m, ocp, relax, COVER_SLACK, SHARPNESS)
 
 
-def _pose_point(m: pyo.ConcreteModel, ocp: OCP, pose, ahead: float, left: float):
-    """``t -> (x, y)``: the point ``ahead`` along and ``left`` across a body's axis, as Pyomo expressions."""
+def _pose_point(m: pyo.ConcreteModel, ocp: OCP, pose, ahead: float, left: float, value=None):
+    """``t -> (x, y)``: the point ``ahead`` along and ``left`` across a body's axis, as Pyomo expressions
+    (``value``: ``(state name, t) -> expression``, the states the pose is taken at; default their node values)."""
     v = ocp.vehicle
     params = {sym(k): val for k, val in v.parameters().items()}
     comps = [(sym(n), m.component(n)) for n in v.states]
 
     def point(t):
-        env = {s: c[t] for s, c in comps} | params
+        states = {s: c[t] for s, c in comps} if value is None else {sym(n): value(n, t) for n in v.states}
+        env = states | params
         x, y, h = (sympy_to_pyomo(e, env) for e in pose)
         if left == 0.0:  # the disc centres: the same expressions as before "left" existed
             return x + ahead * pyo.cos(h), y + ahead * pyo.sin(h)

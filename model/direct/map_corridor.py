@@ -12,6 +12,11 @@ docs/map-corridor.md says what was tried and measured. The formulation, for ever
 - solve, project the answer's disc centres again, rebuild and re-solve from the answer until the
   projections move less than ``tol`` metres (sequential convex-style updates of the strips).
 
+``arclength=True`` (the arclength grid, docs/map-corridor.md): node k's reference point on the frame's normal at
+the fixed arclength s_k (``node_arclengths``, ``add_node_rows``), the time free per interval
+(``TranscriptionOptions.free_grid``), the rows next to a fixed pose widened to take it in (``fixed_ends``) and
+the controls' jumps priced (``SMOOTHING``), so that a node's station no longer moves when Tf does.
+
 Each answer is validated as every answer is (dynamics, bounds, boundary values), and its bodies
 as exact rectangles in the shapely corridor at the nodes (``exact_clearance``).
 """
@@ -28,6 +33,7 @@ import shapely
 
 from model.analysis.bodies import substeps
 from model.direct.bodies import TIGHT_COVER_SLACK, _pose_point, disc_count
+from model.direct.options import TranscriptionOptions
 from model.direct.solution import Solution
 from model.direct.solve import Start, finish, load_start, paused_gc
 from model.direct.transcription import build_model
@@ -42,6 +48,7 @@ OPEN_END = 15.0  # m: how far the strips' corridor continues beyond the route's 
 CRACK = 1e-3  # m: the caps overlap the corridor by this much
 CURVED_WINDOW = 1.5  # the curved strips' bounds: the least over this many trust radii of arclength either side
 FLAT = 1e-6  # 1/m: a frame curvature below this is a straight line (the curved row is the linear one)
+STEP_CAP = 30.0  # s: the longest interval of the arclength grid (a stop to turn the wheels fits; a crawl does not)
 
 
 @dataclass
@@ -134,9 +141,19 @@ def disc_centres(ocp: OCP, columns: dict[str, np.ndarray], covers) -> dict[str, 
     return out
 
 
-def projections(ocp: OCP, columns: dict[str, np.ndarray], st: Strips) -> dict[str, np.ndarray]:
-    """Arclength (nodes, discs) of each disc centre's nearest point on the frame."""
-    return {name: st.frame.project(c) for name, c in disc_centres(ocp, columns, st.covers).items()}
+def projections(ocp: OCP, columns: dict[str, np.ndarray], st: Strips, between: bool = False) -> dict[str, np.ndarray]:
+    """Arclength (nodes, discs) of each disc centre's nearest point on the frame; ``between``: also, as
+    ``name + BETWEEN``, of the disc centres at ``between_states``."""
+    out = {name: st.frame.project(c) for name, c in disc_centres(ocp, columns, st.covers).items()}
+    if between:
+        mid = disc_centres(ocp, between_states(columns, ocp.vehicle.states), st.covers)
+        out |= {name + BETWEEN: st.frame.project(c) for name, c in mid.items()}
+    return out
+
+
+def between_states(columns: dict[str, np.ndarray], names) -> dict[str, np.ndarray]:
+    """The states (N + 1) at the middle of each interval: entry k the mean of nodes k - 1 and k (entry 0 node 0's)."""
+    return {k: np.concatenate([columns[k][:1], (columns[k][:-1] + columns[k][1:]) / 2]) for k in names}
 
 
 def fixed_nodes(ocp: OCP, intervals: int) -> dict[str, tuple[int, ...]]:
@@ -155,49 +172,85 @@ def fixed_nodes(ocp: OCP, intervals: int) -> dict[str, tuple[int, ...]]:
     return out
 
 
+BETWEEN = " between"  # the key suffix of a body's midpoint arclengths in ``s_fixed`` (``between_states``)
+
+
 def add_strip_constraints(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_fixed: dict[str, np.ndarray],
-                          trust: float | None = None, relax: bool = False, curved: bool = False) -> None:  # fmt: skip
+                          trust: float | None = None, relax: bool = False, curved: bool = False,
+                          ends: dict[str, np.ndarray] | None = None) -> None:  # fmt: skip
     """For every body, disc and node: the disc centre in the strip at its fixed arclength (linear rows).
 
     No rows at the nodes where the boundary values fix the body's pose (``fixed_nodes``).
+    Where ``s_fixed`` has the key ``name + BETWEEN`` (arclengths (N + 1, discs) of the discs at the states
+    ``between_states``): the same rows for the disc centres at the mean of each interval's two node states
+    (row k for the interval k - 1 .. k; row 0 unused), the midpoints the validation's linear sub-steps pass.
     ``trust`` (m): also keep each disc centre within that distance of its fixed arclength along the
     frame's tangent there, a trust region in which the strip stands for the corridor.
+    ``ends`` (the arclength grid, ``fixed_ends``): per body the disc centres (2, discs, 2) of its poses at the
+    start and the goal; the rows at the node next to a fixed pose (1, N - 1) are widened to take in that pose's
+    own offset (measured on the neighbour's normal). On the arclength grid that node lies a fixed arclength
+    step (about 1 m) from the fixed pose, which may itself lie outside its conservative strip (Thiergarten
+    51 -> 108, SU-30: the start's rear disc 0.148 m outside at node 1, every solve infeasible); on the time
+    grid that node can come as close to the fixed pose as it needs.
     ``relax``: each strip row gets a slack (m, >= 0, on both sides), collected in ``m.strip_slacks``.
     ``curved``: the lateral offset measured from the frame's osculating circle at the fixed arclength
     (``curved_offset``) instead of along its normal line, so that a disc sliding along the tangent keeps
     its offset from the curving lane; with ``trust`` the bounds are then the least over the arclengths the
     trust region reaches (``CURVED_WINDOW`` x ``trust`` either side).
     """
-    poses = ocp.vehicle.body_poses()
     fixed = fixed_nodes(ocp, len(m.nodes) - 1)
-    for name, (offsets, _) in st.covers.items():
-        s = s_fixed[name]
-        c, tangent, n = st.frame.at(s)
-        upper, lower = st.upper[name], st.lower[name]
-        if curved and trust is not None:
-            upper = conservative(st.frame, upper, CURVED_WINDOW * trust)
-            lower = -conservative(st.frame, -lower, CURVED_WINDOW * trust)
-        kappa = st.frame.curvature(s) if curved else None
-        hi = np.interp(s, st.frame.s, upper)
-        lo = np.interp(s, st.frame.s, lower)
-        narrow = lo > hi  # the strip is narrower than the disc there: its centre line, and the validation judges
-        lo[narrow] = hi[narrow] = (lo[narrow] + hi[narrow]) / 2
-        m.narrow_rows = getattr(m, "narrow_rows", 0) + int(narrow.sum())
-        for j, offset in enumerate(offsets):
-            centre = _pose_point(m, ocp, poses[name], float(offset), 0.0)
-            slack = None
-            if relax:  # two slacks: the disc centre may leave the strip to the left or to the right
-                slack = tuple(pyo.Var(m.nodes, bounds=(0.0, None), initialize=0.0) for _ in range(2))
-                m.add_component(f"slack_left_{name}_{j}", slack[0])
-                m.add_component(f"slack_right_{name}_{j}", slack[1])
-                m.strip_slacks = [*getattr(m, "strip_slacks", []), *slack]
-            bend = None if kappa is None else (tangent[:, j], kappa[:, j])
-            rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j], slack, fixed[name], bend)
-            m.add_component(f"strip_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
-            if trust is not None:
-                bound = np.full(len(s), float(trust))
-                rule = _strip_rule(m, centre, c[:, j], tangent[:, j], -bound, bound)
-                m.add_component(f"trust_{name}_{j}", pyo.Constraint(m.nodes, rule=rule))
+    before = dict(zip(m.nodes, [m.nodes[0], *m.nodes[:-1]], strict=True))
+
+    def mean(state, t):
+        return (m.component(state)[before[t]] + m.component(state)[t]) / 2
+
+    for name in st.covers:
+        widen = None if ends is None else ends[name]
+        _body_strips(m, ocp, st, name, s_fixed[name], "", None, fixed[name], trust, relax, curved, widen)
+        if name + BETWEEN in s_fixed:
+            _body_strips(m, ocp, st, name, s_fixed[name + BETWEEN], "_between", mean, (0,), trust, relax, curved)
+
+
+def _body_strips(m: pyo.ConcreteModel, ocp: OCP, st: Strips, name: str, s: np.ndarray, suffix: str, value,
+                 skip: tuple[int, ...], trust: float | None, relax: bool, curved: bool,
+                 ends: np.ndarray | None = None) -> None:  # fmt: skip
+    """One body's strip rows (``add_strip_constraints``) at the arclengths ``s`` (N + 1, discs), the disc
+    centres taken at the states ``value`` (``_pose_point``), named with ``suffix``, skipping the nodes ``skip``
+    (``ends``: the fixed poses' disc centres, their neighbours' rows widened, see ``add_strip_constraints``)."""
+    offsets, _ = st.covers[name]
+    c, tangent, n = st.frame.at(s)
+    upper, lower = st.upper[name], st.lower[name]
+    if curved and trust is not None:
+        upper = conservative(st.frame, upper, CURVED_WINDOW * trust)
+        lower = -conservative(st.frame, -lower, CURVED_WINDOW * trust)
+    kappa = st.frame.curvature(s) if curved else None
+    hi = np.interp(s, st.frame.s, upper)
+    lo = np.interp(s, st.frame.s, lower)
+    if ends is not None:
+        last = len(s) - 1
+        for k in skip:  # the fixed poses' neighbours
+            near, row = (1, ends[0]) if k == 0 else (last - 1, ends[1])
+            off = np.einsum("jd,jd->j", n[near], row - c[near])
+            hi[near], lo[near] = np.maximum(hi[near], off), np.minimum(lo[near], off)
+    narrow = lo > hi  # the strip is narrower than the disc there: its centre line, and the validation judges
+    lo[narrow] = hi[narrow] = (lo[narrow] + hi[narrow]) / 2
+    m.narrow_rows = getattr(m, "narrow_rows", 0) + int(narrow.sum())
+    pose = ocp.vehicle.body_poses()[name]
+    for j, offset in enumerate(offsets):
+        centre = _pose_point(m, ocp, pose, float(offset), 0.0, value)
+        slack = None
+        if relax:  # two slacks: the disc centre may leave the strip to the left or to the right
+            slack = tuple(pyo.Var(m.nodes, bounds=(0.0, None), initialize=0.0) for _ in range(2))
+            m.add_component(f"slack_left_{name}_{j}{suffix}", slack[0])
+            m.add_component(f"slack_right_{name}_{j}{suffix}", slack[1])
+            m.strip_slacks = [*getattr(m, "strip_slacks", []), *slack]
+        bend = None if kappa is None else (tangent[:, j], kappa[:, j])
+        rule = _strip_rule(m, centre, c[:, j], n[:, j], lo[:, j], hi[:, j], slack, skip, bend)
+        m.add_component(f"strip_{name}_{j}{suffix}", pyo.Constraint(m.nodes, rule=rule))
+        if trust is not None:
+            bound = np.full(len(s), float(trust))
+            rule = _strip_rule(m, centre, c[:, j], tangent[:, j], -bound, bound, skip=() if value is None else skip)
+            m.add_component(f"trust_{name}_{j}{suffix}", pyo.Constraint(m.nodes, rule=rule))
 
 
 def _strip_rule(m: pyo.ConcreteModel, centre, c: np.ndarray, n: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -235,14 +288,81 @@ def curved_offset(along, across, kappa: float, sqrt=np.sqrt):
     return num / (1 + sqrt((1 - kappa * across) ** 2 + (kappa * along) ** 2))
 
 
+def node_arclengths(ocp: OCP, intervals: int, st: Strips) -> np.ndarray:
+    """s_0 .. s_N (m): equal steps of the frame's arclength from the projection of the route's start to
+    that of its goal (the nodes of the centre-line start, and of the arclength grid)."""
+    route = ocp.map_route
+    s0, s1 = float(st.frame.project(np.array(route.start()[:2]))), float(st.frame.project(np.array(route.goal()[:2])))
+    return np.linspace(s0, s1, intervals + 1)
+
+
+def add_node_rows(m: pyo.ConcreteModel, ocp: OCP, st: Strips, s_nodes: np.ndarray) -> None:
+    """The arclength grid: ``t(s_k) . (p_k - c(s_k)) = 0`` at the inner nodes k = 1 .. N - 1 (``m.node_arclength``).
+
+    p_k is the vehicle's reference point (``Vehicle.position``: the rear axle of the rigid truck and of the
+    tractor), c and t the frame's point and tangent at the fixed arclength s_k: node k lies on the frame's
+    normal at s_k (linear rows). The end nodes' positions are the boundary values (s_0, s_N their projections).
+    Each step of the model's free grid is at most ``STEP_CAP`` s: on N = 200 from an interpolated answer,
+    unbounded steps let Ipopt converge to a crawl (two steps of 350-410 s at speeds of mm/s, Tf 880 s).
+    """
+    c, tangent, _ = st.frame.at(np.asarray(s_nodes, float))
+    X, Y = (m.component(name) for name in ocp.vehicle.position)
+    index = {t: k for k, t in enumerate(m.nodes)}
+    last = len(m.nodes) - 1
+
+    def rule(_m, t):
+        k = index[t]
+        if k in (0, last):
+            return pyo.Constraint.Skip
+        return tangent[k, 0] * (X[t] - c[k, 0]) + tangent[k, 1] * (Y[t] - c[k, 1]) == 0.0
+
+    m.node_arclength = pyo.Constraint(m.nodes, rule=rule)
+    for k in m.step:
+        m.step[k].setub(STEP_CAP)
+
+
+def fixed_ends(ocp: OCP, start: Start, st: Strips) -> dict[str, np.ndarray]:
+    """Per body the disc centres (2, discs, 2) at the start and the goal: the boundary values where given,
+    else the start's end nodes (those poses are not fixed: ``fixed_nodes`` leaves them out)."""
+    cols = {}
+    for k in ocp.vehicle.states:
+        ends = np.asarray(start.values[k], float)[[0, -1]].copy()
+        ends[0] = ocp.initial.get(k, ends[0])
+        ends[1] = ocp.final.get(k, ends[1])
+        cols[k] = ends
+    return disc_centres(ocp, cols, st.covers)
+
+
+SMOOTHING = 0.1  # s: the arclength grid's weight on the controls' jumps (``_add_smoothing``)
+
+
+def _add_smoothing(m: pyo.ConcreteModel, ocp: OCP, weight: float) -> None:
+    """Add ``weight`` sum_k sum_c ((u_c,k - u_c,k-1) / range_c)^2 / step_k to the objective (the arclength grid).
+
+    Without it the arclength grid's answers chatter: the speed jumps between 0 and its bound from node to
+    node (Thiergarten 106 -> 108, SU-30, N = 100) where the wheels turn, the trapezoid rule's error exploited
+    (the answer re-integrated per interval drifts 0.068 m from the next node, the independent check's limit
+    0.05 m). ``range_c`` is the control's bound range (1 where unbounded)."""
+    if weight <= 0.0:
+        return
+    nodes, terms = m.nodes, []
+    for c in ocp.vehicle.controls:
+        lo, hi = ocp.bounds.get(c, (None, None))
+        scale = (hi - lo) if lo is not None and hi is not None and hi > lo else 1.0
+        u = m.component(c)
+        pairs = enumerate(zip(nodes[:-1], nodes[1:], strict=True), start=1)
+        terms += [((u[b] - u[a]) / scale) ** 2 / m.step[k] for k, (a, b) in pairs]
+    m.objective.expr = m.objective.expr + weight * pyo.quicksum(terms)
+
+
 def centre_line_start(ocp: OCP, intervals: int, st: Strips, speed_fraction: float = 0.5) -> Start:
     """The reference point driven along the frame from the start to the goal at constant speed."""
-    route, v = ocp.map_route, ocp.vehicle
+    v = ocp.vehicle
     r = v.roles
-    s0, s1 = float(st.frame.project(np.array(route.start()[:2]))), float(st.frame.project(np.array(route.goal()[:2])))
+    s = node_arclengths(ocp, intervals, st)
+    s0, s1 = float(s[0]), float(s[-1])
     speed = speed_fraction * ocp.bounds[r.speed][1]
     tf = ocp.final_time or (s1 - s0) / speed
-    s = np.linspace(s0, s1, intervals + 1)
     p, t, _ = st.frame.at(s)
     theta = np.unwrap(np.arctan2(t[:, 1], t[:, 0]))
     theta += ocp.initial[r.heading] - theta[0]
@@ -256,7 +376,7 @@ def centre_line_start(ocp: OCP, intervals: int, st: Strips, speed_fraction: floa
     for trailer in r.trailers:
         values[trailer] = theta.copy()
     values = {k: a for k, a in values.items() if k in v.states + v.controls}
-    return Start(values=values, final_time=tf)
+    return Start(values=values, final_time=tf, times=np.linspace(0.0, tf, intervals + 1))
 
 
 def exact_clearance(ocp: OCP, columns: dict[str, np.ndarray], dense: bool = False) -> float:
@@ -271,10 +391,16 @@ def exact_clearance(ocp: OCP, columns: dict[str, np.ndarray], dense: bool = Fals
     return float(worst)
 
 
-def _minimal_violation(m: pyo.ConcreteModel, ocp: OCP) -> None:
-    """Replace the objective by the strips' summed slack (plus 1e-4 m per second of a free Tf)."""
+def _minimal_violation(m: pyo.ConcreteModel, ocp: OCP, penalty: float | None = None) -> None:
+    """Replace the objective by the strips' summed slack (plus 1e-4 m per second of a free Tf); ``penalty``
+    (per m of slack): instead the problem's own objective plus ``penalty`` times the summed slack (an exact
+    L1 penalty: where the strips can be met and ``penalty`` exceeds their multipliers the answer is the plain
+    one). ``m.objective`` (deactivated) stays the problem's own, the objective ``finish`` reports."""
     m.objective.deactivate()
     total = pyo.quicksum(v[t] for v in m.strip_slacks for t in m.nodes)
+    if penalty is not None:
+        m.violation = pyo.Objective(expr=m.objective.expr + penalty * total, sense=pyo.minimize)
+        return
     time_price = 1e-4 * m.tf if ocp.cost.free_final_time else 0.0
     m.violation = pyo.Objective(expr=total + time_price, sense=pyo.minimize)
 
@@ -286,12 +412,16 @@ def _violation(m: pyo.ConcreteModel) -> tuple[float, float]:
 
 def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0.05, options: dict | None = None,
               st: Strips | None = None, trust: float | None = None, relax: bool = False, start: Start | None = None,
-              deadline: float | None = None, curved: bool = False,
-              on_iterate: Callable[[Iterate], None] | None = None) -> Result:  # fmt: skip
+              deadline: float | None = None, curved: bool = False, arclength: bool = False, between: bool = False,
+              penalty: float | None = None, on_iterate: Callable[[Iterate], None] | None = None) -> Result:  # fmt: skip
     """The sequence of strip solves from the centre-line start (see the module docstring); ``trust``
-    and ``curved`` as in ``add_strip_constraints``. ``relax``: the minimal-violation sequence instead (the strip
+    and ``curved`` as in ``add_strip_constraints``. ``arclength``: the nodes fixed to the arclengths
+    ``node_arclengths`` (``add_node_rows``) and the time free per interval (``TranscriptionOptions.free_grid``).
+    ``between``: strip rows also at each interval's mid-state (``add_strip_constraints``, ``BETWEEN``).
+    ``relax``: the minimal-violation sequence instead (the strip
     rows widened by slacks, their sum minimised plus 1e-4 m per second of Tf, as the roads'
-    ``diagnosis``); ``Iterate.violation`` is the sum and the largest slack.
+    ``diagnosis``); ``Iterate.violation`` is the sum and the largest slack. ``relax`` with ``penalty``
+    (per m): the problem's objective plus ``penalty`` times the summed slack (``_minimal_violation``).
 
     ``start``: the first solve's start (default ``centre_line_start``; its projections fix the first
     strips). ``deadline`` (``time.monotonic()``): each Ipopt run gets the time left as ``max_wall_time``
@@ -299,23 +429,29 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
     """
     st = st or strips(ocp)
     start = start or centre_line_start(ocp, intervals, st)
-    s_fixed = projections(ocp, start.values, st)
+    s_fixed = projections(ocp, start.values, st, between)
     result = Result()
     for k in range(iterations):
         if k and deadline is not None and time.monotonic() >= deadline:
             break
-        it, s_new = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, _timed(options, deadline), curved)
+        it, s_new = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, _timed(options, deadline), curved,
+                                 arclength, between, penalty)  # fmt: skip
         result.iterates.append(it)
         if on_iterate is not None:
             on_iterate(it)
         sol = it.solution
         if sol.status not in ("optimal", "acceptable", "validation_failed"):
             break
-        cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
-        start, s_fixed = Start(values=cols, final_time=sol.final_time), s_new
+        start, s_fixed = answer_start(ocp, sol), s_new
         if it.moved < tol:
             break
     return result
+
+
+def answer_start(ocp: OCP, sol: Solution) -> Start:
+    """A start from an answer: its states, controls, Tf and node times."""
+    cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
+    return Start(values=cols, final_time=sol.final_time, times=np.asarray(sol.columns["t"], float))
 
 
 MIN_WALL_TIME = 0.5  # s: a strip solve begun before the deadline runs at least this long
@@ -331,21 +467,27 @@ def _timed(options: dict | None, deadline: float | None) -> dict:
 
 
 def _strip_solve(ocp: OCP, intervals: int, st: Strips, s_fixed: dict[str, np.ndarray], start: Start,
-                 trust: float | None, relax: bool, options: dict,
-                 curved: bool = False) -> tuple[Iterate, dict[str, np.ndarray]]:  # fmt: skip
-    """One solve with the strips at the fixed projections ``s_fixed``, from ``start``; and its answer's projections."""
+                 trust: float | None, relax: bool, options: dict, curved: bool = False,
+                 arclength: bool = False, between: bool = False,
+                 penalty: float | None = None) -> tuple[Iterate, dict[str, np.ndarray]]:  # fmt: skip
+    """One solve with the strips at the fixed projections ``s_fixed``, from ``start``; and its answer's projections
+    (``arclength``: on the arclength grid; ``between``: with the mid-state rows; see ``solve_map``)."""
     t0 = time.perf_counter()
     with paused_gc():
-        m = build_model(ocp, intervals)
-        add_strip_constraints(m, ocp, st, s_fixed, trust, relax, curved)
+        m = build_model(ocp, intervals, options=TranscriptionOptions(free_grid=True) if arclength else None)
+        if arclength:
+            add_node_rows(m, ocp, st, node_arclengths(ocp, intervals, st))
+            _add_smoothing(m, ocp, SMOOTHING)
+        ends = fixed_ends(ocp, start, st) if arclength else None
+        add_strip_constraints(m, ocp, st, s_fixed, trust, relax, curved, ends)
         if relax:
-            _minimal_violation(m, ocp)
+            _minimal_violation(m, ocp, penalty)
         load_start(m, start)
         nlp = CasadiNLP(m)
         res = run_ipopt(nlp, options, x0=nlp.init_primals())
         sol = finish(ocp, m, nlp, res, "ccw", {}, analyse=True)
     cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
-    s_new = projections(ocp, cols, st)
+    s_new = projections(ocp, cols, st, between)
     moved = max(float(np.max(np.abs(s_new[b] - s_fixed[b]))) for b in s_new)
     violation = _violation(m) if relax else None
     return Iterate(sol, moved, exact_clearance(ocp, cols), time.perf_counter() - t0, getattr(m, "narrow_rows", 0),

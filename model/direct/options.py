@@ -58,8 +58,14 @@ class TranscriptionOptions:
         Add a mutable Param ``d_hat[state]`` to every state's rate.
     horizon : Horizon or None
         Build the receding-horizon problem (soft terminal target, the horizon's objective).
+    free_grid : bool
+        Time free per interval (a free final time only, no horizon): a Var ``step[k]`` (s, k = 1..N) per
+        interval, the trapezoid rows ``X_k - X_{k-1} = step_k / 2 (f_{k-1} + f_k)`` with dX = f(X, U)
+        (no time scale), ``tf`` the Expression sum_k step_k and every time integral the trapezoid rule on
+        these steps (docs/map-corridor.md, nodes fixed to arclength).
     """
 
     soft_penalty: float | None = None
     rate_disturbance: bool = False
     horizon: Horizon | None = None
+    free_grid: bool = False

@@ -36,10 +36,12 @@ LOG = logging.getLogger("roundabout.solve")
 
 @dataclass
 class Start:
-    """Node values of states and controls (arrays of N + 1) and, for a free Tf, its guess."""
+    """Node values of states and controls (arrays of N + 1) and, for a free Tf, its guess; ``times``: the
+    node times (N + 1, from 0), the steps of a free grid (``TranscriptionOptions.free_grid``)."""
 
     values: dict[str, np.ndarray]
     final_time: float | None = None
+    times: np.ndarray | None = None
 
 
 @contextlib.contextmanager
@@ -132,6 +134,12 @@ def load_start(m: pyo.ConcreteModel, start: Start) -> None:
     load_values(m, start.values)
     if start.final_time is not None and m.tf.is_variable_type():
         m.tf.set_value(start.final_time)
+    step = getattr(m, "step", None)
+    if step is not None:  # a free grid: the start's steps, or equal steps of its Tf
+        n = len(step)
+        steps = np.diff(start.times) if start.times is not None else np.full(n, (start.final_time or n) / n)
+        for k, value in zip(step, steps, strict=True):
+            step[k].set_value(max(float(value), step[k].lb), skip_validation=True)
     for var, expression in getattr(m, "derived_values", []):  # auxiliary variables follow the start
         for t in m.nodes:
             var[t].set_value(float(pyo.value(expression(t))), skip_validation=True)
@@ -166,7 +174,8 @@ def finish(
         solve_seconds=res.seconds,
         columns=cols,
         passing=passing,
-        validation=validate(ocp, cols, tf, passing) if analyse else {"passed": None, "skipped": "screening"},
+        validation=(validate(ocp, cols, tf, passing, hasattr(m, "step")) if analyse
+                    else {"passed": None, "skipped": "screening"}),  # fmt: skip
         solver_message=res.message,
         timings={**timings, "ipopt": res.seconds},
     )

@@ -12,6 +12,7 @@ state and control, ``Vehicle.lateral_acceleration``) is a path constraint at eve
 
 from __future__ import annotations
 
+import numpy as np
 import pyomo.environ as pyo
 from pyomo.dae import ContinuousSet, DerivativeVar
 
@@ -25,6 +26,7 @@ from model.problem.ocp import OCP
 from model.vehicles import sym
 
 RELAXED_TIME_WEIGHT = 1e-4  # m of summed slack per second of a free Tf in the minimal-violation model
+MIN_STEP = 1e-3  # s: the least step of a free grid (``TranscriptionOptions.free_grid``)
 
 
 def build_model(
@@ -57,11 +59,14 @@ def build_model(
         m.add_component(name, pyo.Var(m.tau, bounds=ocp.bounds.get(name, (None, None))))
     for name in v.states:
         m.add_component(f"d{name}", DerivativeVar(m.component(name), wrt=m.tau))
-    _add_final_time(m, ocp)
+    _add_final_time(m, ocp, intervals if opts.free_grid else None, opts.horizon is not None)
     _add_dynamics(m, ocp, opts.rate_disturbance)
     _add_boundary_conditions(m, ocp, final=opts.horizon is None)
-    pyo.TransformationFactory("dae.trapezoid").apply_to(m, wrt=m.tau, nfe=intervals)
+    steps = getattr(m, "step", None)
+    pyo.TransformationFactory("dae.trapezoid").apply_to(m, wrt=m.tau, nfe=intervals, steps=steps)
     m.nodes = list(m.tau)
+    if steps is not None:
+        m.tf = pyo.Expression(expr=pyo.quicksum(steps[k] for k in steps))
     _add_output_bounds(m, ocp)
     _add_path_bounds(m, ocp)
     _add_obstacle_data(m, ocp)
@@ -87,15 +92,23 @@ def build_model(
     return m
 
 
-def _add_final_time(m: pyo.ConcreteModel, ocp: OCP) -> None:
-    if ocp.cost.free_final_time:
+def _add_final_time(m: pyo.ConcreteModel, ocp: OCP, free_grid: int | None = None, horizon: bool = False) -> None:
+    """``m.tf``: a Var (free final time) or a mutable Param; ``free_grid`` (N): instead a Var ``m.step`` per
+    interval (``m.tf``, their sum, is added after the discretisation)."""
+    if free_grid is not None:
+        if not ocp.cost.free_final_time or horizon:
+            raise ValueError("a free grid needs a free final time and no receding horizon")
+        guess = (ocp.final_time or float(free_grid)) / free_grid
+        m.step = pyo.Var(pyo.RangeSet(1, free_grid), bounds=(MIN_STEP, None), initialize=guess)
+    elif ocp.cost.free_final_time:
         m.tf = pyo.Var(bounds=(1e-3, None), initialize=ocp.final_time or 1.0)
     else:
         m.tf = pyo.Param(mutable=True, initialize=ocp.final_time)
 
 
 def _add_dynamics(m: pyo.ConcreteModel, ocp: OCP, disturbance: bool = False) -> None:
-    """dX/dtau = Tf f(X, U) per state; ``disturbance``: Tf (f(X, U) + d_hat[X]), ``d_hat`` mutable (0)."""
+    """dX/dtau = Tf f(X, U) per state; ``disturbance``: Tf (f(X, U) + d_hat[X]), ``d_hat`` mutable (0).
+    On a free grid dX = f(X, U) (the steps are in the trapezoid rows, ``_time_scale``)."""
     v = ocp.vehicle
     if disturbance:
         m.d_hat = pyo.Param(list(v.states), mutable=True, initialize=0.0)
@@ -112,9 +125,15 @@ def _add_dynamics(m: pyo.ConcreteModel, ocp: OCP, disturbance: bool = False) -> 
 
         def rule(_m, t, f=f, dv=derivative, name=name):
             rate = sympy_to_pyomo(f, env(t))
-            return dv[t] == (m.tf * rate + m.tf * m.d_hat[name] if disturbance else m.tf * rate)
+            scale = _time_scale(m)
+            return dv[t] == (scale * rate + scale * m.d_hat[name] if disturbance else scale * rate)
 
         m.add_component(f"ode_{name}", pyo.Constraint(m.tau, rule=rule))
+
+
+def _time_scale(m: pyo.ConcreteModel):
+    """dt/dtau in the rates: Tf, or 1 on a free grid (whose steps are seconds)."""
+    return 1.0 if hasattr(m, "step") else m.tf
 
 
 def _add_boundary_conditions(m: pyo.ConcreteModel, ocp: OCP, final: bool = True) -> None:
@@ -165,10 +184,12 @@ def _add_path_bounds(m: pyo.ConcreteModel, ocp: OCP) -> None:
 
         def mid_env(k):
             a, b = tp[k - 1], tp[k]
-            states = {
-                sym(s): m.component(s)[a] + (3 * m.component(f"d{s}")[a] + m.component(f"d{s}")[b]) / (8 * n)
-                for s in v.states
-            }
+
+            def eighth(s):  # (h/8) (3 f_a + f_b), the dX per tau (uniform) or per second (free grid)
+                rise = 3 * m.component(f"d{s}")[a] + m.component(f"d{s}")[b]
+                return rise / (8 * n) if not hasattr(m, "step") else m.step[k] * rise / 8
+
+            states = {sym(s): m.component(s)[a] + eighth(s) for s in v.states}
             return states | {sym(c): (m.component(c)[a] + m.component(c)[b]) / 2 for c in v.controls} | params
 
         def rule(_m, t, expr=expr, lo=lo, hi=hi):
@@ -293,7 +314,7 @@ def _running_cost_sum(m: pyo.ConcreteModel, ocp: OCP, L):
     m.running_cost = pyo.Var(m.tau, initialize=0.0)
 
     def rule(_m, t):
-        return m.running_cost[t] == m.tf * sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
+        return m.running_cost[t] == _time_scale(m) * sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
 
     m.running_cost_rate = pyo.Constraint(m.tau, rule=rule)
     return _trapezoid_sum(m, lambda t: m.running_cost[t])
@@ -314,24 +335,35 @@ def energy(m: pyo.ConcreteModel, ocp: OCP):
     L = Energy().lagrangian(v)
 
     def rate(t):
-        return m.tf * sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
+        return _time_scale(m) * sympy_to_pyomo(L, {sym(c): m.component(c)[t] for c in v.controls})
 
     return _trapezoid_sum(m, rate) / n
 
 
 def _trapezoid_sum(m: pyo.ConcreteModel, rate):
-    """sum_k rate(t_k) with half weights at both ends (the trapezoid rule on the nodes, times N)."""
+    """sum_k rate(t_k) with half weights at both ends (the trapezoid rule on the nodes, times N); on a free
+    grid N times sum_k step_k (rate(t_{k-1}) + rate(t_k)) / 2, the trapezoid rule on its steps."""
     nodes = m.nodes
+    if hasattr(m, "step"):
+        n = len(nodes) - 1
+        pairs = enumerate(zip(nodes[:-1], nodes[1:], strict=True), start=1)
+        return n * pyo.quicksum(m.step[k] * (rate(a) + rate(b)) / 2 for k, (a, b) in pairs)
     return pyo.quicksum(rate(t) for t in nodes[1:-1]) + (rate(nodes[0]) + rate(nodes[-1])) / 2
 
 
 def _rate_penalty(m: pyo.ConcreteModel, ocp: OCP):
-    """eps * sum_k |u_{k+1} - u_k|^2 / h over all controls (h = Tf / N); 0 if eps = 0."""
+    """eps * sum_k |u_{k+1} - u_k|^2 / h over all controls (h = Tf / N, a free grid's own steps); 0 if eps = 0."""
     eps = float(getattr(ocp.cost, "rate_penalty", 0.0) or 0.0)
     if eps == 0.0:
         return 0
     nodes = m.nodes
     n = len(nodes) - 1
+    if hasattr(m, "step"):  # a free grid: each jump over its own step
+        pairs = enumerate(zip(nodes[:-1], nodes[1:], strict=True), start=1)
+        return eps * sum(
+            sum((m.component(c)[b] - m.component(c)[a]) ** 2 for c in ocp.vehicle.controls) / m.step[k]
+            for k, (a, b) in pairs
+        )
     jumps = sum(
         (m.component(c)[b] - m.component(c)[a]) ** 2
         for c in ocp.vehicle.controls
@@ -341,7 +373,9 @@ def _rate_penalty(m: pyo.ConcreteModel, ocp: OCP):
 
 
 def grid(m: pyo.ConcreteModel) -> list[float]:
-    """Node times in seconds, t_k = k Tf / N."""
+    """Node times in seconds, t_k = k Tf / N (a free grid: the sums of its steps)."""
+    if hasattr(m, "step"):
+        return [0.0, *np.cumsum([float(pyo.value(m.step[k])) for k in m.step]).tolist()]
     n = len(m.nodes) - 1
     tf = float(pyo.value(m.tf))
     return [k * tf / n for k in range(n + 1)]

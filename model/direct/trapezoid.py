@@ -11,6 +11,11 @@ becomes an ordinary Var, and ``<name>_trapezoid[k]`` constraints are added for k
 
 The model's own ODE constraints (dX[t] == f(X[t], U[t])) stay active at every node,
 t_0 included: with controls at the nodes this is the paper's scheme (31).
+
+``steps``: a component indexed 1..N (a Var: a free grid) whose k-th entry replaces t_k - t_{k-1}
+in every trapezoid row (the set's points then only number the nodes)::
+
+    X[t_k] - X[t_{k-1}] == steps[k] / 2 * (dX[t_{k-1}] + dX[t_k])
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ class TrapezoidTransformation(Transformation):
     CONFIG = ConfigBlock("dae.trapezoid")
     CONFIG.declare("nfe", ConfigValue(default=10, domain=PositiveInt, description="number of intervals"))
     CONFIG.declare("wrt", ConfigValue(default=None, description="the ContinuousSet to discretise"))
+    CONFIG.declare("steps", ConfigValue(default=None, description="the steps indexed 1..N (default: the points')"))
 
     def _apply_to(self, model, **kwds) -> None:
         config = self.CONFIG(kwds)
@@ -45,7 +51,7 @@ class TrapezoidTransformation(Transformation):
         for dv in list(model.component_objects(DerivativeVar, descend_into=True)):
             for ds in sets:
                 if ds in dv.get_continuousset_list():
-                    _add_trapezoid(dv, ds)
+                    _add_trapezoid(dv, ds, config.steps)
 
 
 def _uniform_points(ds: ContinuousSet, nfe: int) -> None:
@@ -59,8 +65,8 @@ def _uniform_points(ds: ContinuousSet, nfe: int) -> None:
     ds.set_changed(True)
 
 
-def _add_trapezoid(dv: DerivativeVar, ds: ContinuousSet) -> None:
-    """Add the trapezoid equations for one derivative and make it a plain Var."""
+def _add_trapezoid(dv: DerivativeVar, ds: ContinuousSet, steps=None) -> None:
+    """Add the trapezoid equations for one derivative and make it a plain Var (``steps``: see the module)."""
     if dv.get_continuousset_list() != [ds] or dv.dim() != 1:
         raise DAE_Error(f"dae.trapezoid handles first derivatives of Vars indexed by one set; not '{dv.name}'")
     sv = dv.get_state_var()
@@ -69,7 +75,8 @@ def _add_trapezoid(dv: DerivativeVar, ds: ContinuousSet) -> None:
     n = len(ds) - 1
 
     def rule(_block, k):  # written with tp[k] so that Pyomo can templatise it
-        return sv[tp[k]] - sv[tp[k - 1]] == (tp[k] - tp[k - 1]) / 2 * (dv[tp[k - 1]] + dv[tp[k]])
+        step = tp[k] - tp[k - 1] if steps is None else steps[k]
+        return sv[tp[k]] - sv[tp[k - 1]] == step / 2 * (dv[tp[k - 1]] + dv[tp[k]])
 
     block.add_component(f"{dv.local_name}_trapezoid", Constraint(RangeSet(1, n), rule=rule))
     dv.set_derivative_expression(None)

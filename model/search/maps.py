@@ -12,6 +12,12 @@ until the projections move less than 5 cm (at most 8 solves). The search runs, u
    sequence of ``relax=True`` from the centre line: a continuation in the corridor's width that is
    always feasible); where its violation vanishes (< ``ZERO_VIOLATION``) or is small (< ``NEAR``
    m at most), the plain sequence from its answer; a positive minimum is the diagnosis;
+3b. **the arclength grid** (``grid = "time+arclength"``, the default; not with ``search = "quick"``): where
+   steps 1-3 validated nothing, the same on nodes fixed to equal steps of the route frame's arclength, the time
+   free per interval (``solve_map(arclength=True)``, docs/map-corridor.md): the centre line, then for an answer
+   failing only between the nodes the mid-interval rows and the finer grid, then the strips as an exact
+   penalty (``PENALTY``); any validated solve of these sequences counts (``grid = "arclength"``: these steps
+   alone, then step 3; ``"time"``: steps 1-4 as before the arclength grid);
 4. **other speeds** (``search = "thorough"`` only): the centre-line start at other fractions of the
    speed bound (other Tf guesses), each a sequence. With a free Tf they reach the same fixed point
    as step 1 (measured on Thiergarten 21 -> 90, SU-30: the same eight Tf to 4 digits from 0.3, 0.5
@@ -34,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from model.analysis.maps import corridor_diagnosis
-from model.direct.map_corridor import Iterate, Result, Strips, centre_line_start, solve_map, strips
+from model.direct.map_corridor import Iterate, Result, Strips, answer_start, centre_line_start, solve_map, strips
 from model.direct.solution import Solution
 from model.direct.solve import Start
 from model.problem.ocp import OCP
@@ -45,6 +51,8 @@ TOLERANCE = 0.05  # m: a sequence stops when no projection moved more than this
 ZERO_VIOLATION = 1e-4  # m: summed strip slack below which the minimal-violation answer lies in the strips
 NEAR = 0.3  # m: the largest slack of a minimal-violation answer from which the plain strips are still tried
 SPEEDS = {"quick": (), "default": (), "thorough": (0.3, 0.8)}  # step 4's speed fractions (thorough only)
+PENALTY = 100.0  # per m of strip slack (s/m for the time objective): the arclength grid's penalty sequence
+GRIDS = {"time": ("time",), "arclength": ("arclength",), "time+arclength": ("time", "arclength")}  # ``grid``'s
 CONVERGED = ("optimal", "acceptable", "validation_failed")  # Ipopt converged (a check may have failed)
 
 
@@ -64,6 +72,8 @@ class MapSearch:
     best: Solution | None = None
     violation: tuple[float, float] | None = None  # step 3's minimum: (sum, largest) of the slacks, m
     best_clearance: float = -np.inf  # m: the best answer's least exact clearance at the nodes
+    best_sequence: int = -1  # the index in ``sequences`` of the best answer's sequence
+    grid: str = "time"  # the current sequences' nodes: "time" (equal steps of a free Tf) or "arclength"
 
     @property
     def deadline(self) -> float | None:
@@ -84,8 +94,10 @@ class MapSearch:
         return True
 
     def sequence(self, label: str, start: Start | None = None, intervals: int | None = None,
-                 relax: bool = False) -> Result:  # fmt: skip
-        """One sequence of strip solves (``solve_map``), recorded and reported; the best answer kept."""
+                 relax: bool = False, penalty: float | None = None, between: bool = False) -> Result:  # fmt: skip
+        """One sequence of strip solves (``solve_map``), recorded and reported; the best answer kept: the
+        sequence's last (not of a minimal-violation sequence); on the arclength grid any of its solves
+        (``penalty``: of a penalty sequence too) that validates, else the last."""
         n = intervals or self.intervals
         solves: list[dict] = []
 
@@ -99,16 +111,29 @@ class MapSearch:
                           f"moved {it.moved:.3f} m, exact clearance {it.exact_clearance:+.3f} m{extra}, "
                           f"{it.seconds:.1f} s")  # fmt: skip
 
+        arclength = self.grid == "arclength"
         result = solve_map(self.ocp, n, iterations=ITERATIONS, tol=TOLERANCE, options=self.options, st=self.st,
-                           relax=relax, start=start, deadline=self.deadline, on_iterate=report)  # fmt: skip
+                           relax=relax or penalty is not None, start=start, deadline=self.deadline,
+                           arclength=arclength, penalty=penalty, between=between, on_iterate=report)  # fmt: skip
         last = result.iterates[-1]
-        self.sequences.append({"start": label, "intervals": n, "relaxed": relax, "solves": solves,
+        self.sequences.append({"start": label, "intervals": n, "relaxed": relax, "grid": self.grid, "solves": solves,
                                "converged": last.moved < TOLERANCE and last.solution.status in CONVERGED,
-                               "valid": bool(last.solution.ok)})  # fmt: skip
-        if not relax and _before(last, self.best, self.best_clearance):
-            self.best = last.solution
-            self.best.search = {"converged": self.sequences[-1]["converged"]}
-            self.best_clearance = last.exact_clearance
+                               "valid": bool(last.solution.ok),
+                               **({"penalty": penalty} if penalty is not None else {}),
+                               **({"between": True} if between else {})})  # fmt: skip
+        if relax:
+            return result
+        candidates = [last]
+        if arclength:  # any validated solve of the sequence (its answer passed every check), else the last
+            candidates = [it for it in result.iterates if it.solution.ok] or ([last] if penalty is None else [])
+        for it in candidates:
+            if _before(it, self.best, self.best_clearance):
+                self.best = it.solution
+                self.best.search = {"converged": it is last and self.sequences[-1]["converged"],
+                                    "solve": result.iterates.index(it) + 1}  # fmt: skip
+                self.best_clearance = it.exact_clearance
+                self.best_sequence = len(self.sequences) - 1
+                self.sequences[-1]["valid"] = self.sequences[-1]["valid"] or bool(it.solution.ok)
         return result
 
 
@@ -130,7 +155,7 @@ def _before(it: Iterate, best: Solution | None, clearance: float) -> bool:
 
 def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None, verbose: bool = False,
                     progress=None, time_limit: float | None = None, search: str = "default",
-                    **_ignored: Any) -> Solution:  # fmt: skip
+                    grid: str = "time+arclength", **_ignored: Any) -> Solution:  # fmt: skip
     """Solve a route through a lanelet map by the steps of the module docstring.
 
     Parameters
@@ -147,6 +172,10 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
         Seconds for the whole search (None: no limit).
     search : str
         "quick" (steps 1-2), "default" (steps 1-3) or "thorough" (steps 1-4).
+    grid : str
+        "time": the nodes are equal steps of a free Tf; "arclength": node k fixed to the arclength s_k of
+        the route's frame and the time free per interval (``solve_map(arclength=True)``); "time+arclength":
+        the time grid's steps 1-3, then, where none validated, the arclength grid's (not with "quick").
     **_ignored
         The roundabout search's other options (``guess``, ``starts``, ``formulation``), not used here.
 
@@ -162,12 +191,24 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
         ipopt.setdefault("print_level", 5)
     if search not in SPEEDS:
         raise ValueError(f"search must be one of {', '.join(SPEEDS)}, got {search!r}")
-    run = MapSearch(ocp, intervals, strips(ocp), ipopt, reporter(progress), time_limit)
+    if grid not in GRIDS:
+        raise ValueError(f"grid must be one of {', '.join(GRIDS)}, got {grid!r}")
+    first, *then = GRIDS[grid]
+    run = MapSearch(ocp, intervals, strips(ocp), ipopt, reporter(progress), time_limit, grid=first)
     run.progress("map search: the strip sequence from the centre line")
     run.sequence("centre line x0.5")
     _refine(run)
+    if run.grid == "arclength":
+        _penalty_step(run)
     if not run.best.ok and search != "quick" and not run.skip("minimal violation"):
         _minimal_violation_step(run)
+    if then and not run.best.ok and search != "quick" and not run.skip("arclength grid"):
+        run.grid = "arclength"
+        run.progress("no sequence validated on the time grid: the arclength grid (nodes fixed to the frame)")
+        run.sequence("arclength grid, centre line x0.5")
+        _refine(run)
+        _penalty_step(run)
+        run.grid = first  # step 4 on the time grid, as before
     for speed in SPEEDS[search]:
         if run.best.ok or run.skip(f"centre line x{speed:g}"):
             break
@@ -177,24 +218,44 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
     return _finished(run)
 
 
+def _penalty_step(run: MapSearch) -> None:
+    """The arclength grid's last resort: the strips as an exact L1 penalty (``PENALTY`` per m of slack) from
+    the centre line (Thiergarten 51 -> 108, SU-30: the plain strips Ipopt-infeasible, the minimal violation
+    0.2 mm; the penalty answer validates)."""
+    if run.best.ok or run.skip("penalty"):
+        return
+    run.progress(f"no solve validated: the strips as an exact penalty ({PENALTY:g} per m of slack)")
+    run.sequence("centre line x0.5, penalty", penalty=PENALTY)
+
+
 def _refine(run: MapSearch) -> None:
     """Step 2: the sequence on 2N from an answer that fails only between the nodes."""
     best = run.best
     failed = [k for k, c in best.validation.get("checks", {}).items() if not c["passed"]]
     if best.ok or failed != ["body_clearance_dense"] or best.intervals != run.intervals or run.skip("finer grid"):
         return
+    if run.grid == "arclength":  # first the strip rows also at each interval's mid-state, on the same N
+        run.progress("the answer leaves the corridor only between the nodes: mid-interval strip rows from it")
+        run.sequence(f"mid-interval rows from {run.sequences[-1]['start']}", answer_start(run.ocp, best), between=True)
+        best = run.best
+        failed = [k for k, c in best.validation.get("checks", {}).items() if not c["passed"]]
+        if best.ok or failed != ["body_clearance_dense"] or run.skip("finer grid"):
+            return
     n = 2 * run.intervals
     run.progress(f"the answer leaves the corridor only between the nodes: the strips on N = {n} from it")
-    run.sequence(f"finer grid from {run.sequences[-1]['start']}", interpolated(run.ocp, best, n), n)
+    start = interpolated(run.ocp, best, n, run.grid == "arclength")
+    run.sequence(f"finer grid from {run.sequences[-1]['start']}", start, n)
 
 
-def interpolated(ocp: OCP, sol: Solution, intervals: int) -> Start:
-    """``sol``'s states and controls interpolated linearly onto ``intervals`` equal steps of its Tf."""
+def interpolated(ocp: OCP, sol: Solution, intervals: int, by_node: bool = False) -> Start:
+    """``sol``'s states and controls interpolated linearly onto ``intervals`` equal steps of its Tf
+    (``by_node``: of its node index, with the node times: the equal arclength steps of an arclength grid)."""
     t = np.asarray(sol.columns["t"], float)
-    tau, new = (t - t[0]) / (t[-1] - t[0]), np.linspace(0.0, 1.0, intervals + 1)
+    tau = np.linspace(0.0, 1.0, len(t)) if by_node else (t - t[0]) / (t[-1] - t[0])
+    new = np.linspace(0.0, 1.0, intervals + 1)
     names = [k for k in ocp.vehicle.states + ocp.vehicle.controls if k in sol.columns]
     return Start(values={k: np.interp(new, tau, np.asarray(sol.columns[k], float)) for k in names},
-                 final_time=sol.final_time)  # fmt: skip
+                 final_time=sol.final_time, times=np.interp(new, tau, t) if by_node else None)  # fmt: skip
 
 
 def _minimal_violation_step(run: MapSearch) -> None:
@@ -206,15 +267,17 @@ def _minimal_violation_step(run: MapSearch) -> None:
     run.violation = relaxed.violation
     if relaxed.violation[1] > NEAR or run.skip("strips from the minimal violation"):
         return
-    cols = {k: np.asarray(relaxed.solution.columns[k]) for k in run.ocp.vehicle.states + run.ocp.vehicle.controls}
-    run.sequence("from the minimal violation", Start(values=cols, final_time=relaxed.solution.final_time))
+    run.sequence("from the minimal violation", answer_start(run.ocp, relaxed.solution))
     _refine(run)
 
 
 def _finished(run: MapSearch) -> Solution:
     """The best answer with the search's record (and its diagnosis unless it validated)."""
     sol = run.best
-    last = next(s for s in reversed(run.sequences) if not s["relaxed"] and s["valid"] == sol.ok)
+    if any(s["grid"] == "arclength" for s in run.sequences):
+        last = run.sequences[run.best_sequence]
+    else:
+        last = next(s for s in reversed(run.sequences) if not s["relaxed"] and s["valid"] == sol.ok)
     sol.search = {
         "method": "map corridor strips (fixed projections), several starts",
         "solves": last["solves"],  # the sequence of the answer
