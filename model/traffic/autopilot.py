@@ -74,7 +74,6 @@ FOLLOW_MIN_GAP = 2.5  # m: the follower's standstill gap behind the truck (SUMO'
 FOLLOW_HEADING = math.radians(30.0)  # a vehicle on the ring heading within this of the ring's tangent circulates
 EXIT_SIGNAL_MIN = 8.0  # m: a car signalling its exit this near the merge point may mean the next exit: it follows
 LEADER_DECEL = 4.0  # m/s^2: the truck's braking SUMO's follower assumes (SUMO's truck and trailer decel)
-FOLLOW_MODEL = "sumo"  # the follower's safe speed: SUMO's ("sumo", stop-distance based) or Krauss' original ("krauss")
 EMERGENCY_DECEL = 9.0  # m/s^2: the follower's hardest braking (SUMO's passenger emergencyDecel)
 
 
@@ -308,9 +307,10 @@ class Autopilot:
         junction). From the instant the truck's front crosses the line, SUMO's follower treats the
         truck as its leader (if the truck's front is the nearer to the merge point): gap = (the
         follower's distance to the merge point) - (the front's path length to it) - the truck's
-        length - ``FOLLOW_MIN_GAP``. The follower, at its speed now, is driven by Krauss' safe speed
-        v_l + (g - v_l tau) / ((v + v_l) / (2 b) + tau) (tau = ``SUMO_TAU``, b = ``YIELD_DECEL``,
-        v_l the speed of the truck's front bumper, SUMO's speed of the moved truck), never faster
+        length - ``FOLLOW_MIN_GAP``. The follower, at its speed now, is driven by SUMO's safe follow
+        speed (``_safe_stop_speed`` of the gap plus the truck's braking distance v_l^2 / (2
+        ``LEADER_DECEL``); headway ``SUMO_TAU``, braking ``YIELD_DECEL``; v_l the speed of the truck's
+        front bumper, SUMO's speed of the moved truck), never faster
         than now and braking at most ``EMERGENCY_DECEL``, at every ``step`` of the horizon; its
         largest deceleration is returned.
 
@@ -414,23 +414,34 @@ class Autopilot:
         near = self._near(others, tau)
         theirs = self._predict(near, tau)
         signalling = np.array([o.key in exiting for o in near], bool)
+        safety, braking, keeps = self.scenario.traffic.safety_distance, {}, {}
+
+        def brakes(i: int, rates: np.ndarray, s: np.ndarray) -> float:  # each profile's follower braking once
+            if i not in braking:
+                braking[i] = self.follower_braking(tau, rates, s, theirs, signalling)
+            return braking[i]
+
+        def rules(i: int, rates: np.ndarray, s: np.ndarray) -> bool:  # the junction rule, no follower braked hard
+            if i not in keeps:
+                keeps[i] = not self.junction_conflict(tau, s, theirs) and brakes(i, rates, s) <= FOLLOWER_DECEL
+            return keeps[i]
+
         best, tried = None, []
-        for name, rates, s in self.profiles(tau):
+        for i, (name, rates, s) in enumerate(self.profiles(tau)):
             gaps = self.clearances(s, theirs)
             net = float(np.min(gaps[1:] - PREDICTION_MARGIN * np.minimum(tau[1:], MARGIN_HORIZON)))  # not now
-            if net >= self.scenario.traffic.safety_distance and self._keeps_rules(tau, rates, s, theirs, signalling):
+            if net >= safety and rules(i, rates, s):
                 best, best_gap = (name, rates), float(gaps.min())
                 break
-            tried.append((net, name, rates, s, float(gaps.min())))
+            tried.append((net, name, rates, s, float(gaps.min()), i))
         if best is None:  # none safe: the largest least distance among those keeping the rules
-            keeps = [t for t in tried if self._keeps_rules(tau, t[2], t[3], theirs, signalling)]
+            kept = [t for t in tried if rules(t[5], t[2], t[3])]
             # none keeps them (a follower appeared after the line): the distance-safe one braking it least
-            sure = [t for t in tried if t[0] >= self.scenario.traffic.safety_distance]
-            if keeps or not sure:
-                _, name, rates, _, best_gap = max(keeps or tried, key=lambda t: t[0])
+            sure = [t for t in tried if t[0] >= safety]
+            if kept or not sure:
+                _, name, rates, _, best_gap, _ = max(kept or tried, key=lambda t: t[0])
             else:
-                _, name, rates, _, best_gap = min(
-                    sure, key=lambda t: self.follower_braking(tau, t[2], t[3], theirs, signalling))
+                _, name, rates, _, best_gap, _ = min(sure, key=lambda t: brakes(t[5], t[2], t[3]))
             best = (name, rates)
         name, rates = best
         new_rate = float(np.interp(step, tau, rates))
@@ -442,13 +453,6 @@ class Autopilot:
         self.decision_seconds.append(time.perf_counter() - t0)
         self.decision_cpu_seconds.append(time.process_time() - c0)
         return name, best_gap
-
-    def _keeps_rules(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray,
-                     exiting: np.ndarray | None = None) -> bool:  # fmt: skip
-        """Whether a profile keeps SUMO's junction rule (when given) and asks no follower above ``FOLLOWER_DECEL``."""
-        if self.junction_conflict(tau, s, theirs):
-            return False
-        return self.follower_braking(tau, rates, s, theirs, exiting) <= FOLLOWER_DECEL
 
     def expect(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
         """``other`` as the roundabout's rule expects it: an entering vehicle that can still stop yields.
@@ -547,7 +551,7 @@ def _krauss_follower(distance: float, speed: float, to_merge: np.ndarray, v_l: n
     At each step where the truck is ``inside`` (its front past the give-way line) and its front is
     nearer to the merge point than the follower's (else the follower is ahead), the follower's gap
     is its distance to the merge point minus the truck front's (``to_merge``) minus ``length`` and
-    ``FOLLOW_MIN_GAP``; it slows to Krauss' safe speed for the truck's speed ``v_l`` (never below
+    ``FOLLOW_MIN_GAP``; it slows to SUMO's safe follow speed for the truck's speed ``v_l`` (never below
     ``speed`` - ``EMERGENCY_DECEL`` step per step, never faster than ``speed``).
     """
     x, v, worst = 0.0, speed, 0.0
@@ -555,10 +559,7 @@ def _krauss_follower(distance: float, speed: float, to_merge: np.ndarray, v_l: n
     for k in range(len(to_merge)):
         if inside[k] and to_merge[k] <= distance - x:  # the truck's front is the nearer to the merge point
             g = distance - x - to_merge[k] - length - FOLLOW_MIN_GAP
-            if FOLLOW_MODEL == "sumo":
-                safe = _safe_stop_speed(max(g, 0.0) + v_l[k] ** 2 / (2.0 * LEADER_DECEL), b, tau, step)
-            else:
-                safe = v_l[k] + (g - v_l[k] * tau) / ((v + v_l[k]) / (2.0 * b) + tau)
+            safe = _safe_stop_speed(max(g, 0.0) + v_l[k] ** 2 / (2.0 * LEADER_DECEL), b, tau, step)
             new = min(v, max(safe, v - EMERGENCY_DECEL * step, 0.0))
             worst = max(worst, (v - new) / step)
             v = new
@@ -600,7 +601,7 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 
 __all__ = [
-    "EMERGENCY_DECEL", "EXIT_SIGNAL_MIN", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP", "FOLLOW_MODEL",
+    "EMERGENCY_DECEL", "EXIT_SIGNAL_MIN", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP",
     "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON",
     "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS", "YAW_WINDOW",
     "Autopilot", "Plan", "plan_of", "predict",
