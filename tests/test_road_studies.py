@@ -115,10 +115,14 @@ def run(script: str, *args) -> None:
 
 
 def test_table_scripts_on_one_small_cell(tmp_path):
-    cell = tmp_path / "cells" / "P_icd40_apron0.json"
-    run("studies_roads_cell.py", "--template", TEMPLATE, "--cell", "P_icd40_apron0", "--intervals", 20,
-        "--time-limit", 60, "--clock", "cpu", "--energy-time-limit", 60, "--out", cell)  # fmt: skip
-    data = json.loads(cell.read_text())
+    cell, larger = tmp_path / "cells" / "P_icd40_apron0.json", tmp_path / "cells" / "P_icd50_apron0.json"
+    # a row as the pipeline runs it: two cells in one process, each written to its own file
+    run("studies_roads_cell.py", "--template", TEMPLATE, "--cell", "P_icd40_apron0", "P_icd50_apron0", "--intervals",
+        20, "--time-limit", 60, "--clock", "cpu", "--energy-time-limit", 60, "--out", cell, larger)  # fmt: skip
+    data, other = json.loads(cell.read_text()), json.loads(larger.read_text())
+    assert (data["cell"], data["icd"], other["cell"], other["icd"]) == ("P_icd40_apron0", 40, "P_icd50_apron0", 50)
+    assert other["time"]["valid"] and other["time"]["final_time"] > data["time"]["final_time"]  # the larger ring
+    assert 0.0 < other["cpu_seconds"] < 60.0  # its own clock, not the process's
     assert data["energy_time_limit"] == 60.0
     assert data["time"]["valid"] and data["energy"]["valid"]
     assert data["time_limit_clock"] == "cpu" and 0.0 < data["cpu_seconds"] < 60.0
@@ -154,3 +158,18 @@ def test_a_cell_with_a_bad_time_limit_is_refused_in_one_line(tmp_path, flag):
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
     assert done.stderr.startswith(f"{flag}:")
     assert not cell.exists()
+
+
+@pytest.mark.parametrize(
+    ("cells", "outs", "flag"),
+    [(["P_icd40_apron0"], ["a.json", "b.json"], "--out"), (["P_icd40_apron0", "P-40"], ["a.json", "b.json"], "--cell")],
+)
+def test_a_row_with_bad_cells_or_files_is_refused_in_one_line(tmp_path, cells, outs, flag):
+    """A row's ``--out`` needs one file per ``--cell``, each cell a VEHICLE_icdD_apronA name: one line naming the
+    flag, exit 2, no file written (not even the good cells')."""
+    done = subprocess.run([sys.executable, str(SCRIPTS / "studies_roads_cell.py"), "--template", str(TEMPLATE),
+                           "--cell", *cells, "--intervals", "20", "--out", *[str(tmp_path / o) for o in outs]],
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+    assert done.stderr.startswith(f"{flag}:")
+    assert not list(tmp_path.iterdir())

@@ -424,17 +424,21 @@ def open_loop_solve(scenario, args, options: dict, progress: Progress):
     from model.problem.methods import default_solve, load_method
 
     method = load_method(default_solve(scenario.ocp))
+    from model.nlp.imports import settled_heap
+
     t1 = time.perf_counter()
-    sol = scenario.ocp.solve(
-        intervals=intervals,
-        method=method,
-        verbose=args.verbose,
-        options=options,
-        progress=progress,
-        **({"search": args.search} if getattr(args, "search", "default") != "default" else {}),
-        **({"time_limit": args.time_limit} if getattr(args, "time_limit", None) is not None else {}),
-        **({"grid": args.map_grid} if getattr(args, "map_grid", None) and scenario.ocp.map_route is not None else {}),
-    )
+    with settled_heap():  # the imports' objects out of the solve's collections (model/nlp/imports.py)
+        sol = scenario.ocp.solve(
+            intervals=intervals,
+            method=method,
+            verbose=args.verbose,
+            options=options,
+            progress=progress,
+            **({"search": args.search} if getattr(args, "search", "default") != "default" else {}),
+            **({"time_limit": args.time_limit} if getattr(args, "time_limit", None) is not None else {}),
+            **({"grid": args.map_grid} if getattr(args, "map_grid", None) and scenario.ocp.map_route is not None
+               else {}),
+        )  # fmt: skip
     return sol, t1 - t0
 
 

@@ -23,8 +23,8 @@ PAPER_FIGURES += [
 
 
 wildcard_constraints:
-    road_cell="|".join(re.escape(c) for c in ROAD_CELLS) or "NO_CELL",
-    road_grid="small|full",
+    road_vehicle="|".join(re.escape(v) for v in ROAD_GRID["vehicles"]) or "NO_VEHICLE",
+    road_apron="|".join(re.escape(f"{float(a):g}") for a in ROAD_GRID["apron"]) or "NO_APRON",
 
 
 rule road_study_turning:
@@ -42,22 +42,34 @@ rule road_study_turning:
         " 2> {log}"
 
 
-rule road_study_cell:
+def road_row_cells(vehicle: str, apron: str) -> list[str]:
+    """The cells of one row of the grid (one vehicle and apron, every ICD), in the ICD's order."""
+    return [c for c in ROAD_CELLS if c.startswith(f"{vehicle}_icd") and c.endswith(f"_apron{apron}")]
+
+
+# One job per row, not per cell: the row's cells are solved in turn in one process (each with its own budget,
+# written when done), so the full grid's 84 cells pay the solve path's imports (about 2 s of CPU) 12 times.
+# The grid lists vehicles from small to large and the large ones' rows take longest (full grid: 47-60 s of
+# CPU for P and SU-30, 105-249 s for the articulated ones): started first, the two cores finish together
+rule road_study_row:
+    priority: lambda wc: ROAD_GRID["vehicles"].index(wc.road_vehicle)
     input:
         template=ROAD_TEMPLATE,
         script=SCRIPTS / "studies_roads_cell.py",
         code=closure(SCRIPTS / "studies_roads_cell.py"),
     output:
-        f"{ROAD_STUDY_DIR}/table/{{road_grid}}/cells/{{road_cell}}.json",
+        [f"{ROAD_STUDY_DIR}/table/{ROAD_STUDY}/cells/{{road_vehicle}}_icd{float(i):g}_apron{{road_apron}}.json"
+         for i in ROAD_GRID["icd"]],
     params:
-        intervals=lambda wc: config["road_studies_grids"][wc.road_grid]["intervals"],
-        time_limit=lambda wc: (lambda g: f"--time-limit {g['time_limit']} --clock {g.get('time_limit_clock', 'wall')}"
-                               + (f" --energy-time-limit {g['energy_time_limit']}" if g.get("energy_time_limit") else "")
-                               if g.get("time_limit") else "")(config["road_studies_grids"][wc.road_grid]),
+        cells=lambda wc: " ".join(road_row_cells(wc.road_vehicle, wc.road_apron)),
+        intervals=ROAD_GRID["intervals"],
+        time_limit=(lambda g: f"--time-limit {g['time_limit']} --clock {g.get('time_limit_clock', 'wall')}"
+                    + (f" --energy-time-limit {g['energy_time_limit']}" if g.get("energy_time_limit") else "")
+                    if g.get("time_limit") else "")(ROAD_GRID),
     log:
-        "results/logs/studies/roads-{road_grid}/{road_cell}.log",
+        f"results/logs/studies/roads-{ROAD_STUDY}/{{road_vehicle}}_apron{{road_apron}}.log",
     shell:
-        "{PYTHON} {input.script} --template {input.template} --cell {wildcards.road_cell}"
+        "{PYTHON} {input.script} --template {input.template} --cell {params.cells}"
         " --intervals {params.intervals} {params.time_limit} --energy-ratio {ROAD_ENERGY_RATIO} --out {output}"
         " 2> {log}"
 

@@ -1,4 +1,9 @@
-"""Road study (b), one cell: a design vehicle turns left through one roundabout size, with or without an apron.
+"""Road study (b), cells: a design vehicle turns left through one roundabout size, with or without an apron.
+
+``--cell`` takes one or more cells (the pipeline passes a row: one vehicle and apron, every ICD), solved in
+turn in this process, each written to its ``--out`` file (the same count) as soon as it is done: the
+imports (Pyomo, SymPy, CasADi, cyipopt with SciPy; about 2 s of CPU) are paid once per row, not per cell.
+Each cell's budgets count from its own start.
 
 The cell's scenario is the template (workflows/scenarios/roads/left-turn.toml) with the preset,
 the inscribed diameter and the apron set (model.studies.roads.cell_document). Solves the minimum
@@ -23,6 +28,7 @@ from studies_common import write_json  # noqa: E402
 
 from model.cli import checked_time_limit  # noqa: E402
 from model.errors import InputError  # noqa: E402
+from model.nlp.imports import settled_heap  # noqa: E402
 from model.problem.scenario import parse_scenario  # noqa: E402
 from model.studies.roads import cell_document, cell_measures, parse_cell  # noqa: E402
 from model.studies.sweeps import as_energy  # noqa: E402
@@ -100,29 +106,57 @@ def budget(flag: str, text: str | None) -> float | None:
         raise InputError(flag, err.message) from None
 
 
+def checked_cell(name: str) -> None:
+    """An InputError naming ``--cell`` unless ``name`` reads as VEHICLE_icdD_apronA."""
+    try:
+        parse_cell(name)
+    except ValueError:
+        raise InputError("--cell", f"{name!r} is not VEHICLE_icdD_apronA (e.g. WB-62_icd40_apron2)") from None
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--template", type=Path, required=True)
-    ap.add_argument("--cell", required=True, help="e.g. WB-62_icd40_apron2 (model.studies.roads.cell_name)")
+    ap.add_argument(
+        "--cell",
+        required=True,
+        nargs="+",
+        help="one or more cells, e.g. WB-62_icd40_apron2 (model.studies.roads.cell_name)",
+    )
     ap.add_argument("--intervals", type=int, required=True)
     ap.add_argument("--energy-ratio", type=float, default=1.2)
     ap.add_argument("--time-limit", default=None,
                     help="seconds for the minimum-time search ('inf' or not given: none); past it, the best answer or "
                          "a refusal")  # fmt: skip
-    ap.add_argument("--energy-time-limit", default=None,
-                    help="seconds for the energy-optimal search ('inf' or not given: none), on the same clock")
-    ap.add_argument("--clock", choices=("wall", "cpu"), default="wall",
-                    help="what --time-limit and --energy-time-limit count: wall seconds or the process's CPU seconds")
-    ap.add_argument("--out", type=Path, required=True, help="the cell's JSON file")
+    ap.add_argument(
+        "--energy-time-limit",
+        default=None,
+        help="seconds for the energy-optimal search ('inf' or not given: none), on the same clock",
+    )
+    ap.add_argument(
+        "--clock",
+        choices=("wall", "cpu"),
+        default="wall",
+        help="what --time-limit and --energy-time-limit count: wall seconds or the process's CPU seconds",
+    )
+    ap.add_argument("--out", type=Path, required=True, nargs="+", help="each cell's JSON file, in --cell's order")
     args = ap.parse_args()
     try:  # the CLI's own check of --time-limit (a number > 0 or 'inf'), for both budgets
-        limit, energy_limit = budget("--time-limit", args.time_limit), budget("--energy-time-limit",
-                                                                               args.energy_time_limit)
+        limit, energy_limit = (
+            budget("--time-limit", args.time_limit),
+            budget("--energy-time-limit", args.energy_time_limit),
+        )
+        if len(args.out) != len(args.cell):
+            raise InputError("--out", f"{len(args.out)} files for {len(args.cell)} cells (one per --cell)")
+        for cell in args.cell:
+            checked_cell(cell)
     except InputError as err:
         print(err, file=sys.stderr)
         sys.exit(2)
-    write_json(args.out, solve_cell(args.template, args.cell, args.intervals, args.energy_ratio, limit,
-                                          args.clock, energy_limit))
+    for cell, out in zip(args.cell, args.out, strict=True):
+        with settled_heap():  # the last cell's garbage collected, the survivors frozen (model/nlp/imports.py)
+            record = solve_cell(args.template, cell, args.intervals, args.energy_ratio, limit, args.clock, energy_limit)
+        write_json(out, record)
 
 
 if __name__ == "__main__":
