@@ -290,23 +290,14 @@ def _continue_or_diagnose(ctx: Search, best: Solution, continuation: bool) -> So
                 ctx.stop()
             return options
 
-        attempts_to_make = (
-            ("slowed minimum time", lambda: slowed_minimum_time(ocp, solve, ctx.progress)),
-            ("final-time homotopy", lambda: (final_time_homotopy(ocp, solve, ctx.progress, budget), None)),
-        )
-        for route, attempt in attempts_to_make:
-            if ctx.skip(route):
-                continue
-            if route == "final-time homotopy" and least_time is not None and least_time > (1 + HOMOTOPY_MARGIN) * (
-                ocp.final_time
-            ):
-                ctx.progress(f"no final-time homotopy: the least time found, {least_time:.4g} s, is above Tf")
-                continue
-            found, least = attempt()
-            least_time = least_time if least is None else least
-            status, objective = (found.status, found.objective) if found else ("failed", None)
-            ctx.attempts.append({"pass": "best", "route": route, "status": status,
-                                 "valid": bool(found and found.ok), "objective": objective})  # fmt: skip
+        found, least_time = _attempt(ctx, "slowed minimum time", lambda: slowed_minimum_time(ocp, solve, ctx.progress))
+        if found is not None and found.ok:
+            return found
+        if least_time is not None and least_time > (1 + HOMOTOPY_MARGIN) * ocp.final_time:
+            ctx.progress(f"no final-time homotopy: the least time found, {least_time:.4g} s, is above Tf")
+        else:
+            homotopy = lambda: (final_time_homotopy(ocp, solve, ctx.progress, budget), None)  # noqa: E731
+            found, _ = _attempt(ctx, "final-time homotopy", homotopy)
             if found is not None and found.ok:
                 return found
     evidence = ctx.best_evidence()
@@ -315,6 +306,20 @@ def _continue_or_diagnose(ctx: Search, best: Solution, continuation: bool) -> So
         best.diagnosis["least_time_found_s"] = least_time
         best.diagnosis["message"] += f"; the least time found is {least_time:.4g} s > Tf = {ocp.final_time:g} s"
     return best
+
+
+def _attempt(ctx: Search, route: str, attempt) -> tuple[Solution | None, float | None]:
+    """Run one continuation ``route`` unless the search skips it; record it in ``ctx.attempts``.
+
+    Returns the solution found (or None) and the least time the route found (None if it says none).
+    """
+    if ctx.skip(route):
+        return None, None
+    found, least = attempt()
+    status, objective = (found.status, found.objective) if found else ("failed", None)
+    ctx.attempts.append({"pass": "best", "route": route, "status": status,
+                         "valid": bool(found and found.ok), "objective": objective})  # fmt: skip
+    return found, least
 
 
 def phase_totals(solutions: list[Solution]) -> dict[str, float]:
