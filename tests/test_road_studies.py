@@ -136,14 +136,22 @@ def test_table_scripts_on_one_small_cell(tmp_path):
                       "diagnosis": {"message": "the trailer crosses the apron by 1.30 m", "body": "trailer",
                                     "edge": "apron", "encroachment_m": 1.3}}  # fmt: skip
     (tmp_path / "cells" / "WB-67_icd40_apron0.json").write_text(json.dumps(failed))
+    # a cell at a smaller ICD that took three times the CPU, refused at its time limit: the section says why
+    slow = {**failed, "cell": "P_icd35_apron0", "preset": "P", "icd": 35.0, "time_limit": 60.0,
+            "cpu_seconds": 3 * data["cpu_seconds"]}  # fmt: skip
+    slow["time"] = {**failed["time"], "diagnosis": {"kind": "time limit", "time_limit_s": 60.0, "clock": "cpu"}}
+    (tmp_path / "cells" / "P_icd35_apron0.json").write_text(json.dumps(slow))
     section = tmp_path / "74.md"
-    run("studies_roads_table.py", "--cells", cell, tmp_path / "cells" / "WB-67_icd40_apron0.json", "--template",
+    run("studies_roads_table.py", "--cells", cell, tmp_path / "cells" / "WB-67_icd40_apron0.json",
+        tmp_path / "cells" / "P_icd35_apron0.json", "--template",
         TEMPLATE, "--mode", "small", "--vehicles", "P", "WB-67", "--icd", 40, "--apron", 0, "--intervals", 20,
         "--out", tmp_path / "table", "--section", section, "--formats", "png")  # fmt: skip
     text = section.read_text()
     assert "`road_studies: small` run" in text
     assert f"{data['time']['final_time']:.4g}" in text
     assert "FAILED" in text and "the trailer crosses the apron by 1.30 m" in text
+    assert "minimum time is above twice the same vehicle's at the next larger ICD (with the same apron): none" in text
+    assert "P ICD 35 m apron 0 m:" in text and "(refused at its time limit of 60 s" in text
     assert (tmp_path / "table" / "table.png").exists()
 
 

@@ -58,7 +58,52 @@ def flat(c: dict) -> dict:
         "diagnosis_m": (t.get("diagnosis") or {}).get("encroachment_m") if not t["valid"] else None,
         "seconds": c.get("seconds"),
         "cpu_seconds": c.get("cpu_seconds"),
+        "time_limited": d.get("kind") == "time limit",
+        "time_limit": c.get("time_limit"),
+        "energy_seconds": e.get("solve_seconds"),
+        "energy_time_limit": c.get("energy_time_limit"),
     }
+
+
+def outliers(df: pd.DataFrame, column: str, unit: str) -> list[str]:
+    """Cells whose ``column`` is above twice that of the same vehicle and apron at the next larger ICD."""
+    found = []
+    for _, g in df.sort_values("icd").groupby(["preset", "apron"], sort=False):
+        rows = g.to_dict("records")
+        for r, nxt in zip(rows, rows[1:], strict=False):
+            a, b = r.get(column), nxt.get(column)
+            if a is not None and b is not None and pd.notna(a) and pd.notna(b) and a > 2 * b:
+                found.append(f"{r['preset']} ICD {r['icd']:g} m apron {r['apron']:g} m: {fmt(a, 3)}{unit} against"
+                             f" {fmt(b, 3)}{unit} at ICD {nxt['icd']:g} m ({slow_reason(r)})")  # fmt: skip
+    return found
+
+
+def slow_reason(r: dict) -> str:
+    """Why a cell took long, from its record: its time limit, its energy search's share, else its search."""
+    if r["time_limited"]:
+        return f"refused at its time limit of {r['time_limit']:g} s, with the evidence found before it"
+    energy = r.get("energy_seconds")
+    if energy is not None and pd.notna(energy) and energy > 0.5 * r["seconds"]:
+        budget = r.get("energy_time_limit")
+        at = f" (budget {budget:g} s)" if budget is not None and pd.notna(budget) else ""
+        return f"valid; {fmt(energy, 3)} s of it the energy-optimal search{at}"
+    return "valid" if r["feasible"] else "refused by a converged minimal violation"
+
+
+def outlier_lines(df: pd.DataFrame) -> list[str]:
+    """The paragraph on cells above twice the next larger ICD's minimum time or solving time (none: one ICD)."""
+    if df.icd.nunique() < 2:
+        return []
+    slow_tf, slow_cpu = outliers(df, "t_min", " s"), outliers(df, "cpu_seconds", " s of CPU")
+    lines = [
+        "Cells whose minimum time is above twice the same vehicle's at the next larger ICD (with the same apron): "
+        + ("; ".join(slow_tf) if slow_tf else "none")
+        + ".",
+        "Cells whose solving took more than twice as long as the same vehicle's at the next larger ICD: "
+        + ("; ".join(slow_cpu) if slow_cpu else "none")
+        + ".",
+    ]
+    return lines
 
 
 MARKERS = {"o": "circles", "s": "squares", "^": "triangles", "D": "diamonds"}
@@ -223,6 +268,7 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
             },  # fmt: skip
         ),
         "",
+        *(line for part in outlier_lines(df) for line in (part, "")),
         f"![{caption}]({fig})",
         "",
     ]
