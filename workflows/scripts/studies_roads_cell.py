@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from studies_common import write_json  # noqa: E402
+from studies_common import run_and_leave, write_json  # noqa: E402
 
 from model.cli import checked_time_limit  # noqa: E402
 from model.errors import InputError  # noqa: E402
@@ -160,4 +160,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_and_leave(main)
