@@ -1,0 +1,64 @@
+"""The cooperative mode's announcement: the ring's conflict areas and the truck's occupancy windows."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+from model.problem.scenario import load_scenario
+from model.traffic.windows import conflict_areas, occupancy_windows
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def ocp():
+    return load_scenario(ROOT / "examples" / "traffic-roundabout.toml").ocp
+
+
+def test_the_conflict_areas_cover_the_ring_roadway_once_each_around_its_leg(ocp):
+    ra = ocp.road.roundabout
+    areas = conflict_areas(ra)
+    assert [a.leg for a in areas] == list(range(len(ra.legs)))
+    annulus = math.pi * (ra.outer_radius**2 - ra.inner_radius**2)
+    assert shapely.union_all([a.polygon for a in areas]).area == pytest.approx(annulus, rel=1e-3)
+    assert sum(a.polygon.area for a in areas) == pytest.approx(annulus, rel=1e-3)  # no overlaps
+    mid = (ra.outer_radius + ra.inner_radius) / 2
+    for a, leg in zip(areas, ra.legs, strict=True):  # the leg's axis at mid-ring lies in its own area only
+        point = shapely.Point(np.asarray(ra.center) + mid * leg.axis)
+        assert [b.leg for b in areas if b.polygon.contains(point)] == [a.leg]
+
+
+def test_a_truck_driving_in_along_its_leg_occupies_that_legs_area_from_its_front_reaching_the_curb(ocp):
+    """Straight in along leg 0 (from 180 deg, heading +x) at 5 m/s: the window opens when the front bumper
+    (6.5 m ahead of the rear axle) reaches the outer curb, x = -20 m, at t = (40 - 26.5) / 5 = 2.7 s."""
+    step, speed = 0.1, 5.0
+
+    def plan_at(s):
+        s = np.atleast_1d(s)
+        return {"x": -40.0 + speed * s, "y": 0 * s, "theta": 0 * s, "phi": 0 * s}
+
+    windows = occupancy_windows(ocp, plan_at, duration=4.6, step=step)
+    assert [w.leg for w in windows] == [0]
+    assert 2.7 - 2 * step - 1e-9 <= windows[0].start <= 2.7 + 1e-9
+    assert windows[0].end == pytest.approx(4.6)  # still in the ring roadway at the plan's end
+    assert occupancy_windows(ocp, plan_at, duration=2.5, step=step) == []  # before the curb: no window
+
+
+def test_the_windows_of_a_solved_straight_on_plan_follow_the_ring_in_its_direction(ocp):
+    """The plan straight on from leg 0 (180 deg) to leg 2 (0 deg), right-hand traffic (counter-clockwise):
+    its bodies enter leg 0's area first, then leg 1's (270 deg), then leg 2's, never leg 3's; the windows
+    overlap where the truck spans two areas."""
+    from model.traffic.autopilot import plan_of
+
+    sol = ocp.solve(intervals=40)
+    assert sol.ok
+    plan = plan_of(sol, ocp.vehicle)
+    windows = occupancy_windows(ocp, plan.at, plan.duration, step=0.1)
+    assert [w.leg for w in windows] == [0, 1, 2]
+    assert all(0.0 < w.start < w.end <= plan.duration for w in windows)
+    assert windows[0].start < windows[1].start < windows[0].end  # the truck spans legs 0 and 1 for a while
