@@ -62,3 +62,17 @@ def test_the_windows_of_a_solved_straight_on_plan_follow_the_ring_in_its_directi
     assert [w.leg for w in windows] == [0, 1, 2]
     assert all(0.0 < w.start < w.end <= plan.duration for w in windows)
     assert windows[0].start < windows[1].start < windows[0].end  # the truck spans legs 0 and 1 for a while
+
+
+def test_a_connected_vehicle_keeps_its_speed_unless_it_would_meet_the_truck_in_the_area():
+    from model.traffic.windows import Window, keep_clear_speed
+
+    w = Window(leg=1, start=10.0, end=14.0)  # the truck in leg 1's area from 10 to 14 s
+    kwargs = {"length": 15.0, "margin": 1.0, "max_speed": 13.9}
+    assert keep_clear_speed(20.0, speed=10.0, now=5.0, window=w, **kwargs) is None  # out again at 8.5 s < 9 s
+    assert keep_clear_speed(60.0, speed=5.0, now=5.0, window=w, **kwargs) is None  # arrives at 17 s > 15 s
+    assert keep_clear_speed(-1.0, speed=10.0, now=9.5, window=w, **kwargs) is None  # already inside: drives on
+    assert keep_clear_speed(30.0, speed=10.0, now=16.0, window=w, **kwargs) is None  # the window has closed
+    v = keep_clear_speed(40.0, speed=10.0, now=5.0, window=w, **kwargs)  # would be in it from 9 to 10.5 s
+    assert v == pytest.approx(40.0 / (15.0 - 5.0))  # reaches the area at 15 s, the window's end + margin
+    assert 5.0 + 40.0 / v >= w.end + 1.0 - 1e-9

@@ -118,3 +118,44 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
     """The maximal runs [a, b) of True in ``flags``."""
     edges = np.diff(np.concatenate([[0], flags.astype(int), [0]]))
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+
+
+def keep_clear_speed(distance: float, length: float, speed: float, now: float, window: Window, margin: float,
+                     max_speed: float) -> float | None:  # fmt: skip
+    """The speed that keeps a connected vehicle out of a conflict area while the truck occupies it.
+
+    Parameters
+    ----------
+    distance : float
+        Along its lane to where it enters the area, m (<= 0: it is in it or past it).
+    length : float
+        How far it drives from entering the area to having left it (its path through the area plus its
+        own length), m.
+    speed : float
+        Its speed now, m/s.
+    now : float
+        Clock time, s; ``window`` is in the same clock.
+    window : Window
+        When the truck occupies the area (clock times).
+    margin : float
+        Seconds kept free before and after the window.
+    max_speed : float
+        Its speed limit, m/s.
+
+    Returns
+    -------
+    float or None
+        None if it may keep its own speed (it leaves the area ``margin`` before the window opens, or
+        reaches it after the window closes, or is already inside: it drives on); else the speed that
+        brings it to the area ``margin`` after the window closes (0 if it should stop before it).
+    """
+    if distance <= 0.0:
+        return None
+    opens, closes = window.start - margin, window.end + margin
+    if closes <= now:
+        return None
+    if speed > 0.0 and now + (distance + length) / speed <= opens:  # through before the truck comes
+        return None
+    if speed > 0.0 and now + distance / speed >= closes:  # it arrives after the truck has left
+        return None
+    return min(max_speed, distance / (closes - now))
