@@ -44,7 +44,7 @@ import pyomo.environ as pyo
 from model.direct.bodies import disc_count
 from model.direct.expressions import sympy_to_pyomo
 from model.nlp.casadi_nlp import CasadiNLP
-from model.nlp.ipopt import IpoptResult, run_ipopt
+from model.nlp.ipopt import WARM_OPTIONS, IpoptResult, run_ipopt
 from model.problem.ocp import OCP
 from model.vehicles import sym
 
@@ -217,7 +217,6 @@ def solve_moving(
     x0 = nlp.init_primals() if x0 is None else x0
     if not ocp.moving_obstacles or not m.tf.is_variable_type():
         return run_ipopt(nlp, options, x0=x0, duals=duals), None
-    from model.direct.resolve import WARM_OPTIONS  # here: resolve imports the solve that imports this
 
     bounds, change = (m.tf.lb, m.tf.ub), np.inf
     try:

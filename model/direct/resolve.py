@@ -16,17 +16,8 @@ import time
 from model.direct.moving import fill_moving, note_settling, solve_moving
 from model.direct.solution import Solution
 from model.direct.solve import finish
+from model.nlp.ipopt import WARM_OPTIONS
 from model.scene.obstacles import Circle
-
-WARM_OPTIONS = {
-    "warm_start_init_point": "yes",
-    "warm_start_bound_push": 1e-9,
-    "warm_start_bound_frac": 1e-9,
-    "warm_start_slack_bound_push": 1e-9,
-    "warm_start_slack_bound_frac": 1e-9,
-    "warm_start_mult_bound_push": 1e-9,
-    "mu_init": 1e-6,
-}
 
 
 class Resolver:
