@@ -76,3 +76,51 @@ def test_a_connected_vehicle_keeps_its_speed_unless_it_would_meet_the_truck_in_t
     v = keep_clear_speed(40.0, speed=10.0, now=5.0, window=w, **kwargs)  # would be in it from 9 to 10.5 s
     assert v == pytest.approx(40.0 / (15.0 - 5.0))  # reaches the area at 15 s, the window's end + margin
     assert 5.0 + 40.0 / v >= w.end + 1.0 - 1e-9
+
+
+def test_connected_cars_keep_out_of_an_announced_area_in_sumo_and_drive_on_after(tmp_path, ocp):
+    """SUMO's cars enter the ring at leg 1 (300 veh/h): with leg 1's area announced as the truck's from 25 to
+    45 s, no car that was 30 m or more before the area at 25 s enters it before 45 s; afterwards they enter
+    again and every speed command is released."""
+    from model.problem.scenario import load_scenario
+    from model.traffic.cooperative import Cooperator, area_entry, path_ahead
+    from model.traffic.cosim import start_sumo, write_sumo_files
+    from model.traffic.sumo import find_sumo
+    from model.traffic.windows import Window
+
+    scenario = load_scenario(ROOT / "examples" / "traffic-roundabout.toml")
+    sumo = find_sumo()
+    write_sumo_files(scenario, tmp_path, sumo, seed=0)
+
+    def parked(s):  # a plan that never reaches the ring: its own windows are none; the test's window is set below
+        s = np.atleast_1d(s)
+        return {"x": -60.0 + 0 * s, "y": -2.0 + 0 * s, "theta": 0 * s, "phi": 0 * s}
+
+    coop = Cooperator(scenario.ocp, parked, duration=60.0, step=0.1, margin=0.0)
+    assert coop.windows == []
+    coop.windows = [Window(leg=1, start=25.0, end=45.0)]  # plan time = clock time (s = now below)
+    area = coop.areas[1]
+    traci = start_sumo(sumo, tmp_path, "routes_without_truck.rou.xml")
+    far, entered_late, entered_after = set(), set(), set()
+    try:
+        while (now := traci.simulation.getTime()) < 60.0:
+            coop.step_traffic(traci, now, s=now)
+            traci.simulationStep()
+            for vid in traci.vehicle.getIDList():
+                x, y = traci.vehicle.getPosition(vid)
+                inside = area.contains(shapely.Point(x, y))
+                path = path_ahead(traci, vid)
+                if abs(now - 25.0) < 0.05 and path is not None and not inside:
+                    entry = area_entry(path, area)
+                    if entry is not None and entry[0] >= 30.0:
+                        far.add(vid)
+                if inside and vid in far and now < 45.0:
+                    entered_late.add(vid)
+                if inside and now > 45.0:
+                    entered_after.add(vid)
+        commanded = dict(coop.commanded)
+    finally:
+        traci.close()
+    assert far and not entered_late
+    assert far & entered_after  # released: the held cars go on
+    assert not commanded  # after the window nothing is asked of anyone

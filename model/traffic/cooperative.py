@@ -1,0 +1,125 @@
+"""Connected vehicles that keep clear of the truck: the SUMO side of the cooperative mode.
+
+The truck announces the windows of ``model.traffic.windows`` (plan time, turned into clock time by
+the truck's progress: at its plan's pace from plan time ``s`` on, window [a, b] is
+[now + a - s, now + b - s]). Every step, each other vehicle's path ahead (the rest of its lane and
+the first lanes of the edges left on its route, from SUMO's lane shapes) is intersected with each
+announced area; where ``keep_clear_speed`` says it would meet the truck there, the vehicle gets
+that speed (``traci.vehicle.setSpeed``, SUMO's own deceleration limits apply), the lowest over the
+windows; a vehicle no window concerns any more is handed back to SUMO's driver (``setSpeed -1``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import shapely
+from shapely.ops import substring
+
+from model.problem.ocp import OCP
+from model.traffic.windows import Window, conflict_areas, keep_clear_speed, occupancy_windows
+
+KEEP_CLEAR_MARGIN = 1.0  # s kept free before and after each of the truck's windows
+REACH = 80.0  # m of a vehicle's path ahead that is looked at
+
+
+@dataclass
+class Cooperator:
+    """The announcement of one plan and the speeds it asks of the other vehicles.
+
+    Parameters
+    ----------
+    ocp : OCP
+        The truck's problem (bodies, roundabout).
+    plan_at : callable
+        Plan time(s) -> state columns (``Plan.at``).
+    duration : float
+        The plan's final time, s.
+    step : float
+        The co-simulation's step, s (the windows' sampling).
+    margin : float
+        ``KEEP_CLEAR_MARGIN``.
+    """
+
+    ocp: OCP
+    plan_at: object
+    duration: float
+    step: float
+    margin: float = KEEP_CLEAR_MARGIN
+    windows: list[Window] = field(init=False)
+    areas: dict[int, shapely.Polygon] = field(init=False)
+    commanded: dict[str, float] = field(init=False, default_factory=dict)
+
+    def __post_init__(self):
+        self.windows = occupancy_windows(self.ocp, self.plan_at, self.duration, self.step)
+        self.areas = {a.leg: a.polygon for a in conflict_areas(self.ocp.road.roundabout)}
+
+    def announced(self, now: float, s: float) -> list[Window]:
+        """The windows still ahead of plan time ``s``, in clock time (the truck at its plan's pace from now)."""
+        return [Window(w.leg, now + max(w.start - s, 0.0), now + w.end - s) for w in self.windows if w.end > s]
+
+    def step_traffic(self, traci, now: float, s: float, truck: str = "truck") -> dict[str, float]:
+        """Set the speeds of the vehicles that would meet the truck in an area; release the others.
+
+        Returns the speeds commanded at this step (vehicle id -> m/s).
+        """
+        windows = self.announced(now, s)
+        speeds = {}
+        for vid in traci.vehicle.getIDList():
+            if vid == truck:
+                continue
+            path = path_ahead(traci, vid)
+            if path is None:
+                continue
+            speed, length = traci.vehicle.getSpeed(vid), traci.vehicle.getLength(vid)
+            asks = [v for w in windows if (v := self._ask(path, w, speed, length, now, traci, vid)) is not None]
+            if asks:
+                speeds[vid] = min(asks)
+        for vid, v in speeds.items():
+            traci.vehicle.setSpeed(vid, v)
+        alive = set(traci.vehicle.getIDList())
+        for vid in set(self.commanded) - set(speeds):
+            if vid in alive:
+                traci.vehicle.setSpeed(vid, -1)
+        self.commanded = speeds
+        return speeds
+
+    def _ask(self, path, window: Window, speed: float, length: float, now: float, traci, vid: str) -> float | None:
+        """``keep_clear_speed`` for one vehicle and one window (None if its path misses the area)."""
+        entry = area_entry(path, self.areas[window.leg])
+        if entry is None:
+            return None
+        distance, through = entry
+        return keep_clear_speed(distance, through + length, speed, now, window, self.margin,
+                                traci.vehicle.getAllowedSpeed(vid))  # fmt: skip
+
+
+def path_ahead(traci, vid: str, reach: float = REACH) -> shapely.LineString | None:
+    """The vehicle's path ahead of its front: the rest of its lane, then the first lane of each edge left on its
+    route, up to ``reach`` metres (None if SUMO gives no shape)."""
+    lane, pos = traci.vehicle.getLaneID(vid), traci.vehicle.getLanePosition(vid)
+    points = list(traci.lane.getShape(lane)) if lane else []
+    if len(points) < 2:
+        return None
+    here = shapely.LineString(points)
+    coords = list(substring(here, min(pos, here.length), here.length).coords)
+    total = here.length - min(pos, here.length)
+    route, index = traci.vehicle.getRoute(vid), traci.vehicle.getRouteIndex(vid)
+    for edge in route[max(index, 0) + 1 :]:
+        if total >= reach:
+            break
+        shape = list(traci.lane.getShape(f"{edge}_0"))
+        coords += shape
+        total += shapely.LineString(shape).length if len(shape) > 1 else 0.0
+    return shapely.LineString(coords) if len(coords) > 1 else None
+
+
+def area_entry(path: shapely.LineString, area: shapely.Polygon) -> tuple[float, float] | None:
+    """Where ``path`` first enters ``area`` (its length before, m; 0 if it starts inside) and its length inside
+    (None if it misses the area)."""
+    inside = path.intersection(area)
+    if inside.is_empty or inside.length == 0.0:
+        return None
+    parts = getattr(inside, "geoms", [inside])
+    first = min(path.project(shapely.Point(p.coords[0])) for p in parts if p.length > 0)
+    return first, inside.length
