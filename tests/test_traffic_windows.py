@@ -124,3 +124,18 @@ def test_connected_cars_keep_out_of_an_announced_area_in_sumo_and_drive_on_after
     assert far and not entered_late
     assert far & entered_after  # released: the held cars go on
     assert not commanded  # after the window nothing is asked of anyone
+
+
+def test_the_cooperative_driver_arrives_keeps_its_distance_and_reports_the_others_time_loss(tmp_path):
+    """``roundabout traffic --driver cooperative``: the autopilot among connected cars held out of its windows."""
+    import json
+
+    from model.cli import main
+
+    out = tmp_path / "coop"
+    assert main(["traffic", str(ROOT / "examples" / "traffic-roundabout.toml"), "--out", str(out), "--driver",
+                 "cooperative"]) == 0  # fmt: skip
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["driver"] == "cooperative" and summary["arrived"] and summary["collisions"] == 0
+    assert summary["min_distance"] >= 1.0  # the scenario's safety_distance, exact rectangles
+    assert summary["others_time_loss"] >= 0.0 and "realtime_factor_cpu" in summary

@@ -4,7 +4,8 @@ The truck announces the windows of ``model.traffic.windows`` (plan time, turned 
 the truck's progress: at its plan's pace from plan time ``s`` on, window [a, b] is
 [now + a - s, now + b - s]). Every step, each other vehicle's path ahead (the rest of its lane and
 the first lanes of the edges left on its route, from SUMO's lane shapes) is intersected with each
-announced area; where ``keep_clear_speed`` says it would meet the truck there, the vehicle gets
+announced area (a vehicle already in an area the truck has still to pass is left alone: held there, it
+would stand in the truck's way); where ``keep_clear_speed`` says it would meet the truck there, the vehicle gets
 that speed (``traci.vehicle.setSpeed``, SUMO's own deceleration limits apply), the lowest over the
 windows; a vehicle no window concerns any more is handed back to SUMO's driver (``setSpeed -1``).
 """
@@ -21,6 +22,7 @@ from model.traffic.windows import Window, conflict_areas, keep_clear_speed, occu
 
 KEEP_CLEAR_MARGIN = 1.0  # s kept free before and after each of the truck's windows
 REACH = 80.0  # m of a vehicle's path ahead that is looked at
+HOLD_BUFFER = 1.5  # m: a held vehicle stops this far outside the area (safety_distance 1 m and 0.5 m more)
 
 
 @dataclass
@@ -39,6 +41,9 @@ class Cooperator:
         The co-simulation's step, s (the windows' sampling).
     margin : float
         ``KEEP_CLEAR_MARGIN``.
+    buffer : float
+        ``HOLD_BUFFER``: the areas a vehicle is held out of are the conflict areas grown by this (the truck's
+        windows are its rectangles grown by it too), so that a held vehicle stands clear of the truck.
     """
 
     ocp: OCP
@@ -46,13 +51,15 @@ class Cooperator:
     duration: float
     step: float
     margin: float = KEEP_CLEAR_MARGIN
+    buffer: float = HOLD_BUFFER
     windows: list[Window] = field(init=False)
     areas: dict[int, shapely.Polygon] = field(init=False)
     commanded: dict[str, float] = field(init=False, default_factory=dict)
+    _shapes: dict[str, list] = field(init=False, default_factory=dict)
 
     def __post_init__(self):
-        self.windows = occupancy_windows(self.ocp, self.plan_at, self.duration, self.step)
-        self.areas = {a.leg: a.polygon for a in conflict_areas(self.ocp.road.roundabout)}
+        self.windows = occupancy_windows(self.ocp, self.plan_at, self.duration, self.step, grow=self.buffer)
+        self.areas = {a.leg: a.polygon.buffer(self.buffer) for a in conflict_areas(self.ocp.road.roundabout)}
 
     def announced(self, now: float, s: float) -> list[Window]:
         """The windows still ahead of plan time ``s``, in clock time (the truck at its plan's pace from now)."""
@@ -64,15 +71,16 @@ class Cooperator:
         Returns the speeds commanded at this step (vehicle id -> m/s).
         """
         windows = self.announced(now, s)
+        ahead = shapely.union_all([self.areas[leg] for leg in {w.leg for w in windows}])
         speeds = {}
         for vid in traci.vehicle.getIDList():
-            if vid == truck:
-                continue
-            path = path_ahead(traci, vid)
+            if vid == truck or ahead.contains(shapely.Point(traci.vehicle.getPosition(vid))):
+                continue  # a vehicle in an area the truck has still to pass drives on (held, it would block it)
+            path = path_ahead(traci, vid, shape=self._shape(traci))
             if path is None:
                 continue
             speed, length = traci.vehicle.getSpeed(vid), traci.vehicle.getLength(vid)
-            asks = [v for w in windows if (v := self._ask(path, w, speed, length, now, traci, vid)) is not None]
+            asks = [a for w in windows if (a := self._ask(path, w, speed, length, now, traci, vid)) is not None]
             if asks:
                 speeds[vid] = min(asks)
         for vid, v in speeds.items():
@@ -84,6 +92,16 @@ class Cooperator:
         self.commanded = speeds
         return speeds
 
+    def _shape(self, traci):
+        """SUMO's lane shapes, asked once per lane (they do not change)."""
+
+        def shape(lane: str) -> list:
+            if lane not in self._shapes:
+                self._shapes[lane] = list(traci.lane.getShape(lane))
+            return self._shapes[lane]
+
+        return shape
+
     def _ask(self, path, window: Window, speed: float, length: float, now: float, traci, vid: str) -> float | None:
         """``keep_clear_speed`` for one vehicle and one window (None if its path misses the area)."""
         entry = area_entry(path, self.areas[window.leg])
@@ -94,11 +112,13 @@ class Cooperator:
                                 traci.vehicle.getAllowedSpeed(vid))  # fmt: skip
 
 
-def path_ahead(traci, vid: str, reach: float = REACH) -> shapely.LineString | None:
+def path_ahead(traci, vid: str, reach: float = REACH, shape=None) -> shapely.LineString | None:
     """The vehicle's path ahead of its front: the rest of its lane, then the first lane of each edge left on its
-    route, up to ``reach`` metres (None if SUMO gives no shape)."""
+    route, up to ``reach`` metres (None if SUMO gives no shape); ``shape``: lane id -> its points (default:
+    ``traci.lane.getShape``)."""
+    shape = shape or (lambda lane: list(traci.lane.getShape(lane)))
     lane, pos = traci.vehicle.getLaneID(vid), traci.vehicle.getLanePosition(vid)
-    points = list(traci.lane.getShape(lane)) if lane else []
+    points = shape(lane) if lane else []
     if len(points) < 2:
         return None
     here = shapely.LineString(points)
@@ -108,9 +128,9 @@ def path_ahead(traci, vid: str, reach: float = REACH) -> shapely.LineString | No
     for edge in route[max(index, 0) + 1 :]:
         if total >= reach:
             break
-        shape = list(traci.lane.getShape(f"{edge}_0"))
-        coords += shape
-        total += shapely.LineString(shape).length if len(shape) > 1 else 0.0
+        more = shape(f"{edge}_0")
+        coords += more
+        total += shapely.LineString(more).length if len(more) > 1 else 0.0
     return shapely.LineString(coords) if len(coords) > 1 else None
 
 

@@ -167,7 +167,7 @@ def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, s
 
 def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: str = "routes.rou.xml",
                     junction_rule: bool = False, entry_rule: bool = False,
-                    follow_rule: bool = True) -> Pass:  # fmt: skip
+                    follow_rule: bool = True, cooperate: bool = False) -> Pass:  # fmt: skip
     """The autopilot's pass: each step, predict the others, choose the progress, move ``truck`` there.
 
     The loop is the contract's replay loop with the poses made online, so replaying ``DIR/sumo``
@@ -177,8 +177,12 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     entry half (``Autopilot(entry_rule=True)``), alone or with the exit half; off by default.
     ``follow_rule``: refuse an entry that makes a circulating follower brake above ``FOLLOWER_DECEL``
     (``Autopilot.follower_braking``, the merge point the end of SUMO's internal entry lane); on by default.
+    ``cooperate``: the cooperative mode, the other vehicles connected (``model.traffic.cooperative``): from
+    the truck's appearance on, each step announces its windows in the ring's conflict areas and sets the
+    speeds that keep the others out of them; the autopilot's own checks stay as they are.
     """
     from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
+    from model.traffic.cooperative import Cooperator
 
     traffic, v, road = scenario.traffic, scenario.ocp.vehicle, scenario.ocp.road
     geo = truck_geometry(scenario)
@@ -196,6 +200,7 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     merge = tuple(via_lane_shape(net, edges[0], edges[1])[-1])  # where the entry's internal lane joins the ring
     pilot = Autopilot(scenario, plan, geo["front"], line_radius=line, junctions=junctions, exit_lanes=lanes,
                       entry_rule=entry_rule, follow_rule=follow_rule, merge_point=merge)  # fmt: skip
+    coop = Cooperator(scenario.ocp, plan.at, plan.duration, traffic.step) if cooperate else None
     # the plan's solve leaves large object graphs: collect them now and keep the survivors out of the
     # collector's scans while driving, so that no decision pays for a full collection (measured: 1.7 CPU s)
     gc.collect()
@@ -213,6 +218,8 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
                     others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
                     name, _ = pilot.decide(others, traffic.step, exiting)
                     out.decisions.append(name)
+                if coop is not None:
+                    coop.step_traffic(traci, traci.simulation.getTime(), pilot.s)
                 row = pilot.state()
                 th = row[v.roles.heading]
                 x, y = row[v.roles.x] + geo["front"] * math.cos(th), row[v.roles.y] + geo["front"] * math.sin(th)

@@ -34,7 +34,7 @@ from model.traffic.sumo import Sumo
 from model.vehicles.body import centred_rectangle
 
 TRAFFIC_COLUMNS = ("t", "id", "type", "x", "y", "heading", "speed", "length", "width")  # names: contract columns
-DRIVERS = ("autopilot", "sumo")
+DRIVERS = ("autopilot", "sumo", "cooperative")  # cooperative: the autopilot among connected vehicles
 
 
 def other_corners(row: tuple) -> np.ndarray:
@@ -98,14 +98,14 @@ def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int
         scored = replay(sumo, sumo_dir, poses, driven.end, traffic.step)
     else:
         rules = {"junction_rule": junction_rule, "entry_rule": entry_rule, "follow_rule": follow_rule}
-        driven = autopilot_drive(scenario, sumo, sumo_dir, plan, **rules)
+        driven = autopilot_drive(scenario, sumo, sumo_dir, plan, **rules, cooperate=driver == "cooperative")
         free = autopilot_drive(scenario, sumo, sumo_dir, plan, "routes_free_flow.rou.xml")
         cols = states_of(scenario, driven) if driven.states else {}
         scored = driven
     alone = replay(sumo, sumo_dir, {}, driven.end, traffic.step, "routes_without_truck.rou.xml")
     wall = time.perf_counter() - wall
     summary = summarise(scenario, driver, seed, sumo, driven, free, cols, scored, alone)
-    if driver == "autopilot":
+    if driver != "sumo":
         worst = max(driven.decision_seconds, default=0.0)
         summary |= {"solve_seconds_max": worst, "realtime_factor": worst / traffic.step}
         # the same decisions in CPU seconds (time.process_time): the computation without the machine's load
@@ -207,7 +207,7 @@ def aggregate(runs: list[dict]) -> dict:
 def run_traffic(scenario: Scenario, sumo: Sumo, stage: Path, driver: str, runs: int) -> dict:
     """K runs (seeds seed, seed + 1, ...) into ``stage``; the last run's files at the top, each in run-k/ too."""
     results, plan, extra = [], None, {}
-    if driver == "autopilot":
+    if driver != "sumo":
         sol, seconds = solve_plan(scenario)
         extra = {"plan_status": sol.status, "plan_seconds": seconds,
                  "plan_final_time": float(sol.trajectory["t"].iloc[-1]), "plan_valid": bool(sol.ok)}  # fmt: skip

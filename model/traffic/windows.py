@@ -84,7 +84,7 @@ def conflict_areas(roundabout: Roundabout) -> list[ConflictArea]:
     return [areas[i] for i in range(len(legs))]
 
 
-def occupancy_windows(ocp: OCP, plan_at, duration: float, step: float) -> list[Window]:
+def occupancy_windows(ocp: OCP, plan_at, duration: float, step: float, grow: float = 0.0) -> list[Window]:
     """The plan-time windows in which the truck's exact rectangles overlap each conflict area.
 
     Parameters
@@ -97,6 +97,8 @@ def occupancy_windows(ocp: OCP, plan_at, duration: float, step: float) -> list[W
         The plan's final time Tf, s.
     step : float
         The sampling step of plan time, s (the co-simulation's step).
+    grow : float
+        Metres by which the rectangles are grown (``shapely.buffer``) before they are intersected.
 
     Returns
     -------
@@ -106,7 +108,8 @@ def occupancy_windows(ocp: OCP, plan_at, duration: float, step: float) -> list[W
     """
     s = np.append(np.arange(0.0, duration, step), duration)
     states = plan_at(s)
-    rectangles = [shapely.polygons(c) for c in body_corners(ocp, states).values()]
+    rectangles = [shapely.buffer(shapely.polygons(c), grow) if grow else shapely.polygons(c)
+                  for c in body_corners(ocp, states).values()]  # fmt: skip
     windows = []
     for area in conflict_areas(ocp.road.roundabout):
         inside = np.any([shapely.intersects(r, area.polygon) for r in rectangles], axis=0)
