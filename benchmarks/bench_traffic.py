@@ -1,7 +1,7 @@
 """Benchmark: the truck autopilot against SUMO's own driver on a grid of traffic cells.
 
 Usage: python benchmarks/bench_traffic.py [--vehicles truck semitrailer] [--turns right straight left]
-       [--rates 200 450 700] [--seeds 5] [--drivers sumo autopilot] [--junction-rule] [--entry-rule]
+       [--rates 200 450 700] [--seeds 5] [--drivers sumo autopilot cooperative] [--junction-rule] [--entry-rule]
        [--no-follow-rule] [--out runs.jsonl]
 
 Each cell is a vehicle (the rigid truck of examples/traffic-roundabout.toml, the EU semitrailer
@@ -57,14 +57,14 @@ def run_grid(args) -> list[dict]:
             plan = None
             for rate in args.rates:
                 scenario = parse_scenario(document(vehicle, turn, rate))
-                if "autopilot" in args.drivers and plan is None:
+                if set(args.drivers) - {"sumo"} and plan is None:
                     sol, seconds = solve_plan(scenario)
                     tf = sol.trajectory["t"].iloc[-1]
                     print(f"# plan {vehicle} {turn}: {sol.status} {seconds:.1f} s Tf {tf:.2f}", flush=True)
                     plan = plan_of(sol, scenario.ocp.vehicle) if sol.ok else None
                 for driver in args.drivers:
                     for seed in range(args.seeds):
-                        if driver == "autopilot" and plan is None:
+                        if driver != "sumo" and plan is None:
                             continue
                         with tempfile.TemporaryDirectory() as tmp:
                             rules = {"junction_rule": args.junction_rule, "entry_rule": args.entry_rule,
@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--turns", nargs="+", default=list(TURNS), choices=list(TURNS))
     ap.add_argument("--rates", type=float, nargs="+", default=[200.0, 450.0, 700.0])
     ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--drivers", nargs="+", default=["sumo", "autopilot"], choices=["sumo", "autopilot"])
+    ap.add_argument("--drivers", nargs="+", default=["sumo", "autopilot"], choices=["sumo", "autopilot", "cooperative"])
     ap.add_argument(
         "--junction-rule",
         action="store_true",

@@ -68,7 +68,7 @@ class Cooperator:
     def step_traffic(self, traci, now: float, s: float, truck: str = "truck") -> dict[str, float]:
         """Set the speeds of the vehicles that would meet the truck in an area; release the others.
 
-        Returns the speeds commanded at this step (vehicle id -> m/s).
+        Returns every ``setSpeed`` of this step (vehicle id -> m/s; -1 for a vehicle handed back to SUMO).
         """
         windows = self.announced(now, s)
         ahead = shapely.union_all([self.areas[leg] for leg in {w.leg for w in windows}])
@@ -83,14 +83,10 @@ class Cooperator:
             asks = [a for w in windows if (a := self._ask(path, w, speed, length, now, traci, vid)) is not None]
             if asks:
                 speeds[vid] = min(asks)
-        for vid, v in speeds.items():
-            traci.vehicle.setSpeed(vid, v)
-        alive = set(traci.vehicle.getIDList())
-        for vid in set(self.commanded) - set(speeds):
-            if vid in alive:
-                traci.vehicle.setSpeed(vid, -1)
+        sent = speeds | {vid: -1.0 for vid in sorted(set(self.commanded) - set(speeds))}
+        apply_commands(traci, sent)
         self.commanded = speeds
-        return speeds
+        return sent
 
     def _shape(self, traci):
         """SUMO's lane shapes, asked once per lane (they do not change)."""
@@ -143,3 +139,17 @@ def area_entry(path: shapely.LineString, area: shapely.Polygon) -> tuple[float, 
     parts = getattr(inside, "geoms", [inside])
     first = min(path.project(shapely.Point(p.coords[0])) for p in parts if p.length > 0)
     return first, inside.length
+
+
+def apply_commands(traci, speeds: dict[str, float]) -> None:
+    """``traci.vehicle.setSpeed`` for each vehicle still in the simulation (-1: back to SUMO's driver)."""
+    alive = set(traci.vehicle.getIDList()) if speeds else set()
+    for vid, speed in speeds.items():
+        if vid in alive:
+            traci.vehicle.setSpeed(vid, speed)
+
+
+def commands_text(commands: dict[float, dict[str, float]]) -> str:
+    """``commands.csv`` of a cooperative run: t, id, speed (m/s; -1 hands the vehicle back to SUMO)."""
+    lines = ["t,id,speed"] + [f"{t:g},{vid},{v:.6f}" for t in sorted(commands) for vid, v in commands[t].items()]
+    return "\n".join(lines) + "\n"

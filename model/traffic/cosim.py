@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from model.problem.scenario import Scenario
+from model.traffic.cooperative import Cooperator, apply_commands
 from model.traffic.network import (
     config_xml,
     entry_end_radius,
@@ -57,6 +58,7 @@ class Pass:
     decisions: list[str] = field(default_factory=list)
     decision_seconds: list[float] = field(default_factory=list)
     decision_cpu_seconds: list[float] = field(default_factory=list)
+    commands: dict[float, dict[str, float]] = field(default_factory=dict)  # cooperative: t -> id -> setSpeed value
 
 
 def truck_geometry(scenario: Scenario) -> dict:
@@ -148,8 +150,9 @@ def drive(scenario: Scenario, sumo: Sumo, folder: Path, routes: str = "routes.ro
 
 
 def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, step: float,
-           routes: str = "routes.rou.xml") -> Pass:  # fmt: skip
-    """The contract's replay loop: ``truck`` moved to ``poses`` (t -> X, Y, A), every other vehicle recorded."""
+           routes: str = "routes.rou.xml", commands: dict[float, dict[str, float]] | None = None) -> Pass:  # fmt: skip
+    """The contract's replay loop: ``truck`` moved to ``poses`` (t -> X, Y, A), every other vehicle recorded;
+    ``commands`` (t -> id -> speed, a cooperative run's ``commands.csv``) set with setSpeed at the same point."""
     traci = start_sumo(sumo, folder, routes)
     out = Pass(end=t_last)
     try:
@@ -158,6 +161,7 @@ def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, s
             if t_next in poses and "truck" in traci.vehicle.getIDList():
                 x, y, a = poses[t_next][:3]
                 traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)
+            apply_commands(traci, (commands or {}).get(t_next, {}))
             traci.simulationStep()
             _record(traci, round(traci.simulation.getTime(), TIME_DIGITS), out)
     finally:
@@ -182,7 +186,6 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     speeds that keep the others out of them; the autopilot's own checks stay as they are.
     """
     from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
-    from model.traffic.cooperative import Cooperator
 
     traffic, v, road = scenario.traffic, scenario.ocp.vehicle, scenario.ocp.road
     geo = truck_geometry(scenario)
@@ -218,8 +221,8 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
                     others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
                     name, _ = pilot.decide(others, traffic.step, exiting)
                     out.decisions.append(name)
-                if coop is not None:
-                    coop.step_traffic(traci, traci.simulation.getTime(), pilot.s)
+                if coop is not None and (sent := coop.step_traffic(traci, traci.simulation.getTime(), pilot.s)):
+                    out.commands[t_next] = sent
                 row = pilot.state()
                 th = row[v.roles.heading]
                 x, y = row[v.roles.x] + geo["front"] * math.cos(th), row[v.roles.y] + geo["front"] * math.sin(th)

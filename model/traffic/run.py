@@ -18,6 +18,7 @@ import numpy as np
 from model.analysis.bodies import body_corners, rectangle_gaps, road_measures
 from model.problem.scenario import Scenario
 from model.traffic.autopilot import plan_of
+from model.traffic.cooperative import commands_text
 from model.traffic.cosim import (
     BRAKING_RADIUS,
     STILL_SPEED,
@@ -99,6 +100,8 @@ def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int
     else:
         rules = {"junction_rule": junction_rule, "entry_rule": entry_rule, "follow_rule": follow_rule}
         driven = autopilot_drive(scenario, sumo, sumo_dir, plan, **rules, cooperate=driver == "cooperative")
+        if driver == "cooperative":  # the speeds set on the others, for the replay (docs/traffic-format.md)
+            (sumo_dir / "commands.csv").write_text(commands_text(driven.commands))
         free = autopilot_drive(scenario, sumo, sumo_dir, plan, "routes_free_flow.rou.xml")
         cols = states_of(scenario, driven) if driven.states else {}
         scored = driven
