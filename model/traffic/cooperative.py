@@ -23,6 +23,7 @@ from model.traffic.windows import Window, conflict_areas, keep_clear_speed, occu
 KEEP_CLEAR_MARGIN = 1.0  # s kept free before and after each of the truck's windows
 REACH = 80.0  # m of a vehicle's path ahead that is looked at
 HOLD_BUFFER = 1.5  # m: a held vehicle stops this far outside the area (safety_distance 1 m and 0.5 m more)
+COMMIT_RATE = 0.5  # before its give-way line the truck announces only while it drives at least this x its pace
 
 
 @dataclass
@@ -65,12 +66,14 @@ class Cooperator:
         """The windows still ahead of plan time ``s``, in clock time (the truck at its plan's pace from now)."""
         return [Window(w.leg, now + max(w.start - s, 0.0), now + w.end - s) for w in self.windows if w.end > s]
 
-    def step_traffic(self, traci, now: float, s: float, truck: str = "truck") -> dict[str, float]:
+    def step_traffic(self, traci, now: float, s: float, truck: str = "truck",
+                     announce: bool = True) -> dict[str, float]:  # fmt: skip
         """Set the speeds of the vehicles that would meet the truck in an area; release the others.
 
+        ``announce`` False (the truck waiting at its line: ``committed``): no window, every vehicle released.
         Returns every ``setSpeed`` of this step (vehicle id -> m/s; -1 for a vehicle handed back to SUMO).
         """
-        windows = self.announced(now, s)
+        windows = self.announced(now, s) if announce else []
         ahead = shapely.union_all([self.areas[leg] for leg in {w.leg for w in windows}])
         speeds = {}
         for vid in traci.vehicle.getIDList():
@@ -106,6 +109,12 @@ class Cooperator:
         distance, through = entry
         return keep_clear_speed(distance, through + length, speed, now, window, self.margin,
                                 traci.vehicle.getAllowedSpeed(vid))  # fmt: skip
+
+
+def committed(s: float, rate: float, give_way: float) -> bool:
+    """Whether the truck announces: past its give-way line (plan time ``give_way``), or before it at a pace
+    ``rate`` of at least ``COMMIT_RATE`` (a truck slowing to stop at its line, or standing, holds no one)."""
+    return s >= give_way or rate >= COMMIT_RATE
 
 
 def path_ahead(traci, vid: str, reach: float = REACH, shape=None) -> shapely.LineString | None:

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from model.problem.scenario import Scenario
-from model.traffic.cooperative import Cooperator, apply_commands
+from model.traffic.cooperative import Cooperator, apply_commands, committed
 from model.traffic.network import (
     config_xml,
     entry_end_radius,
@@ -221,7 +221,9 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
                     others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
                     name, _ = pilot.decide(others, traffic.step, exiting)
                     out.decisions.append(name)
-                if coop is not None and (sent := coop.step_traffic(traci, traci.simulation.getTime(), pilot.s)):
+                announce = coop is not None and committed(pilot.s, pilot.rate, pilot.give_way)
+                if coop is not None and (sent := coop.step_traffic(traci, traci.simulation.getTime(), pilot.s,
+                                                                   announce=announce)):  # fmt: skip
                     out.commands[t_next] = sent
                 row = pilot.state()
                 th = row[v.roles.heading]
