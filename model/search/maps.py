@@ -81,6 +81,7 @@ class MapSearch:
     best_clearance: float = -np.inf  # m: the best answer's least exact clearance at the nodes
     best_sequence: int = -1  # the index in ``sequences`` of the best answer's sequence
     tight: Strips | None = None  # the tight strips of ``_tight_step``, measured when first needed
+    penalty_answer: dict | None = None  # the last converged penalty sequence's evidence (``_converged_penalty``)
     grid: str = "time"  # the current sequences' nodes: "time" (equal steps of a free Tf) or "arclength"
 
     @property
@@ -235,7 +236,18 @@ def _penalty_step(run: MapSearch) -> Iterate | None:
     if run.best.ok or run.skip("penalty"):
         return None
     run.progress(f"no solve validated: the strips as an exact penalty ({PENALTY:g} per m of slack)")
-    return run.sequence("centre line x0.5, penalty", penalty=PENALTY).iterates[-1]
+    last = run.sequence("centre line x0.5, penalty", penalty=PENALTY).iterates[-1]
+    _converged_penalty(run, last, "default")
+    return last
+
+
+def _converged_penalty(run: MapSearch, last: Iterate, kind: str) -> None:
+    """Keep a converged penalty sequence's last solve as the refusal's evidence (``diagnosis``'s ``penalty_answer``):
+    its least exact clearance at the nodes and its strip slack (``kind``: the strips, "default" or "tight")."""
+    if last.violation is None or last.moved >= TOLERANCE or last.solution.status not in CONVERGED:
+        return
+    run.penalty_answer = {"exact_clearance": last.exact_clearance, "largest_slack": last.violation[1],
+                          "summed_slack": last.violation[0], "strips": kind}  # fmt: skip
 
 
 def _tight_step(run: MapSearch, last: Iterate | None) -> None:
@@ -252,6 +264,7 @@ def _tight_step(run: MapSearch, last: Iterate | None) -> None:
     run.progress(f"the penalty answer needs {last.violation[1]:.3f} m of slack at most: the same on tighter strips")
     run.tight = run.tight or tight_strips(run.ocp)
     result = run.sequence("tight strips, penalty", answer_start(run.ocp, last.solution), penalty=PENALTY, st=run.tight)
+    _converged_penalty(run, result.iterates[-1], "tight")
     sol = result.iterates[-1].solution
     failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
     if run.best.ok or failed != ["body_clearance_dense"] or run.skip("tight strips, mid-interval rows"):
@@ -328,13 +341,15 @@ def _finished(run: MapSearch) -> Solution:
     seconds = sum(x["seconds"] for s in run.sequences for x in s["solves"])
     sol.timings = {**sol.timings, "solves_seconds": float(seconds)}
     if not sol.ok:
-        sol.diagnosis = diagnosis(sol, run.violation)
+        sol.diagnosis = diagnosis(sol, run.violation, run.penalty_answer)
     return sol
 
 
-def diagnosis(sol: Solution, violation: tuple[float, float] | None = None) -> dict:
+def diagnosis(sol: Solution, violation: tuple[float, float] | None = None, penalty: dict | None = None) -> dict:
     """Why a map solve failed: the bodies that leave the corridor (where and by how much), the failed checks,
-    and the minimal violation of the strips (``violation``: sum and largest slack, m) where it was solved."""
+    the minimal violation of the strips (``violation``: sum and largest slack, m) where it was solved, and
+    ``penalty`` (``MapSearch.penalty_answer``): the converged penalty answer's exact clearance and slack, m (the
+    answer reported is a plain sequence's: its bodies' excess may be far smaller than the penalty answer's)."""
     ocp = sol.ocp
     states = {k: np.asarray(sol.columns[k]) for k in ("t", *ocp.vehicle.states)}
     bodies = corridor_diagnosis(ocp, states)
@@ -348,8 +363,14 @@ def diagnosis(sol: Solution, violation: tuple[float, float] | None = None) -> di
     if violation is not None and violation[0] > ZERO_VIOLATION:
         parts.append(f"the strips with slacks need {violation[1]:.3f} m at most ({violation[0]:.3f} m summed over "
                      "the discs and nodes) beyond the corridor")  # fmt: skip
+    if penalty is not None:
+        parts.append(f"the arclength grid's penalty sequence ({penalty['strips']} strips) converged with the bodies' "
+                     f"least exact clearance {penalty['exact_clearance']:+.3f} m at the nodes and "
+                     f"{penalty['largest_slack']:.3f} m of strip slack at most")  # fmt: skip
     out = {"kind": "map corridor", "message": "; ".join(parts) or "validation failed: " + ", ".join(failed),
            "bodies": bodies, "failed_checks": failed}  # fmt: skip
     if violation is not None:
         out["minimal_violation"] = {"sum": violation[0], "largest": violation[1]}
+    if penalty is not None:
+        out["penalty_answer"] = dict(penalty)
     return out
