@@ -219,3 +219,55 @@ def test_the_arclength_grid_solves_a_u_turn_the_time_grid_refuses(tmp_path):
     assert summary["search"]["sequences"][0]["grid"] == "arclength"
     assert 18.0 < summary["final_time"] < 26.0  # docs/map-corridor.md: 22.05 s
     assert check(path, out)["checks_pass"]
+
+
+def test_tight_strips_solve_a_left_turn_the_default_strips_refuse(tmp_path):
+    """Thiergarten 106 -> 90 (left, SU-30, N = 100, as benchmarks/check_map_routes.py poses it, seed 1): on the
+    arclength grid the penalty sequence converges needing 0.062 m of slack, the rectangles 0.013 m outside (the
+    default strips' conservatism); the tight strips' penalty sequence and its mid-interval rows validate it, and
+    the benchmark's independent checks pass."""
+    pytest.importorskip("commonroad")
+    from benchmarks.check_map_routes import MAPS, apron_lanelets, check, write_scenario
+    from model.scene.lanelet_map import dataset_file, read_map
+
+    case = {"map": "Thiergarten", "dataset": MAPS["Thiergarten"], "kind": "left", "movement": "106-90",
+            "vehicle": "SU-30", "apron": True,
+            "apron_lanelets": apron_lanelets(read_map(dataset_file(MAPS["Thiergarten"])))}  # fmt: skip
+    path = write_scenario(case, tmp_path, 100)
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(out), "--quiet",
+                          "--map-grid", "arclength"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    sequences = summary["search"]["sequences"]
+    assert summary["valid"] and summary["min_clearance"] > 0 and summary["min_clearance_dense"] >= 0
+    assert not any(s["valid"] for s in sequences if "strips" not in s)  # the default strips validate nothing
+    assert any(s["valid"] and s["strips"] == "tight" for s in sequences if "strips" in s)
+    assert 17.0 < summary["final_time"] < 22.0  # benchmarks/map-routes.md: 18.954 s
+    assert check(path, out)["checks_pass"]
+
+
+def test_a_refusal_reports_the_converged_penalty_answer():
+    """The diagnosis of a refused map route names the converged penalty answer's exact clearance and strip slack
+    (``penalty_answer``), beside the excess of the failed answer it reports (which may be far smaller: Thiergarten
+    21 -> 50, EU semitrailer, benchmarks/map-routes.md: the tractor 0.015 m, the penalty answer 0.335 m)."""
+    pytest.importorskip("commonroad")
+    from model.problem.scenario import parse_scenario
+    from model.search.maps import diagnosis
+
+    data = {"name": "t", "vehicle": {"preset": "SU-30"},
+            "bounds": {"u1": [0.0, 6.944444444444445], "u2": [-0.5, 0.5], "phi": [-0.6, 0.6]},
+            "map": {"dataset": THIERGARTEN[0]},
+            "route": {"from_lanelet": 21, "to_lanelet": 90, "start_offset": 12.0, "goal_offset": -8.0},
+            "problem": {"objective": "time", "intervals": 30}}  # fmt: skip
+    sol = parse_scenario(data).ocp.solve(intervals=30, time_limit=0.01)
+    assert not sol.ok
+    assert "penalty_answer" not in sol.diagnosis  # the time limit cut the search before any penalty sequence
+    evidence = {"exact_clearance": -0.335, "largest_slack": 0.402, "summed_slack": 29.0, "strips": "default"}
+    out = diagnosis(sol, None, evidence)
+    assert out["penalty_answer"] == evidence
+    assert (
+        "penalty sequence (default strips) converged with the bodies' least exact clearance -0.335 m" in out["message"]
+    )
+    assert "0.402 m of strip slack at most" in out["message"]

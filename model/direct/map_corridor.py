@@ -48,6 +48,7 @@ OPEN_END = 15.0  # m: how far the strips' corridor continues beyond the route's 
 CRACK = 1e-3  # m: the caps overlap the corridor by this much
 CURVED_WINDOW = 1.5  # the curved strips' bounds: the least over this many trust radii of arclength either side
 FLAT = 1e-6  # 1/m: a frame curvature below this is a straight line (the curved row is the linear one)
+DISC_RESOLUTION = 0.05  # m: the ``disc`` strips' bounds are multiples of this (``disc_extents``'s step)
 STEP_CAP = 30.0  # s: the longest interval of the arclength grid (a stop to turn the wheels fits; a crawl does not)
 
 
@@ -85,15 +86,15 @@ class Result:
 
 def strips(
     ocp: OCP, step: float = 0.25, sigma: float = 2.0, margin: float = MARGIN, slack: float = TIGHT_COVER_SLACK,
-    method: str = "disc",
+    method: str = "disc", resolution: float = DISC_RESOLUTION,
 ) -> Strips:  # fmt: skip
     """The frame of ``ocp.map_route`` and each body's allowed lateral offsets in its corridor.
 
     ``method``: "disc" (``disc_extents``: a disc centred anywhere on the normal between the frame and
-    the bound lies in the corridor) or "ray" (``lateral_extents`` less the radius, the least within
-    the radius + ``margin`` m along the line). ``slack``: each body's cover discs reach at most this
-    fraction of its half-width beyond its sides (``disc_count``; 3 %: with the roads' 10 % the SU-30
-    did not converge on Thiergarten's 3 m lanes, docs/map-corridor.md).
+    the bound lies in the corridor, the bound a multiple of ``resolution`` m) or "ray" (``lateral_extents``
+    less the radius, the least within the radius + ``margin`` m along the line). ``slack``: each body's cover
+    discs reach at most this fraction of its half-width beyond its sides (``disc_count``; 3 %: with the roads'
+    10 % the SU-30 did not converge on Thiergarten's 3 m lanes, docs/map-corridor.md).
     """
     route = ocp.map_route
     fr = frame(route.line.points, step=step, sigma=sigma)
@@ -102,7 +103,7 @@ def strips(
         offsets, radius = body.cover(disc_count(body.length, body.width, slack))
         covers[name] = (np.asarray(offsets, float), float(radius))
         if method == "disc":
-            left, right = disc_extents(open_ends(route, route.corridor(name)), fr, float(radius))
+            left, right = disc_extents(open_ends(route, route.corridor(name)), fr, float(radius), resolution)
             upper[name], lower[name] = left, -right
             bad = (left < 0) | (right < 0)
             upper[name][bad], lower[name][bad] = 0.0, 1.0  # lower > upper: the disc does not fit there

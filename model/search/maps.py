@@ -18,6 +18,10 @@ until the projections move less than 5 cm (at most 8 solves). The search runs, u
    failing only between the nodes the mid-interval rows and the finer grid, then the strips as an exact
    penalty (``PENALTY``); any validated solve of these sequences counts (``grid = "arclength"``: these steps
    alone, then step 3; ``"time"``: steps 1-4 as before the arclength grid);
+3c. **tight strips** (after 3b's penalty sequence, where it converged needing at most ``TIGHT_NEAR`` m of slack
+   and nothing validated): the penalty sequence again from its answer on strips measured tighter
+   (``tight_strips``: the cover discs and the bounds' rounding smaller than the default's conservatism), and for
+   an answer failing only between the nodes with the mid-interval rows;
 4. **other speeds** (``search = "thorough"`` only): the centre-line start at other fractions of the
    speed bound (other Tf guesses), each a sequence. With a free Tf they reach the same fixed point
    as step 1 (measured on Thiergarten 21 -> 90, SU-30: the same eight Tf to 4 digits from 0.3, 0.5
@@ -51,6 +55,9 @@ TOLERANCE = 0.05  # m: a sequence stops when no projection moved more than this
 ZERO_VIOLATION = 1e-4  # m: summed strip slack below which the minimal-violation answer lies in the strips
 NEAR = 0.3  # m: the largest slack of a minimal-violation answer from which the plain strips are still tried
 SPEEDS = {"quick": (), "default": (), "thorough": (0.3, 0.8)}  # step 4's speed fractions (thorough only)
+TIGHT_NEAR = 0.1  # m: the penalty answer's largest slack up to which the tight strips are tried (``_tight_step``)
+TIGHT_SLACK = 0.01  # the tight strips' cover discs: at most 1 % of the half-width beyond the sides (default 3 %)
+TIGHT_RESOLUTION = 0.01  # m: the tight strips' bounds are multiples of this (default 0.05)
 PENALTY = 100.0  # per m of strip slack (s/m for the time objective): the arclength grid's penalty sequence
 GRIDS = {"time": ("time",), "arclength": ("arclength",), "time+arclength": ("time", "arclength")}  # ``grid``'s
 CONVERGED = ("optimal", "acceptable", "validation_failed")  # Ipopt converged (a check may have failed)
@@ -73,6 +80,8 @@ class MapSearch:
     violation: tuple[float, float] | None = None  # step 3's minimum: (sum, largest) of the slacks, m
     best_clearance: float = -np.inf  # m: the best answer's least exact clearance at the nodes
     best_sequence: int = -1  # the index in ``sequences`` of the best answer's sequence
+    tight: Strips | None = None  # the tight strips of ``_tight_step``, measured when first needed
+    penalty_answer: dict | None = None  # the last converged penalty sequence's evidence (``_converged_penalty``)
     grid: str = "time"  # the current sequences' nodes: "time" (equal steps of a free Tf) or "arclength"
 
     @property
@@ -94,10 +103,11 @@ class MapSearch:
         return True
 
     def sequence(self, label: str, start: Start | None = None, intervals: int | None = None,
-                 relax: bool = False, penalty: float | None = None, between: bool = False) -> Result:  # fmt: skip
-        """One sequence of strip solves (``solve_map``), recorded and reported; the best answer kept: the
-        sequence's last (not of a minimal-violation sequence); on the arclength grid any of its solves
-        (``penalty``: of a penalty sequence too) that validates, else the last."""
+                 relax: bool = False, penalty: float | None = None, between: bool = False,
+                 st: Strips | None = None) -> Result:  # fmt: skip
+        """One sequence of strip solves (``solve_map``; ``st``: these strips instead of ``self.st``), recorded
+        and reported; the best answer kept: the sequence's last (not of a minimal-violation sequence); on the
+        arclength grid any of its solves (``penalty``: of a penalty sequence too) that validates, else the last."""
         n = intervals or self.intervals
         solves: list[dict] = []
 
@@ -112,7 +122,7 @@ class MapSearch:
                           f"{it.seconds:.1f} s")  # fmt: skip
 
         arclength = self.grid == "arclength"
-        result = solve_map(self.ocp, n, iterations=ITERATIONS, tol=TOLERANCE, options=self.options, st=self.st,
+        result = solve_map(self.ocp, n, iterations=ITERATIONS, tol=TOLERANCE, options=self.options, st=st or self.st,
                            relax=relax or penalty is not None, start=start, deadline=self.deadline,
                            arclength=arclength, penalty=penalty, between=between, on_iterate=report)  # fmt: skip
         last = result.iterates[-1]
@@ -120,7 +130,8 @@ class MapSearch:
                                "converged": last.moved < TOLERANCE and last.solution.status in CONVERGED,
                                "valid": bool(last.solution.ok),
                                **({"penalty": penalty} if penalty is not None else {}),
-                               **({"between": True} if between else {})})  # fmt: skip
+                               **({"between": True} if between else {}),
+                               **({"strips": "tight"} if st is not None else {})})  # fmt: skip
         if relax:
             return result
         candidates = [last]
@@ -199,7 +210,7 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
     run.sequence("centre line x0.5")
     _refine(run)
     if run.grid == "arclength":
-        _penalty_step(run)
+        _tight_step(run, _penalty_step(run))
     if not run.best.ok and search != "quick" and not run.skip("minimal violation"):
         _minimal_violation_step(run)
     if then and not run.best.ok and search != "quick" and not run.skip("arclength grid"):
@@ -207,7 +218,7 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
         run.progress("no sequence validated on the time grid: the arclength grid (nodes fixed to the frame)")
         run.sequence("arclength grid, centre line x0.5")
         _refine(run)
-        _penalty_step(run)
+        _tight_step(run, _penalty_step(run))
         run.grid = first  # step 4 on the time grid, as before
     for speed in SPEEDS[search]:
         if run.best.ok or run.skip(f"centre line x{speed:g}"):
@@ -218,14 +229,54 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
     return _finished(run)
 
 
-def _penalty_step(run: MapSearch) -> None:
-    """The arclength grid's last resort: the strips as an exact L1 penalty (``PENALTY`` per m of slack) from
+def _penalty_step(run: MapSearch) -> Iterate | None:
+    """The arclength grid's penalty step: the strips as an exact L1 penalty (``PENALTY`` per m of slack) from
     the centre line (Thiergarten 51 -> 108, SU-30: the plain strips Ipopt-infeasible, the minimal violation
-    0.2 mm; the penalty answer validates)."""
+    0.2 mm; the penalty answer validates). Returns its last solve (None where it did not run)."""
     if run.best.ok or run.skip("penalty"):
-        return
+        return None
     run.progress(f"no solve validated: the strips as an exact penalty ({PENALTY:g} per m of slack)")
-    run.sequence("centre line x0.5, penalty", penalty=PENALTY)
+    last = run.sequence("centre line x0.5, penalty", penalty=PENALTY).iterates[-1]
+    _converged_penalty(run, last, "default")
+    return last
+
+
+def _converged_penalty(run: MapSearch, last: Iterate, kind: str) -> None:
+    """Keep a converged penalty sequence's last solve as the refusal's evidence (``diagnosis``'s ``penalty_answer``):
+    its least exact clearance at the nodes and its strip slack (``kind``: the strips, "default" or "tight")."""
+    if last.violation is None or last.moved >= TOLERANCE or last.solution.status not in CONVERGED:
+        return
+    run.penalty_answer = {"exact_clearance": last.exact_clearance, "largest_slack": last.violation[1],
+                          "summed_slack": last.violation[0], "strips": kind}  # fmt: skip
+
+
+def _tight_step(run: MapSearch, last: Iterate | None) -> None:
+    """Where the penalty sequence converged needing at most ``TIGHT_NEAR`` m of slack and nothing validated:
+    the penalty sequence again from its answer on tighter strips (cover discs ``TIGHT_SLACK`` of the half-width
+    beyond the sides, bounds in steps of ``TIGHT_RESOLUTION`` m, ``tight_strips``), then, for an answer failing
+    only between the nodes, with the mid-interval rows. The default strips' conservatism (discs 3 % wider,
+    bounds rounded down to 5 cm) is then the same size as the slack (Thiergarten 106 -> 90, SU-30: 0.062 m of
+    slack, the rectangles 0.013 m outside; on the tight strips 8 mm of slack and the rectangles inside)."""
+    if run.best.ok or last is None or last.violation is None or last.violation[1] > TIGHT_NEAR:
+        return
+    if last.moved >= TOLERANCE or last.solution.status not in CONVERGED or run.skip("tight strips"):
+        return
+    run.progress(f"the penalty answer needs {last.violation[1]:.3f} m of slack at most: the same on tighter strips")
+    run.tight = run.tight or tight_strips(run.ocp)
+    result = run.sequence("tight strips, penalty", answer_start(run.ocp, last.solution), penalty=PENALTY, st=run.tight)
+    _converged_penalty(run, result.iterates[-1], "tight")
+    sol = result.iterates[-1].solution
+    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
+    if run.best.ok or failed != ["body_clearance_dense"] or run.skip("tight strips, mid-interval rows"):
+        return
+    run.progress("the tight answer leaves the corridor only between the nodes: mid-interval strip rows from it")
+    run.sequence("tight strips, penalty, mid-interval rows", answer_start(run.ocp, sol), penalty=PENALTY,
+                 between=True, st=run.tight)  # fmt: skip
+
+
+def tight_strips(ocp: OCP) -> Strips:
+    """The strips of ``_tight_step``: cover slack ``TIGHT_SLACK``, bounds in steps of ``TIGHT_RESOLUTION`` m."""
+    return strips(ocp, slack=TIGHT_SLACK, resolution=TIGHT_RESOLUTION)
 
 
 def _refine(run: MapSearch) -> None:
@@ -290,13 +341,15 @@ def _finished(run: MapSearch) -> Solution:
     seconds = sum(x["seconds"] for s in run.sequences for x in s["solves"])
     sol.timings = {**sol.timings, "solves_seconds": float(seconds)}
     if not sol.ok:
-        sol.diagnosis = diagnosis(sol, run.violation)
+        sol.diagnosis = diagnosis(sol, run.violation, run.penalty_answer)
     return sol
 
 
-def diagnosis(sol: Solution, violation: tuple[float, float] | None = None) -> dict:
+def diagnosis(sol: Solution, violation: tuple[float, float] | None = None, penalty: dict | None = None) -> dict:
     """Why a map solve failed: the bodies that leave the corridor (where and by how much), the failed checks,
-    and the minimal violation of the strips (``violation``: sum and largest slack, m) where it was solved."""
+    the minimal violation of the strips (``violation``: sum and largest slack, m) where it was solved, and
+    ``penalty`` (``MapSearch.penalty_answer``): the converged penalty answer's exact clearance and slack, m (the
+    answer reported is a plain sequence's: its bodies' excess may be far smaller than the penalty answer's)."""
     ocp = sol.ocp
     states = {k: np.asarray(sol.columns[k]) for k in ("t", *ocp.vehicle.states)}
     bodies = corridor_diagnosis(ocp, states)
@@ -310,8 +363,14 @@ def diagnosis(sol: Solution, violation: tuple[float, float] | None = None) -> di
     if violation is not None and violation[0] > ZERO_VIOLATION:
         parts.append(f"the strips with slacks need {violation[1]:.3f} m at most ({violation[0]:.3f} m summed over "
                      "the discs and nodes) beyond the corridor")  # fmt: skip
+    if penalty is not None:
+        parts.append(f"the arclength grid's penalty sequence ({penalty['strips']} strips) converged with the bodies' "
+                     f"least exact clearance {penalty['exact_clearance']:+.3f} m at the nodes and "
+                     f"{penalty['largest_slack']:.3f} m of strip slack at most")  # fmt: skip
     out = {"kind": "map corridor", "message": "; ".join(parts) or "validation failed: " + ", ".join(failed),
            "bodies": bodies, "failed_checks": failed}  # fmt: skip
     if violation is not None:
         out["minimal_violation"] = {"sum": violation[0], "largest": violation[1]}
+    if penalty is not None:
+        out["penalty_answer"] = dict(penalty)
     return out
