@@ -53,3 +53,43 @@ def example_solution():
 
 
 __all__ = ["math"]
+
+
+def replay_as_the_contract_says(out: Path, commands: dict | None = None) -> None:
+    """docs/traffic-format.md's replay loop, written here apart from model.traffic, on ``out``'s sumo/ folder and
+    trajectory.csv (and a cooperative run's speed ``commands``, t -> id -> m/s): it must give traffic.csv."""
+    import csv
+
+    import traci
+
+    rows = {round(float(r["t"]), 6): r for r in csv.DictReader((out / "trajectory.csv").open())}
+    front, seen = 8.0 - 1.5, []  # the example truck's front bumper ahead of its rear axle
+    traci.start(["sumo", "-c", str(out / "sumo" / "run.sumocfg")])
+    try:
+        while traci.simulation.getTime() < max(rows) - 1e-9:
+            t_next = round(traci.simulation.getTime() + 0.1, 6)
+            if t_next in rows and "truck" in traci.vehicle.getIDList():
+                r = rows[t_next]
+                th = float(r["theta"])
+                x, y = float(r["x"]) + front * math.cos(th), float(r["y"]) + front * math.sin(th)
+                traci.vehicle.moveToXY("truck", "", -1, x, y, 90 - math.degrees(th), keepRoute=2)
+            for vid, speed in (commands or {}).get(t_next, {}).items():
+                if vid in traci.vehicle.getIDList():
+                    traci.vehicle.setSpeed(vid, speed)
+            traci.simulationStep()
+            t = round(traci.simulation.getTime(), 6)
+            seen += [(t, vid, traci.vehicle.getPosition(vid)) for vid in traci.vehicle.getIDList() if vid != "truck"]
+    finally:
+        traci.close()
+    recorded = list(csv.DictReader((out / "traffic.csv").open()))
+    assert len(seen) == len(recorded) > 0
+    for (t, vid, (fx, fy)), r in zip(seen, recorded, strict=True):  # SUMO's front bumper -> the rectangle's centre
+        assert (t, vid) == (float(r["t"]), r["id"])
+        h, half = float(r["heading"]), float(r["length"]) / 2
+        assert math.hypot(fx - half * math.cos(h) - float(r["x"]), fy - half * math.sin(h) - float(r["y"])) < 1e-6
+
+
+@pytest.fixture
+def contract_replay():
+    """``replay_as_the_contract_says``, for the traffic tests."""
+    return replay_as_the_contract_says

@@ -197,15 +197,14 @@ def test_the_map_search_honours_its_time_limit():
     assert not sol.ok and sol.diagnosis["kind"] == "map corridor"
 
 
-def test_the_arclength_grid_solves_a_u_turn_the_time_grid_refuses(tmp_path):
-    """Thiergarten 106 -> 108 (U-turn, SU-30, N = 100, posed as benchmarks/check_map_routes.py poses it): the
-    time grid's projections creep (refused, 0.518 m outside); ``--map-grid arclength`` validates, and the
-    benchmark's independent checks (its own corridor, re-integration, commonroad.xml) pass."""
+def solve_thiergarten_route(tmp_path, kind: str, movement: str) -> tuple[dict, Path, Path]:
+    """One SU-30 route through Thiergarten posed as benchmarks/check_map_routes.py poses it (N = 100, with the
+    apron), solved by ``roundabout solve --map-grid arclength``: (summary, scenario file, output folder)."""
     pytest.importorskip("commonroad")
-    from benchmarks.check_map_routes import MAPS, apron_lanelets, check, write_scenario
+    from benchmarks.check_map_routes import MAPS, apron_lanelets, write_scenario
     from model.scene.lanelet_map import dataset_file, read_map
 
-    case = {"map": "Thiergarten", "dataset": MAPS["Thiergarten"], "kind": "U-turn", "movement": "106-108",
+    case = {"map": "Thiergarten", "dataset": MAPS["Thiergarten"], "kind": kind, "movement": movement,
             "vehicle": "SU-30", "apron": True,
             "apron_lanelets": apron_lanelets(read_map(dataset_file(MAPS["Thiergarten"])))}  # fmt: skip
     path = write_scenario(case, tmp_path, 100)
@@ -214,7 +213,16 @@ def test_the_arclength_grid_solves_a_u_turn_the_time_grid_refuses(tmp_path):
                           "--map-grid", "arclength"],
                          cwd=ROOT, capture_output=True, text=True, timeout=600)  # fmt: skip
     assert run.returncode == 0, run.stderr
-    summary = json.loads((out / "summary.json").read_text())
+    return json.loads((out / "summary.json").read_text()), path, out
+
+
+def test_the_arclength_grid_solves_a_u_turn_the_time_grid_refuses(tmp_path):
+    """Thiergarten 106 -> 108 (U-turn, SU-30, N = 100, posed as benchmarks/check_map_routes.py poses it): the
+    time grid's projections creep (refused, 0.518 m outside); ``--map-grid arclength`` validates, and the
+    benchmark's independent checks (its own corridor, re-integration, commonroad.xml) pass."""
+    from benchmarks.check_map_routes import check
+
+    summary, path, out = solve_thiergarten_route(tmp_path, "U-turn", "106-108")
     assert summary["valid"] and summary["min_clearance"] > 0 and summary["min_clearance_dense"] >= 0
     assert summary["search"]["sequences"][0]["grid"] == "arclength"
     assert 18.0 < summary["final_time"] < 26.0  # docs/map-corridor.md: 22.05 s
@@ -226,20 +234,9 @@ def test_tight_strips_solve_a_left_turn_the_default_strips_refuse(tmp_path):
     arclength grid the penalty sequence converges needing 0.062 m of slack, the rectangles 0.013 m outside (the
     default strips' conservatism); the tight strips' penalty sequence and its mid-interval rows validate it, and
     the benchmark's independent checks pass."""
-    pytest.importorskip("commonroad")
-    from benchmarks.check_map_routes import MAPS, apron_lanelets, check, write_scenario
-    from model.scene.lanelet_map import dataset_file, read_map
+    from benchmarks.check_map_routes import check
 
-    case = {"map": "Thiergarten", "dataset": MAPS["Thiergarten"], "kind": "left", "movement": "106-90",
-            "vehicle": "SU-30", "apron": True,
-            "apron_lanelets": apron_lanelets(read_map(dataset_file(MAPS["Thiergarten"])))}  # fmt: skip
-    path = write_scenario(case, tmp_path, 100)
-    out = tmp_path / "out"
-    run = subprocess.run([sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(out), "--quiet",
-                          "--map-grid", "arclength"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)  # fmt: skip
-    assert run.returncode == 0, run.stderr
-    summary = json.loads((out / "summary.json").read_text())
+    summary, path, out = solve_thiergarten_route(tmp_path, "left", "106-90")
     sequences = summary["search"]["sequences"]
     assert summary["valid"] and summary["min_clearance"] > 0 and summary["min_clearance_dense"] >= 0
     assert not any(s["valid"] for s in sequences if "strips" not in s)  # the default strips validate nothing

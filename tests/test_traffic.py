@@ -158,39 +158,9 @@ def test_a_sumo_driver_run_writes_the_contract(sumo_run):
     assert 'depart="19.90"' in (out / "sumo" / "routes.rou.xml").read_text()
 
 
-def test_the_replay_loop_reproduces_traffic_csv(sumo_run):
-    """The contract's loop, written here independently of model.traffic, on DIR/sumo and trajectory.csv."""
-
-    import traci
-
-    _, out = sumo_run
-    traj = list(csv.DictReader((out / "trajectory.csv").open()))
-    front = 8.0 - 1.5
-    rows = {round(float(r["t"]), 6): r for r in traj}
-    t_last = max(rows)
-    seen = []
-    traci.start(["sumo", "-c", str(out / "sumo" / "run.sumocfg")])
-    try:
-        while traci.simulation.getTime() < t_last - 1e-9:
-            t_next = round(traci.simulation.getTime() + 0.1, 6)
-            if t_next in rows and "truck" in traci.vehicle.getIDList():
-                r = rows[t_next]
-                th = float(r["theta"])
-                x, y = float(r["x"]) + front * math.cos(th), float(r["y"]) + front * math.sin(th)
-                traci.vehicle.moveToXY("truck", "", -1, x, y, 90 - math.degrees(th), keepRoute=2)
-            traci.simulationStep()
-            t = round(traci.simulation.getTime(), 6)
-            for vid in traci.vehicle.getIDList():
-                if vid != "truck":
-                    seen.append((t, vid, traci.vehicle.getPosition(vid)))
-    finally:
-        traci.close()
-    recorded = list(csv.DictReader((out / "traffic.csv").open()))
-    assert len(seen) == len(recorded) > 0
-    for (t, vid, (fx, fy)), r in zip(seen, recorded, strict=True):
-        assert (t, vid) == (float(r["t"]), r["id"])
-        h, half = float(r["heading"]), float(r["length"]) / 2
-        assert math.hypot(fx - half * math.cos(h) - float(r["x"]), fy - half * math.sin(h) - float(r["y"])) < 1e-6
+def test_the_replay_loop_reproduces_traffic_csv(sumo_run, contract_replay):
+    """The contract's loop, written independently of model.traffic (conftest.py), on DIR/sumo and trajectory.csv."""
+    contract_replay(sumo_run[1])
 
 
 def test_sumo_not_installed_exits_2_naming_the_package(tmp_path, capsys, monkeypatch):

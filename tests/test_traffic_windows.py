@@ -141,44 +141,17 @@ def test_the_cooperative_driver_arrives_keeps_its_distance_and_reports_the_other
     assert summary["others_time_loss"] >= 0.0 and "realtime_factor_cpu" in summary
 
 
-def test_a_cooperative_run_is_replayed_from_dir_sumo_with_its_poses_and_speed_commands(tmp_path):
-    """The contract's replay loop, written here apart from model.traffic, with commands.csv applied: traffic.csv."""
+def test_a_cooperative_run_is_replayed_from_dir_sumo_with_its_poses_and_speed_commands(tmp_path, contract_replay):
+    """The contract's replay loop (conftest.py, apart from model.traffic) with commands.csv applied: traffic.csv."""
     import csv
-    import math
-
-    import traci
 
     from model.cli import main
 
     out = tmp_path / "coop"
     assert main(["traffic", str(ROOT / "examples" / "traffic-roundabout.toml"), "--out", str(out), "--driver",
                  "cooperative"]) == 0  # fmt: skip
-    rows = {round(float(r["t"]), 6): r for r in csv.DictReader((out / "trajectory.csv").open())}
     commands: dict[float, dict[str, float]] = {}
     for r in csv.DictReader((out / "sumo" / "commands.csv").open()):
         commands.setdefault(round(float(r["t"]), 6), {})[r["id"]] = float(r["speed"])
     assert commands  # the cars were asked to keep clear at some steps
-    front, seen = 8.0 - 1.5, []
-    traci.start(["sumo", "-c", str(out / "sumo" / "run.sumocfg")])
-    try:
-        while traci.simulation.getTime() < max(rows) - 1e-9:
-            t_next = round(traci.simulation.getTime() + 0.1, 6)
-            if t_next in rows and "truck" in traci.vehicle.getIDList():
-                r = rows[t_next]
-                th = float(r["theta"])
-                x, y = float(r["x"]) + front * math.cos(th), float(r["y"]) + front * math.sin(th)
-                traci.vehicle.moveToXY("truck", "", -1, x, y, 90.0 - math.degrees(th), keepRoute=2)
-            for vid, speed in commands.get(t_next, {}).items():
-                if vid in traci.vehicle.getIDList():
-                    traci.vehicle.setSpeed(vid, speed)
-            traci.simulationStep()
-            t = round(traci.simulation.getTime(), 6)
-            seen += [(t, vid, *traci.vehicle.getPosition(vid)) for vid in traci.vehicle.getIDList() if vid != "truck"]
-    finally:
-        traci.close()
-    recorded = list(csv.DictReader((out / "traffic.csv").open()))
-    assert len(seen) == len(recorded) > 0
-    for (t, vid, fx, fy), r in zip(seen, recorded, strict=True):  # SUMO's front bumper -> the rectangle's centre
-        assert (t, vid) == (float(r["t"]), r["id"])
-        h, half = float(r["heading"]), float(r["length"]) / 2
-        assert math.hypot(fx - half * math.cos(h) - float(r["x"]), fy - half * math.sin(h) - float(r["y"])) < 1e-6
+    contract_replay(out, commands)
