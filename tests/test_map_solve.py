@@ -175,18 +175,22 @@ def test_a_straight_on_route_the_first_cut_did_not_solve_now_validates(tmp_path)
         assert not any(boundary.collide(r) for r in shrunk), name
 
 
+def su30_left_21_90() -> dict:
+    """The SU-30 from lanelet 21 to 90 of Thiergarten, N = 30: a scenario document."""
+    return {"name": "t", "vehicle": {"preset": "SU-30"},
+            "bounds": {"u1": [0.0, 6.944444444444445], "u2": [-0.5, 0.5], "phi": [-0.6, 0.6]},
+            "map": {"dataset": THIERGARTEN[0]},
+            "route": {"from_lanelet": 21, "to_lanelet": 90, "start_offset": 12.0, "goal_offset": -8.0},
+            "problem": {"objective": "time", "intervals": 30}}  # fmt: skip
+
+
 def test_the_map_search_honours_its_time_limit():
     """With a budget smaller than one solve the first strip solve still runs (an answer or the evidence
     of a failure), then nothing more: the sequence and the later steps are cut, and ``search`` says so."""
     pytest.importorskip("commonroad")
     from model.problem.scenario import parse_scenario
 
-    data = {"name": "t", "vehicle": {"preset": "SU-30"},
-            "bounds": {"u1": [0.0, 6.944444444444445], "u2": [-0.5, 0.5], "phi": [-0.6, 0.6]},
-            "map": {"dataset": THIERGARTEN[0]},
-            "route": {"from_lanelet": 21, "to_lanelet": 90, "start_offset": 12.0, "goal_offset": -8.0},
-            "problem": {"objective": "time", "intervals": 30}}  # fmt: skip
-    ocp = parse_scenario(data).ocp
+    ocp = parse_scenario(su30_left_21_90()).ocp
     lines: list[str] = []
     sol = ocp.solve(intervals=30, time_limit=0.01, progress=lines.append)
     search = sol.search
@@ -253,12 +257,7 @@ def test_a_refusal_reports_the_converged_penalty_answer():
     from model.problem.scenario import parse_scenario
     from model.search.maps import diagnosis
 
-    data = {"name": "t", "vehicle": {"preset": "SU-30"},
-            "bounds": {"u1": [0.0, 6.944444444444445], "u2": [-0.5, 0.5], "phi": [-0.6, 0.6]},
-            "map": {"dataset": THIERGARTEN[0]},
-            "route": {"from_lanelet": 21, "to_lanelet": 90, "start_offset": 12.0, "goal_offset": -8.0},
-            "problem": {"objective": "time", "intervals": 30}}  # fmt: skip
-    sol = parse_scenario(data).ocp.solve(intervals=30, time_limit=0.01)
+    sol = parse_scenario(su30_left_21_90()).ocp.solve(intervals=30, time_limit=0.01)
     assert not sol.ok
     assert "penalty_answer" not in sol.diagnosis  # the time limit cut the search before any penalty sequence
     evidence = {"exact_clearance": -0.335, "largest_slack": 0.402, "summed_slack": 29.0, "strips": "default"}
