@@ -51,8 +51,7 @@ import numpy as np
 from model.analysis.bodies import rectangle_gaps
 from model.problem.scenario import Scenario
 from model.scene.moving import MovingVehicle
-from model.traffic.cosim import truck_geometry
-from model.traffic.network import ring_radius
+from model.traffic.network import ring_radius, truck_geometry
 
 HORIZON = 5.0  # s looked ahead
 SAMPLE = 0.25  # s between the predicted instants (plus the first step's end)

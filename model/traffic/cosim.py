@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from model.problem.scenario import Scenario
+from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
 from model.traffic.cooperative import Cooperator, apply_commands, committed
 from model.traffic.network import (
     config_xml,
@@ -34,6 +35,7 @@ from model.traffic.network import (
     junction_shape,
     route_edges,
     routes_xml,
+    truck_geometry,
     via_lane_shape,
     write_network,
 )
@@ -59,28 +61,6 @@ class Pass:
     decision_seconds: list[float] = field(default_factory=list)
     decision_cpu_seconds: list[float] = field(default_factory=list)
     commands: dict[float, dict[str, float]] = field(default_factory=dict)  # cooperative: t -> id -> setSpeed value
-
-
-def truck_geometry(scenario: Scenario) -> dict:
-    """The SUMO vehicle ``truck``: vClass, overall length of the straight vehicle, widest body, front offset.
-
-    ``front`` is the distance from the reference point (rear axle) to the first body's front bumper.
-    """
-    ocp = scenario.ocp
-    v = ocp.vehicle
-    poses = v.body_poses()
-    straight = {s: np.zeros(1) for s in v.states}
-    ends = []
-    for name, body in ocp.bodies.items():
-        x, y, _ = v.state_function(list(poses[name]))(straight)
-        ends += [float(x[0]) - body.rear_overhang, float(x[0]) + body.length - body.rear_overhang]
-    first = ocp.bodies["vehicle"]
-    return {
-        "vclass": "trailer" if v.roles.trailers else "truck",
-        "length": max(ends) - min(ends),
-        "width": max(b.width for b in ocp.bodies.values()),
-        "front": first.length - first.rear_overhang,
-    }
 
 
 def write_sumo_files(scenario: Scenario, folder: Path, sumo: Sumo, seed: int) -> None:
@@ -185,7 +165,6 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     the truck's appearance on, each step announces its windows in the ring's conflict areas and sets the
     speeds that keep the others out of them; the autopilot's own checks stay as they are.
     """
-    from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
 
     traffic, v, road = scenario.traffic, scenario.ocp.vehicle, scenario.ocp.road
     geo = truck_geometry(scenario)
@@ -390,5 +369,5 @@ def _trailers(vehicle, cols: dict[str, np.ndarray]) -> None:
 
 __all__ = [
     "BRAKING_RADIUS", "Pass", "autopilot_drive", "drive", "passed_goal", "reconstruct", "replay", "start_sumo",
-    "states_of", "truck_geometry", "write_sumo_files",
+    "states_of", "write_sumo_files",
 ]  # fmt: skip

@@ -27,6 +27,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from model.problem.scenario import Scenario
 from model.problem.traffic import TrafficSettings
 from model.scene.roundabout import Roundabout, exit_order, lane_side, leg_point
 
@@ -270,8 +271,32 @@ def config_xml(traffic: TrafficSettings, seed: int, routes: str = "routes.rou.xm
     return "<configuration>\n" + "\n".join(rows) + "\n</configuration>\n"
 
 
+def truck_geometry(scenario: Scenario) -> dict:
+    """The SUMO vehicle ``truck``: vClass, overall length of the straight vehicle, widest body, front offset.
+
+    ``front`` is the distance from the reference point (rear axle) to the first body's front bumper.
+    """
+    ocp = scenario.ocp
+    v = ocp.vehicle
+    poses = v.body_poses()
+    straight = {s: np.zeros(1) for s in v.states}
+    ends = []
+    for name, body in ocp.bodies.items():
+        x, y, _ = v.state_function(list(poses[name]))(straight)
+        ends += [float(x[0]) - body.rear_overhang, float(x[0]) + body.length - body.rear_overhang]
+    first = ocp.bodies["vehicle"]
+    return {
+        "vclass": "trailer" if v.roles.trailers else "truck",
+        "length": max(ends) - min(ends),
+        "width": max(b.width for b in ocp.bodies.values()),
+        "front": first.length - first.rear_overhang,
+    }
+
+
+
 __all__ = [
     "NET_FILES", "config_xml", "connections_xml", "edges_xml", "junction_shape", "lane_line", "next_leg", "nodes_xml",
-    "ring_lane_width", "ring_order", "ring_radius", "ring_shape", "route_edges", "routes_xml", "truck_vtype",
+    "ring_lane_width", "ring_order", "ring_radius", "ring_shape", "route_edges", "routes_xml", "truck_geometry",
+    "truck_vtype",
     "via_lane_shape", "write_network",
 ]  # fmt: skip

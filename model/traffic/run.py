@@ -28,9 +28,9 @@ from model.traffic.cosim import (
     reconstruct,
     replay,
     states_of,
-    truck_geometry,
     write_sumo_files,
 )
+from model.traffic.network import truck_geometry
 from model.traffic.sumo import Sumo
 from model.vehicles.body import centred_rectangle
 
