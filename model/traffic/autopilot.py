@@ -75,6 +75,8 @@ FOLLOW_HEADING = math.radians(30.0)  # a vehicle on the ring heading within this
 EXIT_SIGNAL_MIN = 8.0  # m: a car signalling its exit this near the merge point may mean the next exit: it follows
 LEADER_DECEL = 4.0  # m/s^2: the truck's braking SUMO's follower assumes (SUMO's truck and trailer decel)
 EMERGENCY_DECEL = 9.0  # m/s^2: the follower's hardest braking (SUMO's passenger emergencyDecel)
+MAX_TURN = math.pi / 2.0  # rad: a constant-yaw-rate prediction turns at most this far, then goes straight
+RING_HEADING = math.radians(15.0)  # on the ring and heading within this of its tangent: predicted along the ring
 
 
 @dataclass
@@ -412,7 +414,7 @@ class Autopilot:
         t0, c0 = time.perf_counter(), time.process_time()
         tau = self.instants(step)
         near = self._near(others, tau)
-        theirs = self._predict(near, tau)
+        theirs = self._predict(near, tau, exiting)
         signalling = np.array([o.key in exiting for o in near], bool)
         safety, braking, keeps = self.scenario.traffic.safety_distance, {}, {}
 
@@ -429,7 +431,7 @@ class Autopilot:
         best, tried = None, []
         for i, (name, rates, s) in enumerate(self.profiles(tau)):
             gaps = self.clearances(s, theirs)
-            net = float(np.min(gaps[1:] - PREDICTION_MARGIN * np.minimum(tau[1:], MARGIN_HORIZON)))  # not now
+            net = self.net_gap(tau, s, gaps)
             if net >= safety and rules(i, rates, s):
                 best, best_gap = (name, rates), float(gaps.min())
                 break
@@ -454,8 +456,24 @@ class Autopilot:
         self.decision_cpu_seconds.append(time.process_time() - c0)
         return name, best_gap
 
-    def expect(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
+    def net_gap(self, tau: np.ndarray, s: np.ndarray, gaps: np.ndarray) -> float:
+        """The least distance less the prediction margin over the instants after now, until the truck arrives.
+
+        Not the present (measured, not chosen), nor the instants after the one at which the profile
+        reaches the plan's end: the run ends there (the truck arrives and leaves SUMO); parked at
+        its goal pose in the prediction it would be hit by the car following it out of the exit
+        (traced: truck straight 450 seed 1, a 'stand' in the exit at 8 m/s for that; 1.1 s of delay).
+        """
+        live = np.concatenate([[False], s[:-1] < self.plan.duration - 1e-9])  # not now, nor after arriving
+        if not live.any():
+            return math.inf
+        return float(np.min(gaps[live] - PREDICTION_MARGIN * np.minimum(tau[live], MARGIN_HORIZON)))
+
+    def expect(self, other: MovingVehicle, tau: np.ndarray, exiting: bool = False) -> MovingVehicle:
         """``other`` as the roundabout's rule expects it: an entering vehicle that can still stop yields.
+
+        A vehicle circulating on the ring (``circulates``) and not showing the exit side's turn
+        signal (``exiting``) follows the ring: ``along_ring``.
 
         A vehicle outside the outer curb whose heading points within 30 degrees of the centre is
         entering; if braking at constant deceleration to stop with its front at the curb needs at
@@ -463,14 +481,21 @@ class Autopilot:
         the network's ``<roundabout>`` makes it); otherwise (too close, too fast: committed) and
         for every other vehicle, constant speed and yaw rate.
         """
+        if other.start is None:
+            return other
+        if not exiting and self.circulates(other):
+            return self.along_ring(other, tau)
         ra = self.scenario.ocp.road.roundabout
         x, y, h = other.start
         half, v = other.length / 2, other.speed
         fx, fy = x + half * math.cos(h) - ra.center[0], y + half * math.sin(h) - ra.center[1]
         d = math.hypot(fx, fy) - ra.outer_radius
-        entering = d > 0 and -(fx * math.cos(h) + fy * math.sin(h)) >= ENTERING_COS * math.hypot(fx, fy)
+        radial = fx * math.cos(h) + fy * math.sin(h)  # > 0: heading away from the centre
+        if d > 0 and radial >= ENTERING_COS * math.hypot(fx, fy):
+            return self.along_leg(other)
+        entering = d > 0 and -radial >= ENTERING_COS * math.hypot(fx, fy)
         if not entering or v <= 0 or v * v > 2.0 * YIELD_DECEL * d:
-            return other
+            return _turn_capped(other, tau)
         a = v * v / (2.0 * d)
         t = np.minimum(tau, v / a)
         run = v * t - 0.5 * a * t * t
@@ -478,14 +503,60 @@ class Autopilot:
                         for ti, r in zip(tau, run, strict=True))  # fmt: skip
         return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
 
-    def predicted(self, others: list[MovingVehicle], tau: np.ndarray) -> np.ndarray:
+    def along_leg(self, other: MovingVehicle) -> MovingVehicle:
+        """A vehicle leaving the ring (outside the outer curb, heading within 30 degrees of away from the centre):
+        straight on at its speed along the axis of the leg it is on (the nearest by angle).
+
+        Its yaw rate while it straightens out of the exit's curve would turn it in a circle back onto
+        the road (traced: semitrailer straight 200 seed 3, a car leaving by the truck's exit at -1.0
+        rad/s predicted across the truck's path 5 s ahead; the truck stopped for it).
+        """
+        ra = self.scenario.ocp.road.roundabout
+        x, y, h = other.start
+        angle = math.atan2(y - ra.center[1], x - ra.center[0])
+        leg = min(ra.legs, key=lambda g: abs(math.remainder(g.angle - angle, 2.0 * math.pi)))
+        heading = h + math.remainder(leg.angle - h, 2.0 * math.pi)  # the leg's direction, nearest its heading now
+        return MovingVehicle(other.length, other.width, start=(x, y, heading), speed=other.speed, key=other.key)
+
+    def circulates(self, other: MovingVehicle) -> bool:
+        """Whether ``other`` drives on the ring: its centre between the curbs, heading within ``RING_HEADING`` of the
+        ring's tangent in the circulation direction."""
+        ra = self.scenario.ocp.road.roundabout
+        x, y, h = other.start
+        rx, ry = x - ra.center[0], y - ra.center[1]
+        if not ra.inner_radius <= math.hypot(rx, ry) <= ra.outer_radius:
+            return False
+        tangent = math.atan2(ry, rx) + ra.circulation * math.pi / 2.0
+        return abs(math.remainder(h - tangent, 2.0 * math.pi)) <= RING_HEADING
+
+    def along_ring(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
+        """``other`` turned about the ring's centre at its speed, at its radius now (its pose to the ring kept).
+
+        SUMO's ring lane is an arc (5 degree chords and internal lanes at the junctions): a yaw rate
+        measured over ``YAW_WINDOW`` there can be near zero, and a constant-yaw-rate prediction then
+        drives a circulating car straight out of the ring across the entry (traced: truck right 200
+        seed 0, a car at 7.1 m/s with 0.04 rad/s predicted over the truck's give-way line).
+        """
+        ra = self.scenario.ocp.road.roundabout
+        x, y, h = other.start
+        cx, cy = ra.center
+        radius = max(math.hypot(x - cx, y - cy), 1e-9)
+        turn = ra.circulation * other.speed / radius * np.asarray(tau, float)
+        c, s = np.cos(turn), np.sin(turn)
+        px, py = cx + c * (x - cx) - s * (y - cy), cy + s * (x - cx) + c * (y - cy)
+        samples = tuple((float(t), float(a), float(b), float(h + w))
+                        for t, a, b, w in zip(tau, px, py, turn, strict=True))  # fmt: skip
+        return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
+
+    def predicted(self, others: list[MovingVehicle], tau: np.ndarray,
+                  exiting: frozenset[str] = frozenset()) -> np.ndarray:  # fmt: skip
         """The predicted corners (n, len(tau), 4, 2) of the vehicles that can come near within the horizon.
 
         A vehicle is left out when its distance now (between bounding circles of the truck's reach
         and of its rectangle) exceeds what both can close in ``tau[-1]`` seconds plus the safety distance.
-        The others are predicted as ``expect`` says.
+        The others are predicted as ``expect`` says (``exiting``: the keys showing the exit side's signal).
         """
-        return self._predict(self._near(others, tau), tau)
+        return self._predict(self._near(others, tau), tau, exiting)
 
     def _near(self, others: list[MovingVehicle], tau: np.ndarray) -> list[MovingVehicle]:
         """The vehicles that can come near within the horizon (``predicted``)."""
@@ -499,11 +570,12 @@ class Autopilot:
                 if math.hypot(o.start[0] - x, o.start[1] - y) <= reach + abs(o.speed) * tau[-1]
                 + 0.5 * math.hypot(o.length, o.width)]  # fmt: skip
 
-    def _predict(self, near: list[MovingVehicle], tau: np.ndarray) -> np.ndarray:
+    def _predict(self, near: list[MovingVehicle], tau: np.ndarray,
+                 exiting: frozenset[str] = frozenset()) -> np.ndarray:  # fmt: skip
         """The predicted corners (n, len(tau), 4, 2) of ``near`` (``expect``)."""
         if not near:
             return np.empty((0, len(tau), 4, 2))
-        return np.stack([self.expect(o, tau).corners(tau) for o in near])
+        return np.stack([self.expect(o, tau, o.key in exiting).corners(tau) for o in near])
 
     def least_distance(self, s: np.ndarray, theirs: np.ndarray) -> float:
         """Least distance between the truck's bodies at plan times ``s`` and the predicted corners ``theirs``."""
@@ -583,6 +655,21 @@ def _safe_stop_speed(gap: float, decel: float, headway: float, step: float) -> f
     return n * b + (g - h) / (n * step + headway)
 
 
+def _turn_capped(other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
+    """``other`` at constant speed and yaw rate until it has turned ``MAX_TURN``, then straight on (no circles)."""
+    if other.start is None or abs(other.yaw_rate) * float(tau[-1]) <= MAX_TURN:
+        return other
+    x, y, h = other.start
+    v, w = other.speed, other.yaw_rate
+    t_turn = MAX_TURN / abs(w)
+    a = np.minimum(tau, t_turn)
+    heading = h + w * a
+    px = x + v / w * (np.sin(heading) - math.sin(h)) + v * np.cos(heading) * (tau - a)
+    py = y - v / w * (np.cos(heading) - math.cos(h)) + v * np.sin(heading) * (tau - a)
+    samples = tuple((float(t), float(p), float(q), float(g)) for t, p, q, g in zip(tau, px, py, heading, strict=True))
+    return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
+
+
 def _integral(r: np.ndarray, tau: np.ndarray) -> np.ndarray:
     """Cumulative trapezoid integral of ``r`` over ``tau`` from 0."""
     return np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * np.diff(tau))])
@@ -602,7 +689,7 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 __all__ = [
     "EMERGENCY_DECEL", "EXIT_SIGNAL_MIN", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP",
-    "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON",
-    "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS", "YAW_WINDOW",
+    "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON", "MAX_TURN",
+    "PREDICTION_MARGIN", "RATE_SLOPE", "RING_HEADING", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS", "YAW_WINDOW",
     "Autopilot", "Plan", "plan_of", "predict",
 ]  # fmt: skip
