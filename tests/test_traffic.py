@@ -312,6 +312,63 @@ def ring_car(degrees: float, speed: float = 7.0):
     return predict(row, a + math.pi / 2 - speed / r * 0.5, 0.5)
 
 
+def test_a_circulating_car_is_predicted_along_the_ring_whatever_its_measured_yaw_rate():
+    """A car on the ring's centre line measured with no yaw rate (SUMO's chords; traced: truck right 200
+    seed 0, 0.04 rad/s at 7.1 m/s) is turned about the ring's centre: radius and heading to the tangent
+    kept. Showing the exit side's signal it keeps its measured straight line."""
+    from model.traffic.autopilot import predict
+
+    pilot = straight_pilot()
+    tau = pilot.instants(0.1)
+    a = math.radians(90.0)
+    row = (0.0, "car", "passenger", 17.0 * math.cos(a), 17.0 * math.sin(a), a + math.pi / 2, 7.0, 4.5, 1.8)
+    car = predict(row, a + math.pi / 2, 0.5)  # yaw rate 0
+    assert pilot.circulates(car)
+    x, y, h = pilot.expect(car, tau).pose(tau)
+    angle = np.unwrap(np.arctan2(y, x))
+    assert np.allclose(np.hypot(x, y), 17.0) and np.allclose(h - angle, math.pi / 2)
+    assert angle[-1] - a == pytest.approx(7.0 * tau[-1] / 17.0)
+    straight = pilot.expect(car, tau, exiting=True)
+    assert np.allclose(np.array(straight.pose(tau)), np.array(car.pose(tau)))
+
+
+def test_a_car_leaving_the_ring_goes_straight_along_its_leg_and_no_prediction_circles():
+    """Leaving by leg 2 (east) still curving at -1 rad/s (traced: semitrailer straight 200 seed 3, its
+    circle came back over the truck's path 5 s ahead): straight on along the leg's axis. Any other
+    constant yaw rate turns at most MAX_TURN, then goes straight."""
+    from model.scene.moving import MovingVehicle
+    from model.traffic.autopilot import MAX_TURN
+
+    pilot = straight_pilot()
+    tau = pilot.instants(0.1)
+    leaving = MovingVehicle(4.5, 1.8, start=(22.0, -3.0, 0.4), speed=8.7, yaw_rate=-1.0)
+    x, y, h = pilot.expect(leaving, tau).pose(tau)
+    assert np.allclose(h, 0.0) and np.allclose(y, -3.0) and x[-1] == pytest.approx(22.0 + 8.7 * tau[-1])
+    turning = MovingVehicle(4.5, 1.8, start=(0.0, -17.0, 1.0), speed=7.0, yaw_rate=1.0)  # 57 deg off the tangent
+    assert not pilot.circulates(turning)
+    x, y, h = pilot.expect(turning, tau).pose(tau)
+    assert h.max() - 1.0 == pytest.approx(MAX_TURN) and np.all(np.diff(h) >= -1e-12)
+    step = np.hypot(np.diff(x), np.diff(y)) / np.diff(tau)
+    assert np.allclose(step, 7.0, rtol=0.02)  # its speed kept along the capped path
+
+
+def test_instants_after_the_truck_arrives_are_not_checked():
+    """0.1 s before the plan's end a car comes from behind faster than the truck: parked at its goal in
+    the prediction the truck would be hit 0.5 s ahead, but the run ends on arrival (traced: truck
+    straight 450 seed 1, a 'stand' at 8 m/s in the exit for that, 1.1 s of delay): full pace."""
+    from model.scene.moving import MovingVehicle
+
+    pilot = straight_pilot()
+    pilot.s, pilot.rate = pilot.plan.duration - 0.1, 1.0
+    car = MovingVehicle(4.5, 1.8, start=(-17.55, -2.0, 0.0), speed=10.0)  # its front 3 m behind the truck's rear
+    tau = pilot.instants(0.1)
+    _, _, s = next(pilot.profiles(tau))
+    gaps = pilot.clearances(s, pilot.predicted([car], tau))
+    assert gaps[1] > 2.0 and gaps.min() < 0.0  # clear at the arrival, hit while parked after it
+    assert pilot.net_gap(tau, s, gaps) == pytest.approx(gaps[1] - 0.01)
+    assert pilot.decide([car], 0.1)[0] == "rate 1" and pilot.s == pilot.plan.duration
+
+
 @pytest.mark.parametrize("degrees,enters", [(140.0, False), (60.0, True)])
 def test_the_truck_at_its_line_waits_for_a_car_in_its_window_and_enters_a_big_gap(degrees, enters):
     """Standing at the line: a car 40 degrees upstream crosses the truck's planned occupancy (wait);
