@@ -315,8 +315,9 @@ def ring_car(degrees: float, speed: float = 7.0):
 def test_a_circulating_car_is_predicted_along_the_ring_whatever_its_measured_yaw_rate():
     """A car on the ring's centre line measured with no yaw rate (SUMO's chords; traced: truck right 200
     seed 0, 0.04 rad/s at 7.1 m/s) is turned about the ring's centre: radius and heading to the tangent
-    kept. Showing the exit side's signal it keeps its measured straight line."""
-    from model.traffic.autopilot import predict
+    kept. Showing the exit side's signal 60 degrees before leg 3 it goes round to EXIT_TURN_ANGLE before
+    that leg's axis, then out onto its exit lane (x = 2, heading north)."""
+    from model.traffic.autopilot import EXIT_TURN_ANGLE, predict
 
     pilot = straight_pilot()
     tau = pilot.instants(0.1)
@@ -328,8 +329,12 @@ def test_a_circulating_car_is_predicted_along_the_ring_whatever_its_measured_yaw
     angle = np.unwrap(np.arctan2(y, x))
     assert np.allclose(np.hypot(x, y), 17.0) and np.allclose(h - angle, math.pi / 2)
     assert angle[-1] - a == pytest.approx(7.0 * tau[-1] / 17.0)
-    straight = pilot.expect(car, tau, exiting=True)
-    assert np.allclose(np.array(straight.pose(tau)), np.array(car.pose(tau)))
+    a = math.radians(30.0)
+    row = (0.0, "car", "passenger", 17.0 * math.cos(a), 17.0 * math.sin(a), a + math.pi / 2, 7.0, 4.5, 1.8)
+    x, y, h = pilot.expect(predict(row, a + math.pi / 2, 0.5), tau, exiting=True).pose(tau)
+    round_ring = tau <= 17.0 * (math.radians(60.0) - EXIT_TURN_ANGLE) / 7.0
+    assert np.allclose(np.hypot(x, y)[round_ring], 17.0) and not np.allclose(np.hypot(x, y), 17.0)
+    assert x[-1] == pytest.approx(2.0, abs=0.3) and h[-1] == pytest.approx(math.pi / 2, abs=0.1) and y[-1] > 25.0
 
 
 def test_a_car_leaving_the_ring_goes_straight_along_its_leg_and_no_prediction_circles():
@@ -350,6 +355,32 @@ def test_a_car_leaving_the_ring_goes_straight_along_its_leg_and_no_prediction_ci
     assert h.max() - 1.0 == pytest.approx(MAX_TURN) and np.all(np.diff(h) >= -1e-12)
     step = np.hypot(np.diff(x), np.diff(y)) / np.diff(tau)
     assert np.allclose(step, 7.0, rtol=0.02)  # its speed kept along the capped path
+
+
+def test_a_car_turning_out_goes_onto_the_exit_lane_and_a_committed_entering_car_joins_the_ring():
+    """Turning out by leg 0 (west) 20 degrees before its axis, 23 degrees outward of the tangent, with a
+    small measured yaw rate (traced: truck right 700 seed 1, predicted straight over the entry lane beside
+    the exit, where the truck stood): it ends on the exit lane's middle (y = +2), clear of the entry lane
+    (y < 0). An entering car too fast to yield (leg 3, 9 m before the curb at 9.4 m/s; traced: truck
+    straight 700 seed 1, predicted across the whole ring) drives to the ring lane's middle and round it."""
+    from model.scene.moving import MovingVehicle
+    from model.traffic.network import ring_radius
+
+    pilot = straight_pilot()
+    tau = pilot.instants(0.1)
+    a = math.radians(160.0)
+    out = MovingVehicle(4.5, 1.8, start=(17.0 * math.cos(a), 17.0 * math.sin(a), -2.2), speed=7.2, yaw_rate=-0.12)
+    x, y, h = pilot.expect(out, tau).pose(tau)
+    assert np.all(y >= 1.0) and y[-1] == pytest.approx(2.0, abs=0.3) and x[-1] < -40.0
+    assert math.remainder(h[-1] - math.pi, 2 * math.pi) == pytest.approx(0.0, abs=0.1)
+    committed = MovingVehicle(4.5, 1.8, start=(-2.0, 31.5, -math.pi / 2), speed=9.4)
+    x, y, h = pilot.expect(committed, tau).pose(tau)
+    r = np.hypot(x, y)
+    radius = ring_radius(pilot.scenario.ocp.road.roundabout)
+    assert r.min() == pytest.approx(radius, abs=1e-6) and np.allclose(r[r <= radius + 1e-6], radius)
+    t_in = (31.5 - math.sqrt(radius**2 - 4.0)) / 9.4  # when it reaches the lane's middle
+    turned = np.unwrap(np.arctan2(y, x))[-1] - math.atan2(math.sqrt(radius**2 - 4.0), -2.0)
+    assert turned == pytest.approx(9.4 * (tau[-1] - t_in) / radius)  # counter-clockwise round the ring
 
 
 def test_instants_after_the_truck_arrives_are_not_checked():
@@ -481,9 +512,11 @@ def test_the_approach_keeps_the_plan_pace_while_a_stop_at_the_line_stays_possibl
 
 @pytest.mark.parametrize("gap,keeps_pace", [(1.005, False), (1.6, True), (1.3, True)])
 def test_a_predicted_gap_within_the_prediction_margin_is_not_accepted(gap, keeps_pace):
-    """A committed car just ahead at the truck's speed (8 m/s, close to the curb: it does not yield).
+    """A car just ahead at the truck's speed (8 m/s) on the test's straight plan into the ring.
 
-    Its constant-speed prediction keeps ``gap`` at every instant. 1.005 m is within the predictions'
+    Given as its path (a straight line, which ``expect`` keeps as it is: a committed entering car given
+    by its pose would be predicted round the ring lane, off the straight plan), it keeps ``gap`` at every
+    instant. 1.005 m is within the predictions'
     error (PREDICTION_MARGIN per second ahead; traced in truck left 700 seed 0: predicted 1.0049 m one
     step ahead, 0.9962 m measured): the truck must not hold its pace. 1.6 m: it does. 1.3 m: it does
     too, the margin stopping growing at MARGIN_HORIZON (1 s: 1.1 m; growing over the whole horizon it
@@ -494,7 +527,7 @@ def test_a_predicted_gap_within_the_prediction_margin_is_not_accepted(gap, keeps
     from model.traffic.autopilot import PREDICTION_MARGIN
 
     pilot = straight_pilot()
-    car = MovingVehicle(4.5, 1.8, start=(-27.25, -2.0, 0.0), speed=8.0)  # front at x = -25 (5.1 m outside the curb)
+    car = MovingVehicle(4.5, 1.8, trajectory=((0.0, -27.25, -2.0, 0.0), (5.0, 12.75, -2.0, 0.0)))  # front x = -25
     pilot.s, pilot.rate = (-29.5 - gap - 6.5 + 50.0) / 8.0, 1.0  # the truck's front ``gap`` behind the car's rear
     tau = pilot.instants(0.1)
     gaps = pilot.clearances(next(pilot.profiles(tau))[2], pilot.predicted([car], tau))
@@ -520,7 +553,10 @@ def test_an_entering_car_that_can_stop_is_expected_to_yield_one_that_cannot_goes
     assert math.hypot(x[-1], y[-1] + 2.25) == pytest.approx(20.0, abs=0.06) and np.all(np.diff(y) >= -1e-12)
     assert y[-1] == pytest.approx(y[-2])
     close = MovingVehicle(4.5, 1.8, start=(2.0, -25.25, math.pi / 2), speed=10.0)
-    assert pilot.expect(close, tau) is close
+    x, y, _ = pilot.expect(close, tau).pose(tau)  # committed: on at its speed into the ring lane, then round it
+    ahead = y <= -math.sqrt(17.0**2 - 4.0) + 1e-9
+    assert np.allclose(x[ahead], 2.0) and np.allclose(np.diff(y[ahead]) / np.diff(tau[ahead]), 10.0)
+    assert np.allclose(np.hypot(x, y)[~ahead], 17.0) and (~ahead).any()
     leaving = MovingVehicle(4.5, 1.8, start=(-2.0, -42.25, -math.pi / 2), speed=10.0)  # along its leg: straight on
     assert np.allclose(np.array(pilot.expect(leaving, tau).pose(tau)), np.array(leaving.pose(tau)))
 

@@ -51,6 +51,7 @@ import numpy as np
 from model.analysis.bodies import rectangle_gaps
 from model.problem.scenario import Scenario
 from model.scene.moving import MovingVehicle
+from model.scene.roundabout import lane_side
 from model.traffic.cosim import truck_geometry
 from model.traffic.network import ring_radius
 
@@ -76,6 +77,9 @@ EXIT_SIGNAL_MIN = 8.0  # m: a car signalling its exit this near the merge point 
 LEADER_DECEL = 4.0  # m/s^2: the truck's braking SUMO's follower assumes (SUMO's truck and trailer decel)
 EMERGENCY_DECEL = 9.0  # m/s^2: the follower's hardest braking (SUMO's passenger emergencyDecel)
 MAX_TURN = math.pi / 2.0  # rad: a constant-yaw-rate prediction turns at most this far, then goes straight
+EXIT_LOOKAHEAD = 8.0  # m: a car turning out to an exit steers toward the exit lane's middle this far ahead
+EXIT_MIN_RADIUS = 5.0  # m: the tightest turn of that predicted path
+EXIT_TURN_ANGLE = math.radians(35.0)  # a car signalling its exit turns out this far before its leg's axis
 RING_HEADING = math.radians(15.0)  # on the ring and heading within this of its tangent: predicted along the ring
 
 
@@ -483,8 +487,8 @@ class Autopilot:
         """
         if other.start is None:
             return other
-        if not exiting and self.circulates(other):
-            return self.along_ring(other, tau)
+        if self.circulates(other):
+            return self.to_exit(other, tau, signalled=True) if exiting else self.along_ring(other, tau)
         ra = self.scenario.ocp.road.roundabout
         x, y, h = other.start
         half, v = other.length / 2, other.speed
@@ -493,14 +497,50 @@ class Autopilot:
         radial = fx * math.cos(h) + fy * math.sin(h)  # > 0: heading away from the centre
         if d > 0 and radial >= ENTERING_COS * math.hypot(fx, fy):
             return self.along_leg(other)
+        if d <= 0 and radial >= math.sin(RING_HEADING) * math.hypot(fx, fy):  # on the ring, turning out
+            return self.to_exit(other, tau)
         entering = d > 0 and -radial >= ENTERING_COS * math.hypot(fx, fy)
-        if not entering or v <= 0 or v * v > 2.0 * YIELD_DECEL * d:
+        if entering and v > 0 and v * v > 2.0 * YIELD_DECEL * d:
+            return self.into_ring(other, tau)
+        if not entering or v <= 0:
             return _turn_capped(other, tau)
         a = v * v / (2.0 * d)
         t = np.minimum(tau, v / a)
         run = v * t - 0.5 * a * t * t
         samples = tuple((float(ti), x + r * math.cos(h), y + r * math.sin(h), h)
                         for ti, r in zip(tau, run, strict=True))  # fmt: skip
+        return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
+
+    def into_ring(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
+        """An entering car too close or too fast to yield: straight on at its speed to the ring lane's middle
+        (radius ``ring_radius``), then round the ring (turned about the centre, heading the tangent).
+
+        Straight on at constant speed it crossed the whole ring (traced: truck straight 700 seed 1, a car
+        9 m before the curb at 9.4 m/s predicted 0.99 m from the truck 4.5 s ahead on the far side of the
+        ring; the truck stopped at its line for it).
+        """
+        ra = self.scenario.ocp.road.roundabout
+        c = np.asarray(ra.center, float)
+        x, y, h = other.start
+        v, radius = other.speed, ring_radius(ra)
+        p, u = np.array([x, y]) - c, np.array([math.cos(h), math.sin(h)])
+        b, q = float(p @ u), float(p @ p) - radius * radius
+        if b * b < q:  # its line misses the ring lane's middle: straight on
+            return _turn_capped(other, tau)
+        t_in = max((-b - math.sqrt(b * b - q)) / v, 0.0)
+        straight = np.minimum(tau, t_in)
+        px, py = x + v * straight * u[0], y + v * straight * u[1]
+        w = ra.circulation * v * (tau - straight) / radius  # the turn about the centre after reaching the lane
+        entry = p + v * t_in * u  # where it reaches the lane's middle, from the centre
+        a0 = math.atan2(float(entry[1]), float(entry[0]))
+        angle = a0 + w
+        on = tau > t_in
+        px = np.where(on, c[0] + radius * np.cos(angle), px)
+        py = np.where(on, c[1] + radius * np.sin(angle), py)
+        heading = np.where(on, angle + ra.circulation * math.pi / 2.0, h)
+        samples = tuple(
+            (float(t), float(a), float(e), float(g)) for t, a, e, g in zip(tau, px, py, heading, strict=True)
+        )
         return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
 
     def along_leg(self, other: MovingVehicle) -> MovingVehicle:
@@ -517,6 +557,48 @@ class Autopilot:
         leg = min(ra.legs, key=lambda g: abs(math.remainder(g.angle - angle, 2.0 * math.pi)))
         heading = h + math.remainder(leg.angle - h, 2.0 * math.pi)  # the leg's direction, nearest its heading now
         return MovingVehicle(other.length, other.width, start=(x, y, heading), speed=other.speed, key=other.key)
+
+    def to_exit(self, other: MovingVehicle, tau: np.ndarray, signalled: bool = False) -> MovingVehicle:
+        """A car turning out of the ring to an exit lane, at its speed.
+
+        Without ``signalled``: a car on the ring heading outward of the tangent by more than
+        ``RING_HEADING`` turns out to the nearest leg's exit lane, steered (pure pursuit, no tighter than
+        ``EXIT_MIN_RADIUS``) toward the lane's middle ``EXIT_LOOKAHEAD`` ahead of it. Its yaw rate measured
+        over ``YAW_WINDOW`` at the start of the turn is small and sent it straight on over the entry lane
+        beside the exit (traced: truck right 700 seed 1, a car leaving by the truck's own leg at -0.12
+        rad/s predicted across the standing truck; the truck stood for it). ``signalled``: a car
+        circulating and showing the exit side's signal (SUMO's, about 50 degrees before its exit) goes
+        round the ring to the next leg ahead and turns out the same way from ``EXIT_TURN_ANGLE`` before
+        that leg's axis.
+        """
+        ra = self.scenario.ocp.road.roundabout
+        c = np.asarray(ra.center, float)
+        x, y, h = other.start
+        angle = math.atan2(y - c[1], x - c[0])
+        ahead = [float(np.mod(ra.circulation * (g.angle - angle), 2.0 * math.pi)) for g in ra.legs]
+        near = [abs(math.remainder(g.angle - angle, 2.0 * math.pi)) for g in ra.legs]
+        k = int(np.argmin(ahead if signalled else near))
+        leg, around = ra.legs[k], ahead[k] - EXIT_TURN_ANGLE if signalled else 0.0
+        across = lane_side(ra, "exit") * leg.lane_width / 2.0
+        v, dt = other.speed, 0.05
+        fine = np.arange(0.0, float(tau[-1]) + dt / 2, dt)
+        poses = np.empty((len(fine), 3))
+        radius = max(math.hypot(x - c[0], y - c[1]), 1e-9)
+        for i in range(len(fine)):
+            poses[i] = x, y, h
+            if around > 0.0:  # still going round the ring: turned about the centre
+                w = min(v * dt / radius, around)
+                around -= w
+                w *= ra.circulation
+                dx, dy = x - c[0], y - c[1]
+                x, y, h = c[0] + math.cos(w) * dx - math.sin(w) * dy, c[1] + math.sin(w) * dx + math.cos(w) * dy, h + w
+                continue
+            target = c + (float(np.dot((x, y) - c, leg.axis)) + EXIT_LOOKAHEAD) * leg.axis + across * leg.normal
+            alpha = math.remainder(math.atan2(target[1] - y, target[0] - x) - h, 2.0 * math.pi)
+            curvature = min(max(2.0 * math.sin(alpha) / EXIT_LOOKAHEAD, -1.0 / EXIT_MIN_RADIUS), 1.0 / EXIT_MIN_RADIUS)
+            x, y, h = x + v * dt * math.cos(h), y + v * dt * math.sin(h), h + v * dt * curvature
+        samples = tuple((float(t), *(float(np.interp(t, fine, poses[:, j])) for j in range(3))) for t in tau)
+        return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
 
     def circulates(self, other: MovingVehicle) -> bool:
         """Whether ``other`` drives on the ring: its centre between the curbs, heading within ``RING_HEADING`` of the
@@ -566,8 +648,9 @@ class Autopilot:
         v = self.scenario.ocp.vehicle
         x, y = (float(here[n][0]) for n in v.position)
         reach = self.reach + self.top_speed * tau[-1] + self.scenario.traffic.safety_distance
-        return [o for o in others
-                if math.hypot(o.start[0] - x, o.start[1] - y) <= reach + abs(o.speed) * tau[-1]
+        now = [_position_speed(o) for o in others]
+        return [o for o, (ox, oy, speed) in zip(others, now, strict=True)
+                if math.hypot(ox - x, oy - y) <= reach + speed * tau[-1]
                 + 0.5 * math.hypot(o.length, o.width)]  # fmt: skip
 
     def _predict(self, near: list[MovingVehicle], tau: np.ndarray,
@@ -655,6 +738,15 @@ def _safe_stop_speed(gap: float, decel: float, headway: float, step: float) -> f
     return n * b + (g - h) / (n * step + headway)
 
 
+def _position_speed(other: MovingVehicle) -> tuple[float, float, float]:
+    """Where ``other`` is now and its speed (m/s): its start and speed, or its path's first sample and fastest leg."""
+    if other.start is not None:
+        return other.start[0], other.start[1], abs(other.speed)
+    p = np.asarray(other.trajectory, float)
+    legs = np.hypot(np.diff(p[:, 1]), np.diff(p[:, 2])) / np.maximum(np.diff(p[:, 0]), 1e-9)
+    return float(p[0, 1]), float(p[0, 2]), float(legs.max(initial=0.0))
+
+
 def _turn_capped(other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
     """``other`` at constant speed and yaw rate until it has turned ``MAX_TURN``, then straight on (no circles)."""
     if other.start is None or abs(other.yaw_rate) * float(tau[-1]) <= MAX_TURN:
@@ -688,8 +780,10 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 
 __all__ = [
-    "EMERGENCY_DECEL", "EXIT_SIGNAL_MIN", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP",
-    "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON", "MAX_TURN",
-    "PREDICTION_MARGIN", "RATE_SLOPE", "RING_HEADING", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS", "YAW_WINDOW",
+    "EMERGENCY_DECEL", "EXIT_LOOKAHEAD", "EXIT_MIN_RADIUS", "EXIT_SIGNAL_MIN", "EXIT_TURN_ANGLE", "FOLLOWER_DECEL",
+    "FOLLOW_HEADING",
+    "FOLLOW_MIN_GAP", "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON",
+    "MAX_TURN", "PREDICTION_MARGIN", "RATE_SLOPE", "RING_HEADING", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS",
+    "YAW_WINDOW",
     "Autopilot", "Plan", "plan_of", "predict",
 ]  # fmt: skip
