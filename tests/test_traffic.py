@@ -510,6 +510,25 @@ def test_the_approach_keeps_the_plan_pace_while_a_stop_at_the_line_stays_possibl
     assert name == "stop at the line" and late.rate < 1.0 and late.s <= late.give_way
 
 
+def test_a_truck_too_near_the_line_to_stop_by_it_gently_may_enter_a_little_slower():
+    """2.5 m before the line at 8 m/s (a stop at RATE_SLOPE needs 8 m) behind a car at 4 m/s: the plan's
+    pace closes on it within the horizon, a slower one does not. The truck enters at that pace instead of
+    the stop at the line it took before (traced: truck right 700 seed 4, a one-step conflict 4.75 s ahead
+    stopped the truck at the line from 8 m/s). Not below COMMITTED_RATE_MIN; farther out only at 1."""
+    from model.scene.moving import MovingVehicle
+    from model.traffic.autopilot import COMMITTED_RATE_MIN
+
+    pilot = straight_pilot()
+    pilot.s, pilot.rate = pilot.give_way - 2.5 / 8.0, 1.0
+    car = MovingVehicle(4.5, 1.8, trajectory=((0.0, -12.0, -2.0, 0.0), (5.0, 8.0, -2.0, 0.0)))
+    name, _ = pilot.decide([car], 0.1)
+    assert name.startswith("rate ") and COMMITTED_RATE_MIN <= float(name[5:]) < 1.0 and pilot.rate < 1.0
+    far = straight_pilot()
+    far.s, far.rate = far.give_way - 12.0 / 8.0, 1.0  # 12 m before the line: a gentle stop is still possible
+    names = [n for n, _, s in far.profiles(far.instants(0.1)) if s[-1] > far.give_way]
+    assert names[0] == "rate 1" and not any(n.startswith("rate") for n in names[1:])
+
+
 @pytest.mark.parametrize("gap,keeps_pace", [(1.005, False), (1.6, True), (1.3, True)])
 def test_a_predicted_gap_within_the_prediction_margin_is_not_accepted(gap, keeps_pace):
     """A car just ahead at the truck's speed (8 m/s) on the test's straight plan into the ring.

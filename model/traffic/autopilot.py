@@ -80,6 +80,7 @@ MAX_TURN = math.pi / 2.0  # rad: a constant-yaw-rate prediction turns at most th
 EXIT_LOOKAHEAD = 8.0  # m: a car turning out to an exit steers toward the exit lane's middle this far ahead
 EXIT_MIN_RADIUS = 5.0  # m: the tightest turn of that predicted path
 EXIT_TURN_ANGLE = math.radians(35.0)  # a car signalling its exit turns out this far before its leg's axis
+COMMITTED_RATE_MIN = 0.5  # too near the line to stop by it at RATE_SLOPE, the truck may enter at down to this pace
 RING_HEADING = math.radians(15.0)  # on the ring and heading within this of its tangent: predicted along the ring
 
 
@@ -378,10 +379,13 @@ class Autopilot:
     def profiles(self, tau: np.ndarray) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
         """The candidate (name, rates, plan times) at ``tau``, fastest first (made as they are asked for)."""
         step = tau[1]
+        # committed: too near the line to stop by it braking at RATE_SLOPE; it may then enter a little slower
+        committed = self.s < self.give_way and self.s + self.rate**2 / (2.0 * RATE_SLOPE) > self.give_way
         for target in TARGETS:
             r = np.clip(target, self.rate - RATE_SLOPE * tau, self.rate + RATE_SLOPE * tau)
             s = self.s + _integral(r, tau)
-            if target == 1.0 or s[-1] <= self.give_way or self.s >= self.give_way:  # enter only at the plan's pace
+            enters = target == 1.0 or (committed and target >= COMMITTED_RATE_MIN)  # else only the plan's pace
+            if enters or s[-1] <= self.give_way or self.s >= self.give_way:
                 yield f"rate {target:g}", r, s
             if self.s < self.give_way:
                 approach = self.approach(tau, step, target)
@@ -780,8 +784,8 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 
 __all__ = [
-    "EMERGENCY_DECEL", "EXIT_LOOKAHEAD", "EXIT_MIN_RADIUS", "EXIT_SIGNAL_MIN", "EXIT_TURN_ANGLE", "FOLLOWER_DECEL",
-    "FOLLOW_HEADING",
+    "COMMITTED_RATE_MIN", "EMERGENCY_DECEL", "EXIT_LOOKAHEAD", "EXIT_MIN_RADIUS", "EXIT_SIGNAL_MIN",
+    "EXIT_TURN_ANGLE", "FOLLOWER_DECEL", "FOLLOW_HEADING",
     "FOLLOW_MIN_GAP", "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON",
     "MAX_TURN", "PREDICTION_MARGIN", "RATE_SLOPE", "RING_HEADING", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS",
     "YAW_WINDOW",
