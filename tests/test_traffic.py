@@ -388,6 +388,7 @@ def test_instants_after_the_truck_arrives_are_not_checked():
     the prediction the truck would be hit 0.5 s ahead, but the run ends on arrival (traced: truck
     straight 450 seed 1, a 'stand' at 8 m/s in the exit for that, 1.1 s of delay): full pace."""
     from model.scene.moving import MovingVehicle
+    from model.traffic.autopilot import PREDICTION_MARGIN
 
     pilot = straight_pilot()
     pilot.s, pilot.rate = pilot.plan.duration - 0.1, 1.0
@@ -396,7 +397,7 @@ def test_instants_after_the_truck_arrives_are_not_checked():
     _, _, s = next(pilot.profiles(tau))
     gaps = pilot.clearances(s, pilot.predicted([car], tau))
     assert gaps[1] > 2.0 and gaps.min() < 0.0  # clear at the arrival, hit while parked after it
-    assert pilot.net_gap(tau, s, gaps) == pytest.approx(gaps[1] - 0.01)
+    assert pilot.net_gap(tau, s, gaps) == pytest.approx(gaps[1] - PREDICTION_MARGIN * tau[1])
     assert pilot.decide([car], 0.1)[0] == "rate 1" and pilot.s == pilot.plan.duration
 
 
