@@ -282,6 +282,95 @@ def ring_car(degrees: float, speed: float = 7.0):
     return predict(row, a + math.pi / 2 - speed / r * 0.5, 0.5)
 
 
+def test_a_circulating_car_is_predicted_along_the_ring_whatever_its_measured_yaw_rate():
+    """A car on the ring's centre line measured with no yaw rate (SUMO's chords; traced: truck right 200
+    seed 0, 0.04 rad/s at 7.1 m/s) is turned about the ring's centre: radius and heading to the tangent
+    kept. Showing the exit side's signal 60 degrees before leg 3 it goes round to EXIT_TURN_ANGLE before
+    that leg's axis, then out onto its exit lane (x = 2, heading north)."""
+    from model.traffic.autopilot import EXIT_TURN_ANGLE, predict
+
+    pilot = straight_pilot()
+    tau = pilot.instants(0.1)
+    a = math.radians(90.0)
+    row = (0.0, "car", "passenger", 17.0 * math.cos(a), 17.0 * math.sin(a), a + math.pi / 2, 7.0, 4.5, 1.8)
+    car = predict(row, a + math.pi / 2, 0.5)  # yaw rate 0
+    assert pilot.circulates(car)
+    x, y, h = pilot.expect(car, tau).pose(tau)
+    angle = np.unwrap(np.arctan2(y, x))
+    assert np.allclose(np.hypot(x, y), 17.0) and np.allclose(h - angle, math.pi / 2)
+    assert angle[-1] - a == pytest.approx(7.0 * tau[-1] / 17.0)
+    a = math.radians(30.0)
+    row = (0.0, "car", "passenger", 17.0 * math.cos(a), 17.0 * math.sin(a), a + math.pi / 2, 7.0, 4.5, 1.8)
+    x, y, h = pilot.expect(predict(row, a + math.pi / 2, 0.5), tau, exiting=True).pose(tau)
+    round_ring = tau <= 17.0 * (math.radians(60.0) - EXIT_TURN_ANGLE) / 7.0
+    assert np.allclose(np.hypot(x, y)[round_ring], 17.0) and not np.allclose(np.hypot(x, y), 17.0)
+    assert x[-1] == pytest.approx(2.0, abs=0.3) and h[-1] == pytest.approx(math.pi / 2, abs=0.1) and y[-1] > 25.0
+
+
+def test_a_car_leaving_the_ring_goes_straight_along_its_leg_and_no_prediction_circles():
+    """Leaving by leg 2 (east) still curving at -1 rad/s (traced: semitrailer straight 200 seed 3, its
+    circle came back over the truck's path 5 s ahead): straight on along the leg's axis. Any other
+    constant yaw rate turns at most MAX_TURN, then goes straight."""
+    from model.scene.moving import MovingVehicle
+    from model.traffic.autopilot import MAX_TURN
+
+    pilot = straight_pilot()
+    tau = pilot.instants(0.1)
+    leaving = MovingVehicle(4.5, 1.8, start=(22.0, -3.0, 0.4), speed=8.7, yaw_rate=-1.0)
+    x, y, h = pilot.expect(leaving, tau).pose(tau)
+    assert np.allclose(h, 0.0) and np.allclose(y, -3.0) and x[-1] == pytest.approx(22.0 + 8.7 * tau[-1])
+    turning = MovingVehicle(4.5, 1.8, start=(0.0, -17.0, 1.0), speed=7.0, yaw_rate=1.0)  # 57 deg off the tangent
+    assert not pilot.circulates(turning)
+    x, y, h = pilot.expect(turning, tau).pose(tau)
+    assert h.max() - 1.0 == pytest.approx(MAX_TURN) and np.all(np.diff(h) >= -1e-12)
+    step = np.hypot(np.diff(x), np.diff(y)) / np.diff(tau)
+    assert np.allclose(step, 7.0, rtol=0.02)  # its speed kept along the capped path
+
+
+def test_a_car_turning_out_goes_onto_the_exit_lane_and_a_committed_entering_car_joins_the_ring():
+    """Turning out by leg 0 (west) 20 degrees before its axis, 23 degrees outward of the tangent, with a
+    small measured yaw rate (traced: truck right 700 seed 1, predicted straight over the entry lane beside
+    the exit, where the truck stood): it ends on the exit lane's middle (y = +2), clear of the entry lane
+    (y < 0). An entering car too fast to yield (leg 3, 9 m before the curb at 9.4 m/s; traced: truck
+    straight 700 seed 1, predicted across the whole ring) drives to the ring lane's middle and round it."""
+    from model.scene.moving import MovingVehicle
+    from model.traffic.network import ring_radius
+
+    pilot = straight_pilot()
+    tau = pilot.instants(0.1)
+    a = math.radians(160.0)
+    out = MovingVehicle(4.5, 1.8, start=(17.0 * math.cos(a), 17.0 * math.sin(a), -2.2), speed=7.2, yaw_rate=-0.12)
+    x, y, h = pilot.expect(out, tau).pose(tau)
+    assert np.all(y >= 1.0) and y[-1] == pytest.approx(2.0, abs=0.3) and x[-1] < -40.0
+    assert math.remainder(h[-1] - math.pi, 2 * math.pi) == pytest.approx(0.0, abs=0.1)
+    committed = MovingVehicle(4.5, 1.8, start=(-2.0, 31.5, -math.pi / 2), speed=9.4)
+    x, y, h = pilot.expect(committed, tau).pose(tau)
+    r = np.hypot(x, y)
+    radius = ring_radius(pilot.scenario.ocp.road.roundabout)
+    assert r.min() == pytest.approx(radius, abs=1e-6) and np.allclose(r[r <= radius + 1e-6], radius)
+    t_in = (31.5 - math.sqrt(radius**2 - 4.0)) / 9.4  # when it reaches the lane's middle
+    turned = np.unwrap(np.arctan2(y, x))[-1] - math.atan2(math.sqrt(radius**2 - 4.0), -2.0)
+    assert turned == pytest.approx(9.4 * (tau[-1] - t_in) / radius)  # counter-clockwise round the ring
+
+
+def test_instants_after_the_truck_arrives_are_not_checked():
+    """0.1 s before the plan's end a car comes from behind faster than the truck: parked at its goal in
+    the prediction the truck would be hit 0.5 s ahead, but the run ends on arrival (traced: truck
+    straight 450 seed 1, a 'stand' at 8 m/s in the exit for that, 1.1 s of delay): full pace."""
+    from model.scene.moving import MovingVehicle
+    from model.traffic.autopilot import PREDICTION_MARGIN
+
+    pilot = straight_pilot()
+    pilot.s, pilot.rate = pilot.plan.duration - 0.1, 1.0
+    car = MovingVehicle(4.5, 1.8, start=(-17.55, -2.0, 0.0), speed=10.0)  # its front 3 m behind the truck's rear
+    tau = pilot.instants(0.1)
+    _, _, s = next(pilot.profiles(tau))
+    gaps = pilot.clearances(s, pilot.predicted([car], tau))
+    assert gaps[1] > 2.0 and gaps.min() < 0.0  # clear at the arrival, hit while parked after it
+    assert pilot.net_gap(tau, s, gaps) == pytest.approx(gaps[1] - PREDICTION_MARGIN * tau[1])
+    assert pilot.decide([car], 0.1)[0] == "rate 1" and pilot.s == pilot.plan.duration
+
+
 @pytest.mark.parametrize("degrees,enters", [(140.0, False), (60.0, True)])
 def test_the_truck_at_its_line_waits_for_a_car_in_its_window_and_enters_a_big_gap(degrees, enters):
     """Standing at the line: a car 40 degrees upstream crosses the truck's planned occupancy (wait);
@@ -392,11 +481,32 @@ def test_the_approach_keeps_the_plan_pace_while_a_stop_at_the_line_stays_possibl
     assert name == "stop at the line" and late.rate < 1.0 and late.s <= late.give_way
 
 
+def test_a_truck_too_near_the_line_to_stop_by_it_gently_may_enter_a_little_slower():
+    """2.5 m before the line at 8 m/s (a stop at RATE_SLOPE needs 8 m) behind a car at 4 m/s: the plan's
+    pace closes on it within the horizon, a slower one does not. The truck enters at that pace instead of
+    the stop at the line it took before (traced: truck right 700 seed 4, a one-step conflict 4.75 s ahead
+    stopped the truck at the line from 8 m/s). Not below COMMITTED_RATE_MIN; farther out only at 1."""
+    from model.scene.moving import MovingVehicle
+    from model.traffic.autopilot import COMMITTED_RATE_MIN
+
+    pilot = straight_pilot()
+    pilot.s, pilot.rate = pilot.give_way - 2.5 / 8.0, 1.0
+    car = MovingVehicle(4.5, 1.8, trajectory=((0.0, -12.0, -2.0, 0.0), (5.0, 8.0, -2.0, 0.0)))
+    name, _ = pilot.decide([car], 0.1)
+    assert name.startswith("rate ") and COMMITTED_RATE_MIN <= float(name[5:]) < 1.0 and pilot.rate < 1.0
+    far = straight_pilot()
+    far.s, far.rate = far.give_way - 12.0 / 8.0, 1.0  # 12 m before the line: a gentle stop is still possible
+    names = [n for n, _, s in far.profiles(far.instants(0.1)) if s[-1] > far.give_way]
+    assert names[0] == "rate 1" and not any(n.startswith("rate") for n in names[1:])
+
+
 @pytest.mark.parametrize("gap,keeps_pace", [(1.005, False), (1.6, True), (1.3, True)])
 def test_a_predicted_gap_within_the_prediction_margin_is_not_accepted(gap, keeps_pace):
-    """A committed car just ahead at the truck's speed (8 m/s, close to the curb: it does not yield).
+    """A car just ahead at the truck's speed (8 m/s) on the test's straight plan into the ring.
 
-    Its constant-speed prediction keeps ``gap`` at every instant. 1.005 m is within the predictions'
+    Given as its path (a straight line, which ``expect`` keeps as it is: a committed entering car given
+    by its pose would be predicted round the ring lane, off the straight plan), it keeps ``gap`` at every
+    instant. 1.005 m is within the predictions'
     error (PREDICTION_MARGIN per second ahead; traced in truck left 700 seed 0: predicted 1.0049 m one
     step ahead, 0.9962 m measured): the truck must not hold its pace. 1.6 m: it does. 1.3 m: it does
     too, the margin stopping growing at MARGIN_HORIZON (1 s: 1.1 m; growing over the whole horizon it
@@ -407,7 +517,7 @@ def test_a_predicted_gap_within_the_prediction_margin_is_not_accepted(gap, keeps
     from model.traffic.autopilot import PREDICTION_MARGIN
 
     pilot = straight_pilot()
-    car = MovingVehicle(4.5, 1.8, start=(-27.25, -2.0, 0.0), speed=8.0)  # front at x = -25 (5.1 m outside the curb)
+    car = MovingVehicle(4.5, 1.8, trajectory=((0.0, -27.25, -2.0, 0.0), (5.0, 12.75, -2.0, 0.0)))  # front x = -25
     pilot.s, pilot.rate = (-29.5 - gap - 6.5 + 50.0) / 8.0, 1.0  # the truck's front ``gap`` behind the car's rear
     tau = pilot.instants(0.1)
     gaps = pilot.clearances(next(pilot.profiles(tau))[2], pilot.predicted([car], tau))
@@ -433,9 +543,12 @@ def test_an_entering_car_that_can_stop_is_expected_to_yield_one_that_cannot_goes
     assert math.hypot(x[-1], y[-1] + 2.25) == pytest.approx(20.0, abs=0.06) and np.all(np.diff(y) >= -1e-12)
     assert y[-1] == pytest.approx(y[-2])
     close = MovingVehicle(4.5, 1.8, start=(2.0, -25.25, math.pi / 2), speed=10.0)
-    assert pilot.expect(close, tau) is close
-    leaving = MovingVehicle(4.5, 1.8, start=(-2.0, -42.25, -math.pi / 2), speed=10.0)
-    assert pilot.expect(leaving, tau) is leaving
+    x, y, _ = pilot.expect(close, tau).pose(tau)  # committed: on at its speed into the ring lane, then round it
+    ahead = y <= -math.sqrt(17.0**2 - 4.0) + 1e-9
+    assert np.allclose(x[ahead], 2.0) and np.allclose(np.diff(y[ahead]) / np.diff(tau[ahead]), 10.0)
+    assert np.allclose(np.hypot(x, y)[~ahead], 17.0) and (~ahead).any()
+    leaving = MovingVehicle(4.5, 1.8, start=(-2.0, -42.25, -math.pi / 2), speed=10.0)  # along its leg: straight on
+    assert np.allclose(np.array(pilot.expect(leaving, tau).pose(tau)), np.array(leaving.pose(tau)))
 
 
 def test_the_give_way_line_lies_before_the_junction_sumo_makes(tmp_path):

@@ -51,6 +51,7 @@ import numpy as np
 from model.analysis.bodies import rectangle_gaps
 from model.problem.scenario import Scenario
 from model.scene.moving import MovingVehicle
+from model.scene.roundabout import lane_side
 from model.traffic.network import ring_radius, truck_geometry
 
 HORIZON = 5.0  # s looked ahead
@@ -67,13 +68,19 @@ ENTRY_INSTANTS = 1  # the checked instants inside the entry junction for vehicle
 MAP_MARGIN = 1.0  # m: the ring's internal lane this much farther from the front than the exit's may still be chosen
 TURNING_IN_COS = 0.5  # inside the exit's junction, a vehicle heading within 60 degrees of the centre still turns in
 MARGIN_HORIZON = 1.0  # s: the margin grows with tau up to this far ahead, then stays (PREDICTION_MARGIN * 1 s)
-PREDICTION_MARGIN = 0.1  # m/s: an instant tau ahead needs safety_distance + this * tau (the predictions' error grows)
+PREDICTION_MARGIN = 0.2  # m/s: an instant tau ahead needs safety_distance + this * tau (the predictions' error grows)
 FOLLOWER_DECEL = 4.0  # m/s^2: the hardest braking an entry may ask of a circulating follower (SUMO's car: 4.5)
 FOLLOW_MIN_GAP = 2.5  # m: the follower's standstill gap behind the truck (SUMO's passenger minGap)
 FOLLOW_HEADING = math.radians(30.0)  # a vehicle on the ring heading within this of the ring's tangent circulates
 EXIT_SIGNAL_MIN = 8.0  # m: a car signalling its exit this near the merge point may mean the next exit: it follows
 LEADER_DECEL = 4.0  # m/s^2: the truck's braking SUMO's follower assumes (SUMO's truck and trailer decel)
 EMERGENCY_DECEL = 9.0  # m/s^2: the follower's hardest braking (SUMO's passenger emergencyDecel)
+MAX_TURN = math.pi / 2.0  # rad: a constant-yaw-rate prediction turns at most this far, then goes straight
+EXIT_LOOKAHEAD = 8.0  # m: a car turning out to an exit steers toward the exit lane's middle this far ahead
+EXIT_MIN_RADIUS = 5.0  # m: the tightest turn of that predicted path
+EXIT_TURN_ANGLE = math.radians(35.0)  # a car signalling its exit turns out this far before its leg's axis
+COMMITTED_RATE_MIN = 0.5  # too near the line to stop by it at RATE_SLOPE, the truck may enter at down to this pace
+RING_HEADING = math.radians(15.0)  # on the ring and heading within this of its tangent: predicted along the ring
 
 
 @dataclass
@@ -371,10 +378,13 @@ class Autopilot:
     def profiles(self, tau: np.ndarray) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
         """The candidate (name, rates, plan times) at ``tau``, fastest first (made as they are asked for)."""
         step = tau[1]
+        # committed: too near the line to stop by it braking at RATE_SLOPE; it may then enter a little slower
+        committed = self.s < self.give_way and self.s + self.rate**2 / (2.0 * RATE_SLOPE) > self.give_way
         for target in TARGETS:
             r = np.clip(target, self.rate - RATE_SLOPE * tau, self.rate + RATE_SLOPE * tau)
             s = self.s + _integral(r, tau)
-            if target == 1.0 or s[-1] <= self.give_way or self.s >= self.give_way:  # enter only at the plan's pace
+            enters = target == 1.0 or (committed and target >= COMMITTED_RATE_MIN)  # else only the plan's pace
+            if enters or s[-1] <= self.give_way or self.s >= self.give_way:
                 yield f"rate {target:g}", r, s
             if self.s < self.give_way:
                 approach = self.approach(tau, step, target)
@@ -411,7 +421,7 @@ class Autopilot:
         t0, c0 = time.perf_counter(), time.process_time()
         tau = self.instants(step)
         near = self._near(others, tau)
-        theirs = self._predict(near, tau)
+        theirs = self._predict(near, tau, exiting)
         signalling = np.array([o.key in exiting for o in near], bool)
         safety, braking, keeps = self.scenario.traffic.safety_distance, {}, {}
 
@@ -428,7 +438,7 @@ class Autopilot:
         best, tried = None, []
         for i, (name, rates, s) in enumerate(self.profiles(tau)):
             gaps = self.clearances(s, theirs)
-            net = float(np.min(gaps[1:] - PREDICTION_MARGIN * np.minimum(tau[1:], MARGIN_HORIZON)))  # not now
+            net = self.net_gap(tau, s, gaps)
             if net >= safety and rules(i, rates, s):
                 best, best_gap = (name, rates), float(gaps.min())
                 break
@@ -453,8 +463,24 @@ class Autopilot:
         self.decision_cpu_seconds.append(time.process_time() - c0)
         return name, best_gap
 
-    def expect(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
+    def net_gap(self, tau: np.ndarray, s: np.ndarray, gaps: np.ndarray) -> float:
+        """The least distance less the prediction margin over the instants after now, until the truck arrives.
+
+        Not the present (measured, not chosen), nor the instants after the one at which the profile
+        reaches the plan's end: the run ends there (the truck arrives and leaves SUMO); parked at
+        its goal pose in the prediction it would be hit by the car following it out of the exit
+        (traced: truck straight 450 seed 1, a 'stand' in the exit at 8 m/s for that; 1.1 s of delay).
+        """
+        live = np.concatenate([[False], s[:-1] < self.plan.duration - 1e-9])  # not now, nor after arriving
+        if not live.any():
+            return math.inf
+        return float(np.min(gaps[live] - PREDICTION_MARGIN * np.minimum(tau[live], MARGIN_HORIZON)))
+
+    def expect(self, other: MovingVehicle, tau: np.ndarray, exiting: bool = False) -> MovingVehicle:
         """``other`` as the roundabout's rule expects it: an entering vehicle that can still stop yields.
+
+        A vehicle circulating on the ring (``circulates``) and not showing the exit side's turn
+        signal (``exiting``) follows the ring: ``along_ring``.
 
         A vehicle outside the outer curb whose heading points within 30 degrees of the centre is
         entering; if braking at constant deceleration to stop with its front at the curb needs at
@@ -462,14 +488,25 @@ class Autopilot:
         the network's ``<roundabout>`` makes it); otherwise (too close, too fast: committed) and
         for every other vehicle, constant speed and yaw rate.
         """
+        if other.start is None:
+            return other
+        if self.circulates(other):
+            return self.to_exit(other, tau, signalled=True) if exiting else self.along_ring(other, tau)
         ra = self.scenario.ocp.road.roundabout
         x, y, h = other.start
         half, v = other.length / 2, other.speed
         fx, fy = x + half * math.cos(h) - ra.center[0], y + half * math.sin(h) - ra.center[1]
         d = math.hypot(fx, fy) - ra.outer_radius
-        entering = d > 0 and -(fx * math.cos(h) + fy * math.sin(h)) >= ENTERING_COS * math.hypot(fx, fy)
-        if not entering or v <= 0 or v * v > 2.0 * YIELD_DECEL * d:
-            return other
+        radial = fx * math.cos(h) + fy * math.sin(h)  # > 0: heading away from the centre
+        if d > 0 and radial >= ENTERING_COS * math.hypot(fx, fy):
+            return self.along_leg(other)
+        if d <= 0 and radial >= math.sin(RING_HEADING) * math.hypot(fx, fy):  # on the ring, turning out
+            return self.to_exit(other, tau)
+        entering = d > 0 and -radial >= ENTERING_COS * math.hypot(fx, fy)
+        if entering and v > 0 and v * v > 2.0 * YIELD_DECEL * d:
+            return self.into_ring(other, tau)
+        if not entering or v <= 0:
+            return _turn_capped(other, tau)
         a = v * v / (2.0 * d)
         t = np.minimum(tau, v / a)
         run = v * t - 0.5 * a * t * t
@@ -477,14 +514,134 @@ class Autopilot:
                         for ti, r in zip(tau, run, strict=True))  # fmt: skip
         return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
 
-    def predicted(self, others: list[MovingVehicle], tau: np.ndarray) -> np.ndarray:
+    def into_ring(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
+        """An entering car too close or too fast to yield: straight on at its speed to the ring lane's middle
+        (radius ``ring_radius``), then round the ring (turned about the centre, heading the tangent).
+
+        Straight on at constant speed it crossed the whole ring (traced: truck straight 700 seed 1, a car
+        9 m before the curb at 9.4 m/s predicted 0.99 m from the truck 4.5 s ahead on the far side of the
+        ring; the truck stopped at its line for it).
+        """
+        ra = self.scenario.ocp.road.roundabout
+        c = np.asarray(ra.center, float)
+        x, y, h = other.start
+        v, radius = other.speed, ring_radius(ra)
+        p, u = np.array([x, y]) - c, np.array([math.cos(h), math.sin(h)])
+        b, q = float(p @ u), float(p @ p) - radius * radius
+        if b * b < q:  # its line misses the ring lane's middle: straight on
+            return _turn_capped(other, tau)
+        t_in = max((-b - math.sqrt(b * b - q)) / v, 0.0)
+        straight = np.minimum(tau, t_in)
+        px, py = x + v * straight * u[0], y + v * straight * u[1]
+        w = ra.circulation * v * (tau - straight) / radius  # the turn about the centre after reaching the lane
+        entry = p + v * t_in * u  # where it reaches the lane's middle, from the centre
+        a0 = math.atan2(float(entry[1]), float(entry[0]))
+        angle = a0 + w
+        on = tau > t_in
+        px = np.where(on, c[0] + radius * np.cos(angle), px)
+        py = np.where(on, c[1] + radius * np.sin(angle), py)
+        heading = np.where(on, angle + ra.circulation * math.pi / 2.0, h)
+        samples = tuple(
+            (float(t), float(a), float(e), float(g)) for t, a, e, g in zip(tau, px, py, heading, strict=True)
+        )
+        return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
+
+    def along_leg(self, other: MovingVehicle) -> MovingVehicle:
+        """A vehicle leaving the ring (outside the outer curb, heading within 30 degrees of away from the centre):
+        straight on at its speed along the axis of the leg it is on (the nearest by angle).
+
+        Its yaw rate while it straightens out of the exit's curve would turn it in a circle back onto
+        the road (traced: semitrailer straight 200 seed 3, a car leaving by the truck's exit at -1.0
+        rad/s predicted across the truck's path 5 s ahead; the truck stopped for it).
+        """
+        ra = self.scenario.ocp.road.roundabout
+        x, y, h = other.start
+        angle = math.atan2(y - ra.center[1], x - ra.center[0])
+        leg = min(ra.legs, key=lambda g: abs(math.remainder(g.angle - angle, 2.0 * math.pi)))
+        heading = h + math.remainder(leg.angle - h, 2.0 * math.pi)  # the leg's direction, nearest its heading now
+        return MovingVehicle(other.length, other.width, start=(x, y, heading), speed=other.speed, key=other.key)
+
+    def to_exit(self, other: MovingVehicle, tau: np.ndarray, signalled: bool = False) -> MovingVehicle:
+        """A car turning out of the ring to an exit lane, at its speed.
+
+        Without ``signalled``: a car on the ring heading outward of the tangent by more than
+        ``RING_HEADING`` turns out to the nearest leg's exit lane, steered (pure pursuit, no tighter than
+        ``EXIT_MIN_RADIUS``) toward the lane's middle ``EXIT_LOOKAHEAD`` ahead of it. Its yaw rate measured
+        over ``YAW_WINDOW`` at the start of the turn is small and sent it straight on over the entry lane
+        beside the exit (traced: truck right 700 seed 1, a car leaving by the truck's own leg at -0.12
+        rad/s predicted across the standing truck; the truck stood for it). ``signalled``: a car
+        circulating and showing the exit side's signal (SUMO's, about 50 degrees before its exit) goes
+        round the ring to the next leg ahead and turns out the same way from ``EXIT_TURN_ANGLE`` before
+        that leg's axis.
+        """
+        ra = self.scenario.ocp.road.roundabout
+        c = np.asarray(ra.center, float)
+        x, y, h = other.start
+        angle = math.atan2(y - c[1], x - c[0])
+        ahead = [float(np.mod(ra.circulation * (g.angle - angle), 2.0 * math.pi)) for g in ra.legs]
+        near = [abs(math.remainder(g.angle - angle, 2.0 * math.pi)) for g in ra.legs]
+        k = int(np.argmin(ahead if signalled else near))
+        leg, around = ra.legs[k], ahead[k] - EXIT_TURN_ANGLE if signalled else 0.0
+        across = lane_side(ra, "exit") * leg.lane_width / 2.0
+        v, dt = other.speed, 0.05
+        fine = np.arange(0.0, float(tau[-1]) + dt / 2, dt)
+        poses = np.empty((len(fine), 3))
+        radius = max(math.hypot(x - c[0], y - c[1]), 1e-9)
+        for i in range(len(fine)):
+            poses[i] = x, y, h
+            if around > 0.0:  # still going round the ring: turned about the centre
+                w = min(v * dt / radius, around)
+                around -= w
+                w *= ra.circulation
+                dx, dy = x - c[0], y - c[1]
+                x, y, h = c[0] + math.cos(w) * dx - math.sin(w) * dy, c[1] + math.sin(w) * dx + math.cos(w) * dy, h + w
+                continue
+            target = c + (float(np.dot((x, y) - c, leg.axis)) + EXIT_LOOKAHEAD) * leg.axis + across * leg.normal
+            alpha = math.remainder(math.atan2(target[1] - y, target[0] - x) - h, 2.0 * math.pi)
+            curvature = min(max(2.0 * math.sin(alpha) / EXIT_LOOKAHEAD, -1.0 / EXIT_MIN_RADIUS), 1.0 / EXIT_MIN_RADIUS)
+            x, y, h = x + v * dt * math.cos(h), y + v * dt * math.sin(h), h + v * dt * curvature
+        samples = tuple((float(t), *(float(np.interp(t, fine, poses[:, j])) for j in range(3))) for t in tau)
+        return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
+
+    def circulates(self, other: MovingVehicle) -> bool:
+        """Whether ``other`` drives on the ring: its centre between the curbs, heading within ``RING_HEADING`` of the
+        ring's tangent in the circulation direction."""
+        ra = self.scenario.ocp.road.roundabout
+        x, y, h = other.start
+        rx, ry = x - ra.center[0], y - ra.center[1]
+        if not ra.inner_radius <= math.hypot(rx, ry) <= ra.outer_radius:
+            return False
+        tangent = math.atan2(ry, rx) + ra.circulation * math.pi / 2.0
+        return abs(math.remainder(h - tangent, 2.0 * math.pi)) <= RING_HEADING
+
+    def along_ring(self, other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
+        """``other`` turned about the ring's centre at its speed, at its radius now (its pose to the ring kept).
+
+        SUMO's ring lane is an arc (5 degree chords and internal lanes at the junctions): a yaw rate
+        measured over ``YAW_WINDOW`` there can be near zero, and a constant-yaw-rate prediction then
+        drives a circulating car straight out of the ring across the entry (traced: truck right 200
+        seed 0, a car at 7.1 m/s with 0.04 rad/s predicted over the truck's give-way line).
+        """
+        ra = self.scenario.ocp.road.roundabout
+        x, y, h = other.start
+        cx, cy = ra.center
+        radius = max(math.hypot(x - cx, y - cy), 1e-9)
+        turn = ra.circulation * other.speed / radius * np.asarray(tau, float)
+        c, s = np.cos(turn), np.sin(turn)
+        px, py = cx + c * (x - cx) - s * (y - cy), cy + s * (x - cx) + c * (y - cy)
+        samples = tuple((float(t), float(a), float(b), float(h + w))
+                        for t, a, b, w in zip(tau, px, py, turn, strict=True))  # fmt: skip
+        return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
+
+    def predicted(self, others: list[MovingVehicle], tau: np.ndarray,
+                  exiting: frozenset[str] = frozenset()) -> np.ndarray:  # fmt: skip
         """The predicted corners (n, len(tau), 4, 2) of the vehicles that can come near within the horizon.
 
         A vehicle is left out when its distance now (between bounding circles of the truck's reach
         and of its rectangle) exceeds what both can close in ``tau[-1]`` seconds plus the safety distance.
-        The others are predicted as ``expect`` says.
+        The others are predicted as ``expect`` says (``exiting``: the keys showing the exit side's signal).
         """
-        return self._predict(self._near(others, tau), tau)
+        return self._predict(self._near(others, tau), tau, exiting)
 
     def _near(self, others: list[MovingVehicle], tau: np.ndarray) -> list[MovingVehicle]:
         """The vehicles that can come near within the horizon (``predicted``)."""
@@ -494,15 +651,17 @@ class Autopilot:
         v = self.scenario.ocp.vehicle
         x, y = (float(here[n][0]) for n in v.position)
         reach = self.reach + self.top_speed * tau[-1] + self.scenario.traffic.safety_distance
-        return [o for o in others
-                if math.hypot(o.start[0] - x, o.start[1] - y) <= reach + abs(o.speed) * tau[-1]
+        now = [_position_speed(o) for o in others]
+        return [o for o, (ox, oy, speed) in zip(others, now, strict=True)
+                if math.hypot(ox - x, oy - y) <= reach + speed * tau[-1]
                 + 0.5 * math.hypot(o.length, o.width)]  # fmt: skip
 
-    def _predict(self, near: list[MovingVehicle], tau: np.ndarray) -> np.ndarray:
+    def _predict(self, near: list[MovingVehicle], tau: np.ndarray,
+                 exiting: frozenset[str] = frozenset()) -> np.ndarray:  # fmt: skip
         """The predicted corners (n, len(tau), 4, 2) of ``near`` (``expect``)."""
         if not near:
             return np.empty((0, len(tau), 4, 2))
-        return np.stack([self.expect(o, tau).corners(tau) for o in near])
+        return np.stack([self.expect(o, tau, o.key in exiting).corners(tau) for o in near])
 
     def least_distance(self, s: np.ndarray, theirs: np.ndarray) -> float:
         """Least distance between the truck's bodies at plan times ``s`` and the predicted corners ``theirs``."""
@@ -582,6 +741,30 @@ def _safe_stop_speed(gap: float, decel: float, headway: float, step: float) -> f
     return n * b + (g - h) / (n * step + headway)
 
 
+def _position_speed(other: MovingVehicle) -> tuple[float, float, float]:
+    """Where ``other`` is now and its speed (m/s): its start and speed, or its path's first sample and fastest leg."""
+    if other.start is not None:
+        return other.start[0], other.start[1], abs(other.speed)
+    p = np.asarray(other.trajectory, float)
+    legs = np.hypot(np.diff(p[:, 1]), np.diff(p[:, 2])) / np.maximum(np.diff(p[:, 0]), 1e-9)
+    return float(p[0, 1]), float(p[0, 2]), float(legs.max(initial=0.0))
+
+
+def _turn_capped(other: MovingVehicle, tau: np.ndarray) -> MovingVehicle:
+    """``other`` at constant speed and yaw rate until it has turned ``MAX_TURN``, then straight on (no circles)."""
+    if other.start is None or abs(other.yaw_rate) * float(tau[-1]) <= MAX_TURN:
+        return other
+    x, y, h = other.start
+    v, w = other.speed, other.yaw_rate
+    t_turn = MAX_TURN / abs(w)
+    a = np.minimum(tau, t_turn)
+    heading = h + w * a
+    px = x + v / w * (np.sin(heading) - math.sin(h)) + v * np.cos(heading) * (tau - a)
+    py = y - v / w * (np.cos(heading) - math.cos(h)) + v * np.sin(heading) * (tau - a)
+    samples = tuple((float(t), float(p), float(q), float(g)) for t, p, q, g in zip(tau, px, py, heading, strict=True))
+    return MovingVehicle(other.length, other.width, trajectory=samples, key=other.key)
+
+
 def _integral(r: np.ndarray, tau: np.ndarray) -> np.ndarray:
     """Cumulative trapezoid integral of ``r`` over ``tau`` from 0."""
     return np.concatenate([[0.0], np.cumsum(0.5 * (r[1:] + r[:-1]) * np.diff(tau))])
@@ -600,8 +783,10 @@ def predict(row: tuple, previous_heading: float | None, step: float) -> MovingVe
 
 
 __all__ = [
-    "EMERGENCY_DECEL", "EXIT_SIGNAL_MIN", "FOLLOWER_DECEL", "FOLLOW_HEADING", "FOLLOW_MIN_GAP",
-    "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON",
-    "PREDICTION_MARGIN", "RATE_SLOPE", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS", "YAW_WINDOW",
+    "COMMITTED_RATE_MIN", "EMERGENCY_DECEL", "EXIT_LOOKAHEAD", "EXIT_MIN_RADIUS", "EXIT_SIGNAL_MIN",
+    "EXIT_TURN_ANGLE", "FOLLOWER_DECEL", "FOLLOW_HEADING",
+    "FOLLOW_MIN_GAP", "GIVE_WAY_MARGIN", "HORIZON", "LEADER_DECEL", "LINE_SLACK", "MAP_MARGIN", "MARGIN_HORIZON",
+    "MAX_TURN", "PREDICTION_MARGIN", "RATE_SLOPE", "RING_HEADING", "SAMPLE", "SUMO_TAU", "TARGETS", "TURNING_IN_COS",
+    "YAW_WINDOW",
     "Autopilot", "Plan", "plan_of", "predict",
 ]  # fmt: skip
