@@ -27,7 +27,7 @@ if TR_CELLS:
 
 wildcard_constraints:
     tr_study="|".join(re.escape(s) for s in TR_GRIDS) or "NO_STUDY",
-    tr_cell=r"[A-Za-z0-9-]+_q\d+(\.\d+)?_(autopilot|sumo)",
+    tr_cell=r"[A-Za-z0-9-]+_q\d+(\.\d+)?_(autopilot|sumo|cooperative)",
 
 
 rule traffic_cell:

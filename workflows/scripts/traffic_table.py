@@ -22,7 +22,8 @@ from model.plotting.figures import save
 from model.traffic.gaps import HCM_CRITICAL_GAP, HCM_FOLLOW_UP, PCE_HEAVY, adams_delay, gap_capacity, hcm_capacity
 from model.traffic.study import group_measures
 
-DRIVER_STYLE = {"autopilot": {"color": "#1f6fb4", "marker": "o"}, "sumo": {"color": "#d2691e", "marker": "s"}}
+DRIVER_STYLE = {"autopilot": {"color": "#1f6fb4", "marker": "o"}, "sumo": {"color": "#d2691e", "marker": "s"},
+                "cooperative": {"color": "#2e8b57", "marker": "^"}}  # fmt: skip
 
 
 def values(runs: list[dict], key: str) -> list[float]:
@@ -47,7 +48,20 @@ def flat(c: dict) -> dict:
            "others_loss": float(np.mean(values(runs, "others_time_loss"))) if runs else None,
            "others_loss_without": float(np.mean(values(runs, "others_time_loss_without_truck"))) if runs else None,
            "realtime_factor": max(values(runs, "realtime_factor"), default=None)}  # fmt: skip
+    # everyone's delay per run: the truck's delay and the others' summed time loss (None if the truck did not arrive)
+    everyone = [r["delay"] + r["others_time_loss"] for r in runs
+                if r.get("delay") is not None and r.get("others_time_loss") is not None]  # fmt: skip
+    row["everyone"] = float(np.mean(everyone)) if everyone else None
     return row
+
+
+def everyone_rows(rows: list[dict]) -> list[dict]:
+    """Per vehicle and rate: each driver's mean of everyone's delay per run (the truck's delay + the others' loss)."""
+    cells = {}
+    for r in rows:
+        cells.setdefault((r["vehicle"], r["rate"]), {"vehicle": r["vehicle"], "rate": r["rate"]})[r["driver"]] = (
+            r["everyone"])
+    return list(cells.values())
 
 
 COLUMNS = {"vehicle": "vehicle", "rate": "veh/h per leg", "driver": "driver", "runs": "runs",
@@ -55,7 +69,9 @@ COLUMNS = {"vehicle": "vehicle", "rate": "veh/h per leg", "driver": "driver", "r
            "min_distance": "least distance m", "max_braking": "max braking caused m/s²",
            "delay_median": "median delay s", "entry_wait": "mean entry wait s", "others_loss": "others' loss s",
            "others_loss_without": "without truck s", "min_clearance": "least road clearance m",
-           "road_violations": "road violations"}  # fmt: skip
+           "road_violations": "road violations", "everyone": "everyone's delay s"}  # fmt: skip
+EVERYONE_COLUMNS = {"vehicle": "vehicle", "rate": "veh/h per leg",
+                    **{d: f"{d}: everyone's delay s" for d in DRIVER_STYLE}}  # fmt: skip
 GAP_COLUMNS = {"vehicle": "vehicle", "driver": "driver", "critical_gap": "t_c (Raff) s",
                "critical_gap_at_most": "t_c at most s", "accepted": "accepted",
                "rejected": "rejected", "follow_up": "t_f s", "line_time_free": "line to entry, free s"}  # fmt: skip
@@ -107,17 +123,25 @@ def section(rows, gap_rows, compare_rows, mode: str, grid: dict, figure_path: st
 
 The truck drives through the four-leg 40 m roundabout of `workflows/scenarios/traffic/` among SUMO
 traffic (docs/traffic-format.md): every other leg sends a random (Poisson) stream of passenger cars of
-the given rate, exits shared equally, no U-turns. Two drivers on the same seeds: the project's
-`autopilot` (its plan's path, with a speed profile chosen against the predicted vehicles) and SUMO's
+the given rate, exits shared equally, no U-turns. The drivers on the same seeds: the project's
+`autopilot` (its plan's path, with a speed profile chosen against the predicted vehicles), SUMO's
 own driver model moving a vehicle of the truck's length (the baseline; SUMO has no trailers, so its
-truck's trailer is reconstructed and off-tracks as it would). Every distance is between exact
-rectangles; a failed run is counted, never dropped.
+truck's trailer is reconstructed and off-tracks as it would) and the `cooperative` mode (the autopilot
+among connected vehicles that are held out of the ring's areas while the truck occupies them; an
+experimental first version). Every distance is between exact rectangles; a failed run is counted,
+never dropped.
 
 Grid run: **{mode}** (vehicles {', '.join(grid['vehicles'])}; {', '.join(f'{r:g}' for r in grid['rates'])} veh/h per
 leg; {grid['runs']} seeds from {grid['seed']}); the full grid is `traffic_study: full` in
 workflows/config.yaml.
 
 {table(rows, COLUMNS)}
+
+**Everyone's delay.** Per run the truck's delay plus the summed time loss of every other vehicle (SUMO's
+`timeLoss`, the same seeds for every driver, so the loss the other vehicles have without the truck is the
+same in each column), the mean over the cell's runs:
+
+{table(everyone_rows(rows), EVERYONE_COLUMNS)}
 
 **Gap acceptance.** The conflicting stream is measured where the truck enters: the times at which
 circulating vehicles cross the ray along the entry leg's axis across the ring roadway. The gap the
