@@ -138,8 +138,9 @@ workflows/config.yaml.
 {table(rows, COLUMNS)}
 
 **Everyone's delay.** Per run the truck's delay plus the summed time loss of every other vehicle (SUMO's
-`timeLoss`, the same seeds for every driver, so the loss the other vehicles have without the truck is the
-same in each column), the mean over the cell's runs:
+`timeLoss` up to the run's end, the same seeds for every driver; the runs end when the truck arrives, so
+the others' loss without the truck over the same span differs by driver: "without truck s" above), the
+mean over the cell's runs:
 
 {table(everyone_rows(rows), EVERYONE_COLUMNS)}
 
