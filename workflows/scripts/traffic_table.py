@@ -48,9 +48,11 @@ def flat(c: dict) -> dict:
            "others_loss": float(np.mean(values(runs, "others_time_loss"))) if runs else None,
            "others_loss_without": float(np.mean(values(runs, "others_time_loss_without_truck"))) if runs else None,
            "realtime_factor": max(values(runs, "realtime_factor"), default=None)}  # fmt: skip
-    # everyone's delay per run: the truck's delay and the others' summed time loss (None if the truck did not arrive)
-    everyone = [r["delay"] + r["others_time_loss"] for r in runs
-                if r.get("delay") is not None and r.get("others_time_loss") is not None]  # fmt: skip
+    # everyone's delay per run: the truck's delay and the time the others lost because of it (their summed time loss
+    # beyond the same vehicles' loss without the truck over the same span); None if the truck did not arrive
+    keys = ("delay", "others_time_loss", "others_time_loss_without_truck")
+    everyone = [r["delay"] + r["others_time_loss"] - r["others_time_loss_without_truck"] for r in runs
+                if all(r.get(k) is not None for k in keys)]  # fmt: skip
     row["everyone"] = float(np.mean(everyone)) if everyone else None
     return row
 
@@ -137,10 +139,10 @@ workflows/config.yaml.
 
 {table(rows, COLUMNS)}
 
-**Everyone's delay.** Per run the truck's delay plus the summed time loss of every other vehicle (SUMO's
-`timeLoss` up to the run's end, the same seeds for every driver; the runs end when the truck arrives, so
-the others' loss without the truck over the same span differs by driver: "without truck s" above), the
-mean over the cell's runs:
+**Everyone's delay.** Per run the truck's delay plus the time the other vehicles lost because of the truck:
+their summed time loss (SUMO's `timeLoss`, up to the run's end) less the same vehicles' loss in the run
+without the truck over the same span ("others' loss s" less "without truck s" above); the mean over the
+cell's runs, the same seeds for every driver:
 
 {table(everyone_rows(rows), EVERYONE_COLUMNS)}
 
