@@ -1,4 +1,4 @@
-"""roundabout traffic (docs/traffic-format.md): the keys, the SUMO network, a sumo-driver run and its replay."""
+"""roundabout traffic (docs/traffic-format.md): the keys, the SUMO network, a run of each driver and its replay."""
 
 from __future__ import annotations
 
@@ -158,9 +158,10 @@ def test_a_sumo_driver_run_writes_the_contract(sumo_run):
     assert 'depart="19.90"' in (out / "sumo" / "routes.rou.xml").read_text()
 
 
-def test_the_replay_loop_reproduces_traffic_csv(sumo_run, contract_replay):
-    """The contract's loop, written independently of model.traffic (conftest.py), on DIR/sumo and trajectory.csv."""
-    contract_replay(sumo_run[1])
+def test_the_replay_loop_reproduces_traffic_csv(any_run, contract_replay):
+    """The contract's loop, written independently of model.traffic (conftest.py), on DIR/sumo and trajectory.csv:
+    a run of SUMO's driver and one of the autopilot."""
+    contract_replay(any_run[1])
 
 
 def test_sumo_not_installed_exits_2_naming_the_package(tmp_path, capsys, monkeypatch):
