@@ -65,7 +65,8 @@ def test_the_windows_of_a_solved_straight_on_plan_follow_the_ring_in_its_directi
 
 
 def test_a_connected_vehicle_keeps_its_speed_unless_it_would_meet_the_truck_in_the_area():
-    from model.traffic.windows import Window, keep_clear_speed
+    from model.traffic.cooperative import keep_clear_speed
+    from model.traffic.windows import Window
 
     w = Window(leg=1, start=10.0, end=14.0)  # the truck in leg 1's area from 10 to 14 s
     kwargs = {"length": 15.0, "margin": 1.0, "max_speed": 13.9}

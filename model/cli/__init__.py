@@ -599,7 +599,12 @@ def run() -> None:
     interrupts even where the parent shell ignores it (a background job sent ``kill -INT``).
     """
     signal.signal(signal.SIGINT, signal.default_int_handler)
-    code = main()
+    leave(main())
+
+
+def leave(code: int) -> None:
+    """Flush stdout and stderr and end the process with ``code`` without tearing the interpreter down (``run``;
+    the study scripts' cells: freeing a solve's Pyomo models and every module one by one costs about 1.2 s)."""
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)

@@ -18,7 +18,7 @@ import shapely
 from shapely.ops import substring
 
 from model.problem.ocp import OCP
-from model.traffic.windows import Window, conflict_areas, keep_clear_speed, occupancy_windows
+from model.traffic.windows import Window, conflict_areas, occupancy_windows
 
 KEEP_CLEAR_MARGIN = 1.0  # s kept free before and after each of the truck's windows
 REACH = 80.0  # m of a vehicle's path ahead that is looked at
@@ -162,3 +162,44 @@ def commands_text(commands: dict[float, dict[str, float]]) -> str:
     """``commands.csv`` of a cooperative run: t, id, speed (m/s; -1 hands the vehicle back to SUMO)."""
     lines = ["t,id,speed"] + [f"{t:g},{vid},{v:.6f}" for t in sorted(commands) for vid, v in commands[t].items()]
     return "\n".join(lines) + "\n"
+
+
+def keep_clear_speed(distance: float, length: float, speed: float, now: float, window: Window, margin: float,
+                     max_speed: float) -> float | None:  # fmt: skip
+    """The speed that keeps a connected vehicle out of a conflict area while the truck occupies it.
+
+    Parameters
+    ----------
+    distance : float
+        Along its lane to where it enters the area, m (<= 0: it is in it or past it).
+    length : float
+        How far it drives from entering the area to having left it (its path through the area plus its
+        own length), m.
+    speed : float
+        Its speed now, m/s.
+    now : float
+        Clock time, s; ``window`` is in the same clock.
+    window : Window
+        When the truck occupies the area (clock times).
+    margin : float
+        Seconds kept free before and after the window.
+    max_speed : float
+        Its speed limit, m/s.
+
+    Returns
+    -------
+    float or None
+        None if it may keep its own speed (it leaves the area ``margin`` before the window opens, or
+        reaches it after the window closes, or is already inside: it drives on); else the speed that
+        brings it to the area ``margin`` after the window closes (0 if it should stop before it).
+    """
+    if distance <= 0.0:
+        return None
+    opens, closes = window.start - margin, window.end + margin
+    if closes <= now:
+        return None
+    if speed > 0.0 and now + (distance + length) / speed <= opens:  # through before the truck comes
+        return None
+    if speed > 0.0 and now + distance / speed >= closes:  # it arrives after the truck has left
+        return None
+    return min(max_speed, distance / (closes - now))

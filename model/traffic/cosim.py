@@ -17,7 +17,6 @@ The free-flow time is pass 1 on a routes file without flows.
 from __future__ import annotations
 
 import contextlib
-import gc
 import io
 import math
 import subprocess
@@ -26,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from model.nlp.imports import settled_heap
 from model.problem.scenario import Scenario
 from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
 from model.traffic.cooperative import Cooperator, apply_commands, committed
@@ -185,49 +185,52 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     coop = Cooperator(scenario.ocp, plan.at, plan.duration, traffic.step) if cooperate else None
     # the plan's solve leaves large object graphs: collect them now and keep the survivors out of the
     # collector's scans while driving, so that no decision pays for a full collection (measured: 1.7 CPU s)
-    gc.collect()
-    gc.freeze()
-    traci = start_sumo(sumo, folder, routes)
-    out, t_end = Pass(), traffic.warmup + traffic.time_limit
-    seen: dict[str, list[tuple[float, float]]] = {}  # id -> (t, heading) over the last YAW_WINDOW seconds
-    last: list[tuple] = []
-    ra, exiting = road.roundabout, frozenset()
-    try:
-        while traci.simulation.getTime() < t_end - 1e-9:
-            t_next = round(traci.simulation.getTime() + traffic.step, TIME_DIGITS)
-            if t_next >= traffic.warmup - 1e-9 and "truck" in traci.vehicle.getIDList():
-                if out.states:
-                    others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
-                    name, _ = pilot.decide(others, traffic.step, exiting)
-                    out.decisions.append(name)
-                announce = coop is not None and committed(pilot.s, pilot.rate, pilot.give_way)
-                if coop is not None and (sent := coop.step_traffic(traci, traci.simulation.getTime(), pilot.s,
-                                                                   announce=announce)):  # fmt: skip
-                    out.commands[t_next] = sent
-                row = pilot.state()
-                th = row[v.roles.heading]
-                x, y = row[v.roles.x] + geo["front"] * math.cos(th), row[v.roles.y] + geo["front"] * math.sin(th)
-                a = 90.0 - math.degrees(th)
-                traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)
-                out.truck[t_next] = (x, y, a, row[v.roles.speed])
-                out.states[t_next] = row
-            traci.simulationStep()
-            t = round(traci.simulation.getTime(), TIME_DIGITS)
-            n = len(out.rows)
-            _record(traci, t, out)
-            last = out.rows[n:]
-            exiting = _exiting(traci, last, ra, follow_rule and t >= traffic.warmup - 1e-9)
-            seen = {r[1]: [*(h for h in seen.get(r[1], []) if h[0] >= t - YAW_WINDOW - 1e-9), (t, r[5])] for r in last}
-            if out.states and pilot.s >= plan.duration - 1e-12:
-                out.arrived = True
-                break
-    finally:
-        traci.close()
-        gc.unfreeze()
+    with settled_heap():
+        traci = start_sumo(sumo, folder, routes)
+        out, t_end = Pass(), traffic.warmup + traffic.time_limit
+        seen: dict[str, list[tuple[float, float]]] = {}  # id -> (t, heading) over the last YAW_WINDOW seconds
+        last: list[tuple] = []
+        ra, exiting = road.roundabout, frozenset()
+        try:
+            while traci.simulation.getTime() < t_end - 1e-9:
+                t_next = round(traci.simulation.getTime() + traffic.step, TIME_DIGITS)
+                if t_next >= traffic.warmup - 1e-9 and "truck" in traci.vehicle.getIDList():
+                    if out.states:
+                        others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
+                        name, _ = pilot.decide(others, traffic.step, exiting)
+                        out.decisions.append(name)
+                    if coop is not None:
+                        announce = committed(pilot.s, pilot.rate, pilot.give_way)
+                        if sent := coop.step_traffic(traci, traci.simulation.getTime(), pilot.s, announce=announce):
+                            out.commands[t_next] = sent
+                    row = pilot.state()
+                    th = row[v.roles.heading]
+                    x, y = row[v.roles.x] + geo["front"] * math.cos(th), row[v.roles.y] + geo["front"] * math.sin(th)
+                    a = 90.0 - math.degrees(th)
+                    traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)
+                    out.truck[t_next] = (x, y, a, row[v.roles.speed])
+                    out.states[t_next] = row
+                traci.simulationStep()
+                t = round(traci.simulation.getTime(), TIME_DIGITS)
+                n = len(out.rows)
+                _record(traci, t, out)
+                last = out.rows[n:]
+                exiting = _exiting(traci, last, ra, follow_rule and t >= traffic.warmup - 1e-9)
+                seen = _headings(seen, last, t)
+                if out.states and pilot.s >= plan.duration - 1e-12:
+                    out.arrived = True
+                    break
+        finally:
+            traci.close()
     out.end = max(out.truck) if out.truck else t_end
     out.decision_seconds = pilot.decision_seconds
     out.decision_cpu_seconds = pilot.decision_cpu_seconds
     return out
+
+
+def _headings(seen: dict[str, list[tuple[float, float]]], rows: list[tuple], t: float) -> dict:
+    """Each vehicle of ``rows`` (the step's) -> its (t, heading) over the last ``YAW_WINDOW`` seconds, ``t``'s added."""
+    return {r[1]: [*(h for h in seen.get(r[1], []) if h[0] >= t - YAW_WINDOW - 1e-9), (t, r[5])] for r in rows}
 
 
 def _exiting(traci, rows: list[tuple], roundabout, query: bool = True) -> frozenset[str]:
