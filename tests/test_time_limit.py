@@ -130,7 +130,7 @@ def test_the_search_counts_what_the_budget_left_out_and_says_so_once(monkeypatch
     calls = []
 
     def fake_solve_starts(ocp, n, passing, starts, verbose, options, relax, analyse, formulation, deadline, first,
-                          clock="wall"):
+                          clock="wall", **_):
         calls.append((len(starts), first))
         return [_Answer("wall_time_limit")] if first else []  # past the deadline only a floored first start runs
 

@@ -69,6 +69,8 @@ def solve_starts(
     deadline: float | None = None,
     first_wall_time: float | None = None,
     clock: str = "wall",
+    analyse_below: float | None = None,
+    models: dict | None = None,
 ) -> list[Solution]:
     """Build the model of one pass direction once; solve it from each start in turn.
 
@@ -80,6 +82,11 @@ def solve_starts(
     and no model built, if the deadline has passed already). ``first_wall_time``: the first start
     runs in any case, for at least these seconds. ``clock``: "wall" (the default), or "cpu": ``deadline``
     is a ``time.process_time()`` instant and each run gets Ipopt's ``max_cpu_time`` instead (``CLOCKS``).
+    ``analyse_below``: the objective of a validated answer on this grid (inf: none yet; None: analyse
+    every start): a start whose converged run does not end below it, or below a validated answer of an
+    earlier start of this call, is not analysed (``finish``'s ``worse_than``).
+    ``models``: built models and their NLPs by (problem, N, pass, relax, formulation), read and filled here: a
+    model built by an earlier call is solved again from the new starts (a search's steps share it).
     """
     if first_wall_time is None and wall_time_options({}, deadline, clock=clock) is None:
         return []
@@ -88,9 +95,12 @@ def solve_starts(
     # model cost 3x the build and seconds in loading the duals of a large road model
     kind = "minimal-violation model" if relax else "model"
     LOG.debug("building the N = %d %s (pass %s)", intervals, kind, passing)
+    key = (id(ocp), intervals, passing, relax, formulation)
     with paused_gc():
-        m = build_model(ocp, intervals, passing, relax, formulation)
-        nlp, sols, timings = None, [], {}
+        owner, m, nlp = (models or {}).get(key, (None, None, None))
+        if owner is not ocp:
+            m, nlp = build_model(ocp, intervals, passing, relax, formulation), None
+        sols, timings = [], {}
         opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
         for i, start in enumerate(starts, 1):
             budget = wall_time_options(opts, deadline, first_wall_time if i == 1 else None, clock)
@@ -105,8 +115,12 @@ def solve_starts(
                 nlp = CasadiNLP(m)
                 timings = {"model_build": t1 - t0, "derivative_setup": time.perf_counter() - t1}
             res, settling = solve_moving(m, ocp, nlp, budget)  # run_ipopt; with moving obstacles to the Tf fixed point
-            sols.append(finish(ocp, m, nlp, res, passing, timings, analyse))
+            sols.append(finish(ocp, m, nlp, res, passing, timings, analyse, analyse_below))
             note_settling(sols[-1], settling)
+            if analyse_below is not None and sols[-1].ok:
+                analyse_below = min(analyse_below, sols[-1].objective)
+    if models is not None and nlp is not None:
+        models[key] = (ocp, m, nlp)
     return sols
 
 
@@ -145,16 +159,28 @@ def load_start(m: pyo.ConcreteModel, start: Start) -> None:
             var[t].set_value(float(pyo.value(expression(t))), skip_validation=True)
 
 
+NOT_BELOW = "not below the best validated answer"
+"""The ``skipped`` reason of a start not analysed because a validated answer was as good (``finish``)."""
+
+
 def finish(
-    ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, passing: str, timings: dict, analyse: bool = True
-) -> Solution:
+    ocp: OCP, m: pyo.ConcreteModel, nlp: CasadiNLP, res: IpoptResult, passing: str, timings: dict,
+    analyse: bool = True, worse_than: float | None = None,
+) -> Solution:  # fmt: skip
     """Load Ipopt's answer into the model and make a validated, certified Solution.
 
     Without ``analyse`` the node columns are states and controls only, nothing is validated
     (``ok`` is False) and there is no certificate: a screening answer, a guess for a refinement.
+    The same, skipped as "not below the best validated answer", where the objective is not below
+    ``worse_than`` (a validated answer's) after a converged run: it could not become the answer, so its
+    analysis buys nothing.
     """
     t0 = time.perf_counter()
     nlp.load_primals(res.x)
+    skipped = "screening"
+    converged = res.status in ("optimal", "acceptable")  # a failed run keeps its analysis: its diagnosis
+    if analyse and converged and worse_than is not None and not float(pyo.value(m.objective)) < worse_than:
+        analyse, skipped = False, NOT_BELOW
     if analyse:  # a screening answer is only a guess: its duals are never read
         nlp.load_duals(res.mult_g, res.x)
     cols = node_columns(m, ocp) if analyse else primal_columns(m, ocp)
@@ -175,14 +201,14 @@ def finish(
         columns=cols,
         passing=passing,
         validation=(validate(ocp, cols, tf, passing, hasattr(m, "step")) if analyse
-                    else {"passed": None, "skipped": "screening"}),  # fmt: skip
+                    else {"passed": None, "skipped": skipped}),  # fmt: skip
         solver_message=res.message,
         timings={**timings, "ipopt": res.seconds},
     )
     if analyse and sol.status == "optimal" and not sol.validation["passed"]:
         sol.status = "validation_failed"
     sol.model, sol.nlp, sol.ipopt, sol.adjoined = m, nlp, res, adjoined
-    sol.certificate = _certificate(sol) if analyse else {"passed": None, "skipped": "screening"}
+    sol.certificate = _certificate(sol) if analyse else {"passed": None, "skipped": skipped}
     sol.timings["analysis"] = time.perf_counter() - t0
     return sol
 

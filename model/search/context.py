@@ -12,13 +12,14 @@ failure; screening solves (guesses only) get no such grace.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from model.analysis.columns import Columns
 from model.direct.bodies import DEFAULT_FORMULATION
 from model.direct.solution import Solution
-from model.direct.solve import CLOCKS, Start, solve_starts
+from model.direct.solve import CLOCKS, NOT_BELOW, Start, solve_starts
 from model.problem.ocp import OCP
 from model.search.accuracy import CONVERGED
 from model.search.starts import distinct_starts, passes_to_try, start_values
@@ -41,7 +42,9 @@ class Reporter:
     def start(self, sol: Solution, passing: str, scale, route: str) -> None:
         """One line for a solved start: its number, pass, route, and its outcome."""
         self.count += 1
-        outcome = (f"objective {sol.objective:.8g}" + ("" if sol.ok else " (not validated)")
+        below = sol.validation.get("skipped") == NOT_BELOW
+        unchecked = " (not validated: not below the best)" if below else " (not validated)"
+        outcome = (f"objective {sol.objective:.8g}" + ("" if sol.ok else unchecked)
                    if sol.status in ("optimal", "acceptable") else "no answer")  # fmt: skip
         self(f"[{self.count}] pass {passing}, start {route} x{scale:g}: {sol.status}, {outcome}, "
              f"{sol.iterations} iterations, {sol.timings['ipopt']:.2f} s in Ipopt")  # fmt: skip
@@ -89,6 +92,7 @@ class Search:
     reserve: float = 0.0  # s of the time limit kept for analysing the last run and writing the results
     clock: str = "wall"
     evidence: list[dict] = field(default_factory=list)  # the minimal-violation diagnoses computed (shared by copies)
+    models: dict = field(default_factory=dict)  # the models built, reused by later steps (``solve_starts``' models)
 
     def __post_init__(self) -> None:
         if self.clock not in CLOCKS:
@@ -156,18 +160,23 @@ class Search:
         relax: bool = False,
         analyse: bool = True,
         formulation: str | None = None,
+        skip_worse: bool = False,
     ) -> list[Solution]:
         """``model.direct.solve_starts`` with the search's settings; the starts the budget left out are skipped.
 
         ``extra``: a step's own Ipopt options (the caller's ``options`` override them).
         ``formulation``: another body formulation than the search's for this call.
+        ``skip_worse``: a start that does not end below the best validated objective on this grid so far
+        is not analysed (``solve_starts``' ``analyse_below``; for the steps that only choose the best).
         """
         first = MIN_WALL_TIME if analyse and not self.answered() else None  # the search's first answer always comes
         capped = {CLOCKS[self.clock][1]: self.run_cap} if self.run_cap is not None else {}
         distinct, index = distinct_starts(list(starts))  # a start equal to an earlier one gets its answer
         solved = solve_starts(self.ocp, intervals, passing, distinct, self.verbose,
                               {**capped, **(extra or {}), **self.options}, relax, analyse,
-                              formulation or self.formulation, self.deadline, first, self.clock)  # fmt: skip
+                              formulation or self.formulation, self.deadline, first, self.clock,
+                              analyse_below=self.least_validated(intervals) if skip_worse and not relax else None,
+                              models=self.models)  # fmt: skip
         answered = next((k for k, i in enumerate(index) if i >= len(solved)), len(index))  # those the budget left
         sols = [solved[i] for i in index[:answered]]
         if len(sols) < len(starts):
@@ -177,6 +186,11 @@ class Search:
             self.stop()  # (a run ended by run_cap alone is no stop of the search)
         self.solutions.extend(solved)
         return sols
+
+    def least_validated(self, intervals: int) -> float | None:
+        """The least objective of a validated answer to the search's own problem on N = ``intervals`` (inf: none)."""
+        return min((s.objective for s in self.solutions if s.ok and s.ocp is self.ocp and s.intervals == intervals),
+                   default=math.inf)  # fmt: skip
 
     def record(self, sol: Solution, passing: str, scale, route: str) -> None:
         """An attempt of the summary and a progress line for a solved start."""
@@ -234,7 +248,8 @@ def cold_starts(
         if search.skip(f"cold starts (pass {passing})", len(starts)):
             continue
         values = [search.values(passing, guess, scale, route) for scale, route in starts]
-        for (scale, route), sol in zip(starts, search.solve(search.intervals, passing, values), strict=False):
+        solved = search.solve(search.intervals, passing, values, skip_worse=True)
+        for (scale, route), sol in zip(starts, solved, strict=False):
             search.record(sol, passing, scale, route)
             if best is None or better(sol, best):
                 best = sol

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from model.analysis.columns import Columns
 from model.direct.bodies import DEFAULT_FORMULATION, check_formulation
 from model.direct.solution import Solution
-from model.direct.solve import paused_gc, solve_starts, wall_time_options
+from model.direct.solve import NOT_BELOW, paused_gc, solve_starts, wall_time_options
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, grid_failures, refine_for_accuracy
 from model.search.accuracy import ROUTE as ACCURACY_ROUTE
@@ -233,8 +233,9 @@ def _screen_and_refine(ctx: Search, coarse: int, starts, passes=None, within=Non
 
 def _refine(ctx: Search, passing: str, values) -> list[Solution]:
     """Solve from coarse answers at N (one build); those that fail once more as cold starts."""
-    sols = ctx.solve(ctx.intervals, passing, values, REFINE_OPTIONS)
-    again = [i for i, sol in enumerate(sols) if not sol.ok]  # the small barrier parameter presumes a good guess
+    sols = ctx.solve(ctx.intervals, passing, values, REFINE_OPTIONS, skip_worse=True)
+    # the small barrier parameter presumes a good guess (an answer not below the best needs no second try)
+    again = [i for i, sol in enumerate(sols) if not sol.ok and sol.validation.get("skipped") != NOT_BELOW]
     if again and not ctx.skip(f"refinement again as cold starts (pass {passing})", len(again)):
         for i, sol in zip(again, ctx.solve(ctx.intervals, passing, [values[i] for i in again]), strict=False):
             sols[i] = sol
