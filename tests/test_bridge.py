@@ -208,3 +208,16 @@ def test_settled_heap_freezes_the_survivors_in_its_block_and_frees_its_garbage()
         assert gc.get_freeze_count() == 0
     finally:
         gc.enable()
+
+
+def test_a_run_after_one_that_ended_in_restoration_sees_the_objective():
+    """pynumero's wrapper assumes an objective factor of 1 at its start; the restoration phase sets 0."""
+    from model.nlp.ipopt import run_ipopt
+
+    nlp = CasadiNLP(build_model(paper_energy_problem(), intervals=20))
+    x0 = nlp.init_primals()
+    fresh = run_ipopt(nlp, {"print_level": 0}, x0=x0)
+    nlp.set_obj_factor(0.0)  # where a restoration phase leaves it
+    again = run_ipopt(nlp, {"print_level": 0}, x0=x0)
+    assert fresh.status == again.status == "optimal"
+    assert again.iterations == fresh.iterations and np.allclose(again.x, fresh.x, atol=1e-10)

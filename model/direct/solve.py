@@ -97,9 +97,13 @@ def solve_starts(
     LOG.debug("building the N = %d %s (pass %s)", intervals, kind, passing)
     key = (id(ocp), intervals, passing, relax, formulation)
     with paused_gc():
-        owner, m, nlp = (models or {}).get(key, (None, None, None))
+        owner, m, nlp, built = (models or {}).get(key, (None, None, None, None))
         if owner is not ocp:
             m, nlp = build_model(ocp, intervals, passing, relax, formulation), None
+            built = [v.value for v in m.component_data_objects(pyo.Var)]
+        else:  # as built: the values a start does not set (auxiliaries, slacks) are not the last run's
+            for var, value in zip(m.component_data_objects(pyo.Var), built, strict=True):
+                var.set_value(value, skip_validation=True)
         sols, timings = [], {}
         opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
         for i, start in enumerate(starts, 1):
@@ -120,7 +124,7 @@ def solve_starts(
             if analyse_below is not None and sols[-1].ok:
                 analyse_below = min(analyse_below, sols[-1].objective)
     if models is not None and nlp is not None:
-        models[key] = (ocp, m, nlp)
+        models[key] = (ocp, m, nlp, built)
     return sols
 
 

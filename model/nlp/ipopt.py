@@ -146,6 +146,10 @@ def run_ipopt(
             )  # fmt: skip
         return True
 
+    # pynumero's wrapper takes the NLP's objective factor for 1 and sets it only when Ipopt asks for
+    # another: a run that ended in the restoration phase (factor 0) would leave the next run's
+    # Hessian without its objective
+    nlp.set_obj_factor(1.0)
     problem = CyIpoptNLP(nlp, intermediate_callback=intermediate)
     opts = {**DEFAULT_OPTIONS, **(options or {})}
     if duals is not None:
