@@ -82,7 +82,7 @@ def test_equal_starts_are_solved_once_and_each_gets_the_answer(monkeypatch):
     moved = Start({**a.values, "x": a.values["x"] + 1e-12}, a.final_time)
     assert distinct_starts([a, moved])[1] == [0, 1]
     solved, answers = [], [SimpleNamespace(status="optimal"), SimpleNamespace(status="infeasible")]
-    monkeypatch.setattr(context, "solve_starts", lambda ocp, n, p, starts, *rest: solved.append(starts) or
+    monkeypatch.setattr(context, "solve_starts", lambda ocp, n, p, starts, *rest, **_: solved.append(starts) or
                         answers[: len(starts)])  # fmt: skip
     search = context.Search(ocp, 40)
     got = search.solve(40, "none", [a, b, same_as_a])
