@@ -24,7 +24,8 @@ file and solved as a user would: ``roundabout solve FILE --out DIR --time-limit 
   (largest distance at the file's time steps);
 - *drivability checker*: commonroad-drivability-checker's road boundary of the written map
   (``create_road_boundary_obstacle``, aligned triangulation): no body rectangle, shrunk by 1 cm,
-  collides with it at the nodes.
+  collides with it at the nodes (the lateral links of a lanelet mapped twice, Neuweiler's 180 and 181,
+  are cut first: the checker's walk along them never ends; ``lateral_cycles_cut``).
 
 An exit 1 is a refusal: its ``summary.json`` diagnosis is reported (which body leaves the corridor,
 by how much). Exit 2 (the pose cannot be posed) and other codes are reported as they are.
@@ -45,7 +46,10 @@ import numpy as np
 import shapely
 
 ROOT = Path(__file__).resolve().parents[1]
-MAPS = {"Kackertstrasse": "rounD/DEU_Kackertstrasse-1", "Thiergarten": "rounD/DEU_Thiergarten-1"}
+# Neuweiler last: the movements are drawn from one random sequence in this order (seeds 0 and 1 draw
+# the same Kackertstrasse and Thiergarten routes as before Neuweiler was added)
+MAPS = {"Kackertstrasse": "rounD/DEU_Kackertstrasse-1", "Thiergarten": "rounD/DEU_Thiergarten-1",
+        "Neuweiler": "rounD/DEU_Neuweiler-1"}
 TEMPLATE = ROOT / "workflows" / "scenarios" / "maps" / "kackertstrasse.toml"
 KINDS = ("right", "straight", "left", "U-turn")
 SUBSTEPS = 8
@@ -253,6 +257,34 @@ def commonroad_check(ocp, columns: dict[str, np.ndarray], scenario) -> tuple[int
     return len(obstacles), worst, sizes
 
 
+def lateral_cycles_cut(network) -> list[int]:
+    """Cut the lateral links of lanelets whose walk to the right comes back to them, and name them.
+
+    Neuweiler's lanelets 180 and 181 are one lanelet mapped twice, each the other's left and right
+    neighbour in the opposite direction: the drivability checker's lane sections
+    (``commonroad_dc.boundary.lanelet_bounds.lane_sections``, walking to the rightmost lanelet)
+    never end on them. Their polygons are kept, so the road's area is the same.
+    """
+    cut = []
+    for lanelet in network.lanelets:
+        seen, current, direction = {lanelet.lanelet_id}, lanelet, True
+        while True:  # the checker's walk to the rightmost lanelet
+            nxt, same = ((current.adj_right, current.adj_right_same_direction) if direction
+                         else (current.adj_left, current.adj_left_same_direction))  # fmt: skip
+            if nxt is None:
+                break
+            if nxt in seen:
+                cut += sorted(seen)
+                break
+            seen.add(nxt)
+            direction = direction == same
+            current = network.find_lanelet_by_id(nxt)
+    for lanelet_id in set(cut):
+        lanelet = network.find_lanelet_by_id(lanelet_id)
+        lanelet.adj_left = lanelet.adj_right = None
+    return sorted(set(cut))
+
+
 def boundary_hits(ocp, columns: dict[str, np.ndarray], scenario) -> tuple[int, int]:
     """Body rectangles at the nodes (shrunk 1 cm) that collide with the drivability checker's road
     boundary of the written map, and how many of those reach out of every lanelet of the map (the union
@@ -296,6 +328,7 @@ def check(path: Path, out: Path) -> dict:
     between = worst_outside(ocp, states, corridors)
     scenario, _ = CommonRoadFileReader(str(out / "commonroad.xml")).open()
     n_obstacles, centre_error, sizes = commonroad_check(ocp, columns, scenario)
+    cut = lateral_cycles_cut(scenario.lanelet_network)  # before the checker walks the lanes
     hits, off_road = boundary_hits(ocp, columns, scenario)
     agree = ids == summary["route_lanelets"]
     passed = (nodes[0] <= 1e-6 and between[0] <= 0.02 and drift <= 0.05 and n_obstacles == len(ocp.bodies)
@@ -304,7 +337,7 @@ def check(path: Path, out: Path) -> dict:
             "outside_between_m": between[0], "outside_body": between[1] if between[0] else nodes[1],
             "reintegration_drift_m": drift, "commonroad_obstacles": n_obstacles,
             "commonroad_centre_error_m": centre_error, "commonroad_sizes": sizes,
-            "boundary_hits": hits, "boundary_hits_off_road": off_road,
+            "boundary_hits": hits, "boundary_hits_off_road": off_road, "boundary_links_cut": cut,
             "checks_pass": bool(passed)}  # fmt: skip
 
 

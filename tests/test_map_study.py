@@ -74,6 +74,23 @@ def test_kackertstrasse_movements_agree_with_networkx(kackertstrasse):
         assert all(g.has_edge(a, b) for a, b in zip(m.lanelets, m.lanelets[1:], strict=False))
 
 
+def test_neuweilers_open_ring_is_closed_by_the_links_the_map_leaves_out():
+    lanelet_map = read_map(dataset_file("rounD/DEU_Neuweiler-1"))
+    g = drivable_digraph(lanelet_map)
+    assert not any(len(c) > 1 for c in nx.strongly_connected_components(g))  # open in the map
+    ring = set(ring_lanelets(lanelet_map))
+    assert {113, 126, 150, 155, 158, 164, 169, 172, 174, 177} <= ring and not ring & {107, 119, 157, 182}
+    end, start = (shapely.Point(lanelet_map.lanelet(i).center_vertices[k]) for i, k in ((177, -1), (158, 0)))
+    assert lanelet_map.polygon(150).contains(end) and lanelet_map.polygon(155).contains(start)
+    entries, exits = entries_and_exits(lanelet_map)  # the gap's ends are neither
+    assert 158 not in entries and not {160, 177} & set(exits) and {119, 137, 166} <= set(entries)
+    found = {m.name: m for m in movements(lanelet_map)}
+    assert {"119-182", "137-157", "166-107", "166-201"} <= set(found)
+    for m in found.values():  # real chains of successors (the added links only find the ring)
+        assert all(g.has_edge(a, b) for a, b in zip(m.lanelets, m.lanelets[1:], strict=False))
+        assert ring & set(m.lanelets)
+
+
 def test_an_exported_roundabout_has_every_entry_exit_pair(tmp_path):
     xml = tmp_path / "map.xml"
     assert main(["export-commonroad", str(ROOT / "examples" / "roundabout-truck.toml"), "--out", str(xml)]) == 0

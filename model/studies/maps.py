@@ -40,6 +40,7 @@ MARGIN = 0.5  # m: first try, the start and goal this far clear of the vehicle's
 STEP = 1.0  # m: the start or goal moved by this much along the route while a body is outside the corridor
 DRAWN = 0.01  # m: the swept paths kept in a cell's record are simplified to this (they are only drawn)
 SAMPLE = 0.05  # m: spacing of the points at which the depth on the apron is measured
+GAP = 0.1  # m: a lanelet's end this deep inside another drivable lanelet is a link the map leaves out
 
 
 @dataclass(frozen=True)
@@ -63,16 +64,43 @@ def drivable_graph(lanelet_map: LaneletMap) -> dict[int, list[int]]:
     return {i: [j for j in lanelet_map.successors(i) if j in keep] for i in ids}
 
 
-def entries_and_exits(lanelet_map: LaneletMap) -> tuple[list[int], list[int]]:
-    """Drivable lanelets without a drivable predecessor (entries) and without a drivable successor (exits)."""
+def linked_graph(lanelet_map: LaneletMap) -> dict[int, list[int]]:
+    """The drivable graph with the links a map leaves out.
+
+    A lanelet without a drivable successor whose centre line ends inside another drivable lanelet
+    leads into it; one without a drivable predecessor whose centre line begins inside another is
+    led into from it (Neuweiler's ring, open in the map: 177 ends inside 150 and 152, 158 begins
+    inside 155, the north entry 160 ends inside 159 and 163). Kackertstrasse and Thiergarten have
+    no such ends.
+    """
     graph = drivable_graph(lanelet_map)
+    has_pred = {j for nexts in graph.values() for j in nexts}
+    linked = {i: list(nexts) for i, nexts in graph.items()}
+    for i, nexts in graph.items():
+        if not nexts:
+            linked[i] += _containing(lanelet_map, graph, i, -1)
+        if i not in has_pred:
+            for j in _containing(lanelet_map, graph, i, 0):
+                linked[j].append(i)
+    return linked
+
+
+def _containing(lanelet_map: LaneletMap, graph: Mapping[int, list[int]], lanelet_id: int, end: int) -> list[int]:
+    """The other drivable lanelets inside which the centre line's first (``end`` 0) or last (-1) point lies."""
+    point = shapely.Point(lanelet_map.lanelet(lanelet_id).center_vertices[end])
+    return [j for j in graph if j != lanelet_id and lanelet_map.polygon(j).buffer(-GAP).contains(point)]
+
+
+def entries_and_exits(lanelet_map: LaneletMap) -> tuple[list[int], list[int]]:
+    """Drivable lanelets without a predecessor (entries) and without a successor (exits) in ``linked_graph``."""
+    graph = linked_graph(lanelet_map)
     has_pred = {j for nexts in graph.values() for j in nexts}
     return sorted(i for i in graph if i not in has_pred), sorted(i for i, nexts in graph.items() if not nexts)
 
 
 def ring_lanelets(lanelet_map: LaneletMap) -> list[int]:
-    """The drivable lanelets that lie on a cycle of successors (a roundabout's circulating ring), sorted."""
-    graph = drivable_graph(lanelet_map)
+    """The drivable lanelets on a cycle of ``linked_graph`` (a roundabout's circulating ring), sorted."""
+    graph = linked_graph(lanelet_map)
     return sorted(i for i in graph if i in _reach(graph, graph[i]))
 
 
