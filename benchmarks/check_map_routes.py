@@ -53,6 +53,7 @@ MAPS = {"Kackertstrasse": "rounD/DEU_Kackertstrasse-1", "Thiergarten": "rounD/DE
 TEMPLATE = ROOT / "workflows" / "scenarios" / "maps" / "kackertstrasse.toml"
 KINDS = ("right", "straight", "left", "U-turn")
 SUBSTEPS = 8
+LEFT = 225.0  # degrees about the ring's centre: the least sweep of a left turn
 CRACK = 1e-3  # m: docs/map-format.md closes cracks up to this width between lanelet polygons
 
 
@@ -67,7 +68,9 @@ def kinds(lanelet_map, found: list) -> dict[str, str]:
     """The kind of every movement by its exit's order around the ring from its entry: the exits of one
     entry sorted by the angle the route sweeps about the ring's centre (exits within 20 degrees are one
     leg), the first leg a right turn, the last a left turn, those between straight on, and a leg the
-    route sweeps more than 300 degrees to (back to its own leg) a U-turn. In left-hand traffic the
+    route sweeps more than 300 degrees to (back to its own leg) a U-turn; the last leg is a left turn only
+    if the route sweeps at least 225 degrees to it (Neuweiler's open ring leaves some entries two exits,
+    the second of them straight across, 171-174 degrees). In left-hand traffic the
     names of right and left swap; the rounD maps are right-hand."""
     from model.studies.maps import ring_lanelets
 
@@ -86,7 +89,8 @@ def kinds(lanelet_map, found: list) -> dict[str, str]:
             if leg[0][0] > 300.0:
                 kind = "U-turn"
             else:
-                kind = "right" if leg is others[0] else ("left" if leg is others[-1] else "straight")
+                last = leg is others[-1] and leg[0][0] >= LEFT
+                kind = "right" if leg is others[0] else ("left" if last else "straight")
             out |= {name: kind for _, name in leg}
     return out
 
