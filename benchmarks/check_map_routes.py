@@ -365,6 +365,8 @@ def run_case(case: dict, folder: Path, intervals: int, time_limit: float, grid: 
     if run.returncode == 0:
         record |= check(path, out)
         record["result"] = "solved, checks pass" if record["checks_pass"] else "solved, a check fails"
+        if summary.get("route_loops"):
+            record["reason"] = f"once more round the ring ({summary['route_loops']} loop)"
     else:
         diagnosis = summary.get("diagnosis") or {}
         record |= {"result": "refused", "reason": diagnosis.get("message", json.dumps(diagnosis)[:200])}

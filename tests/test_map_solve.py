@@ -201,23 +201,27 @@ def test_the_map_search_honours_its_time_limit():
     assert not sol.ok and sol.diagnosis["kind"] == "map corridor"
 
 
-def solve_thiergarten_route(tmp_path, kind: str, movement: str) -> tuple[dict, Path, Path]:
-    """One SU-30 route through Thiergarten posed as benchmarks/check_map_routes.py poses it (N = 100, with the
-    apron), solved by ``roundabout solve --map-grid arclength``: (summary, scenario file, output folder)."""
+def solve_route(tmp_path, kind: str, movement: str, *extra: str, where: str = "Thiergarten",
+                vehicle: str = "SU-30") -> tuple[dict, Path, Path, subprocess.CompletedProcess]:  # fmt: skip
+    """One route posed as benchmarks/check_map_routes.py poses it (N = 100, with the apron), solved by
+    ``roundabout solve`` with ``extra``: (summary, scenario file, output folder, the run)."""
     pytest.importorskip("commonroad")
     from benchmarks.check_map_routes import MAPS, apron_lanelets, write_scenario
     from model.scene.lanelet_map import dataset_file, read_map
 
-    case = {"map": "Thiergarten", "dataset": MAPS["Thiergarten"], "kind": kind, "movement": movement,
-            "vehicle": "SU-30", "apron": True,
-            "apron_lanelets": apron_lanelets(read_map(dataset_file(MAPS["Thiergarten"])))}  # fmt: skip
+    case = {"map": where, "dataset": MAPS[where], "kind": kind, "movement": movement, "vehicle": vehicle,
+            "apron": True, "apron_lanelets": apron_lanelets(read_map(dataset_file(MAPS[where])))}  # fmt: skip
     path = write_scenario(case, tmp_path, 100)
     out = tmp_path / "out"
-    run = subprocess.run([sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(out), "--quiet",
-                          "--map-grid", "arclength"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)  # fmt: skip
+    run = subprocess.run([sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(out), "--quiet", *extra],
+                         cwd=ROOT, capture_output=True, text=True, timeout=900)  # fmt: skip
     assert run.returncode == 0, run.stderr
-    return json.loads((out / "summary.json").read_text()), path, out
+    return json.loads((out / "summary.json").read_text()), path, out, run
+
+
+def solve_thiergarten_route(tmp_path, kind: str, movement: str) -> tuple[dict, Path, Path]:
+    """One SU-30 route through Thiergarten solved by ``roundabout solve --map-grid arclength`` (``solve_route``)."""
+    return solve_route(tmp_path, kind, movement, "--map-grid", "arclength")[:3]
 
 
 def test_the_arclength_grid_solves_a_u_turn_the_time_grid_refuses(tmp_path):
@@ -267,3 +271,23 @@ def test_a_refusal_reports_the_converged_penalty_answer():
         "penalty sequence (default strips) converged with the bodies' least exact clearance -0.335 m" in out["message"]
     )
     assert "0.402 m of strip slack at most" in out["message"]
+
+
+@pytest.mark.slow
+def test_a_right_turn_too_tight_for_the_semitrailer_validates_once_round_the_ring(tmp_path):
+    """Kackertstrasse 104 -> 85 (right, EU semitrailer, N = 100, as benchmarks/check_map_routes.py poses it, seed 0):
+    every step on the direct path converges with the trailer outside the lanelets (benchmarks/map-routes.md); the
+    search's last step, the same route once more round the ring (the same corridor), validates, says so, and the
+    benchmark's independent checks pass."""
+    from benchmarks.check_map_routes import check
+
+    summary, path, out, run = solve_route(tmp_path, "right", "104-85", where="Kackertstrasse", vehicle="EU-semitrailer")
+    sequences = summary["search"]["sequences"]
+    assert summary["valid"] and summary["route_loops"] == 1 and summary["search"]["loop"]["valid"]
+    assert not any(s["valid"] for s in sequences if "loops" not in s)  # nothing validated on the direct path
+    assert summary["min_clearance"] > 0 and summary["min_clearance_dense"] >= 0
+    assert "1 more time(s) round the ring" in run.stdout
+    direct = load_scenario(path).ocp.final["theta"]  # the goal heading of the direct path
+    assert trajectory(out)["theta"][-1] == pytest.approx(direct + 2 * np.pi, abs=1e-3)
+    assert 18.0 < summary["final_time"] < 30.0  # benchmarks/map-routes.md: 22.628 s
+    assert check(path, out)["checks_pass"]

@@ -292,6 +292,43 @@ def test_the_goal_heading_is_the_start_heading_plus_the_route_turn():
     assert right.goal()[2] - right.start()[2] == pytest.approx(right.turn(), abs=0.05) and right.turn() < -1.5
 
 
+def test_a_looped_route_goes_once_more_round_the_ring_in_the_same_corridor():
+    """Kackertstrasse 104 -> 85 (a right turn) looped: the ring's cycle of successors (found here with networkx)
+    inserted after the first ring lanelet, the corridor unchanged, the turn and the goal heading 2 pi further."""
+    m = read_map(dataset_file(ROUND[0]))
+    right = MapRoute(m, 104, 85)
+    loop = right.looped()
+    assert loop is not None and loop.loops == 1 and right.loops == 0
+    g = graph(right, lane_changes=False)
+    first = next(i for i in right.lanelets if any(i in c for c in nx.simple_cycles(g)))
+    k = right.lanelets.index(first)
+    inserted = loop.lanelets[k + 1 : len(loop.lanelets) - len(right.lanelets) + k + 1]
+    assert inserted[-1] == first and len(inserted) > 2
+    assert all(g.has_edge(a, b) for a, b in zip([first, *inserted], inserted, strict=False))
+    assert loop.lanelets[: k + 1] + loop.lanelets[k + 1 + len(inserted) :] == right.lanelets
+    assert loop.corridor_lanelets == right.corridor_lanelets
+    assert loop.turn() - right.turn() == pytest.approx(2 * np.pi, abs=0.1)
+    assert loop.goal()[2] - right.goal()[2] == pytest.approx(2 * np.pi, abs=1e-9)
+    assert loop.goal()[:2] == right.goal()[:2] and loop.start() == right.start()
+    assert MapRoute(m, 104, 100).looped() is None  # two lanelets of one leg: no ring on the way
+
+
+def test_a_chained_projection_follows_a_line_that_passes_a_place_twice():
+    """On one and a half turns of a circle the nearest point of the line is ambiguous where it overlaps; with
+    ``chain`` the points of a path project near their predecessor's projection, without it they jump a turn."""
+    from model.scene.curvilinear import frame
+
+    t = np.linspace(0.0, 3 * np.pi, 400)
+    line = 10.0 * np.column_stack([np.cos(t), np.sin(t)])
+    path = 1.05 * line[::10]  # outside the line, in the line's order
+    chained = frame(line, chain=5.0).project(path[:, None, :])[:, 0]
+    assert np.all(np.diff(chained) > 0) and chained[-1] > 80.0
+    plain = frame(line).project(path)
+    assert np.any(np.diff(plain) < 0)
+    first_turn = frame(line[:130], chain=5.0)
+    assert np.allclose(first_turn.project(path[:13, None, :])[:, 0], frame(line[:130]).project(path[:13]))
+
+
 # --------------------------------------------------------------------------- the curvilinear frame (item 2 prototype)
 
 

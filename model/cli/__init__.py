@@ -488,6 +488,15 @@ def time_limit_note(sol) -> str:
             "starts skipped): this is the best validated answer found by then")  # fmt: skip
 
 
+def loop_note(sol) -> str:
+    """A line for a map answer that goes round the ring more than the route's direct path ('' otherwise)."""
+    loops = sol.ocp.map_route.loops if sol.ocp.map_route is not None else 0
+    if not loops:
+        return ""
+    return (f"\nnote: nothing validated on the route's direct path; this answer goes {loops} more time(s) round "
+            "the ring (route_loops in summary.json)")  # fmt: skip
+
+
 def wrote_line(out: Path) -> str:
     """The success line's second half: where the files are."""
     names = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file() and p.name in RUN_FILES)
@@ -509,7 +518,7 @@ def _solve(scenario, args, options: dict) -> int:
         print(phase_report(phases, args.startup), file=sys.stderr)
     line = solve_line(scenario, sol)
     if sol.ok:
-        print(f"{line}\n{wrote_line(args.out)}" + time_limit_note(sol))
+        print(f"{line}\n{wrote_line(args.out)}" + time_limit_note(sol) + loop_note(sol))
         return 0
     print(f"{line}\nroundabout: FAILED ({failure_reason(sol)}); see {args.out / 'summary.json'}", file=sys.stderr)
     return 1

@@ -49,6 +49,7 @@ CRACK = 1e-3  # m: the caps overlap the corridor by this much
 CURVED_WINDOW = 1.5  # the curved strips' bounds: the least over this many trust radii of arclength either side
 FLAT = 1e-6  # 1/m: a frame curvature below this is a straight line (the curved row is the linear one)
 DISC_RESOLUTION = 0.05  # m: the ``disc`` strips' bounds are multiples of this (``disc_extents``'s step)
+CHAIN = 10.0  # m: on a looped route a node's discs project within this arclength of the previous node's
 STEP_CAP = 30.0  # s: the longest interval of the arclength grid (a stop to turn the wheels fits; a crawl does not)
 
 
@@ -97,7 +98,7 @@ def strips(
     10 % the SU-30 did not converge on Thiergarten's 3 m lanes, docs/map-corridor.md).
     """
     route = ocp.map_route
-    fr = frame(route.line.points, step=step, sigma=sigma)
+    fr = frame(route.line.points, step=step, sigma=sigma, chain=CHAIN if route.loops else None)
     covers, lower, upper = {}, {}, {}
     for name, body in ocp.bodies.items():
         offsets, radius = body.cover(disc_count(body.length, body.width, slack))

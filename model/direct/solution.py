@@ -95,6 +95,7 @@ class Solution:
             "certificate": self.certificate,
             **({"diagnosis": self.diagnosis} if self.diagnosis is not None else {}),
             **({k: measures.get(k) for k in ("route_lanelets", "lanelets_used")} if self.ocp.map_route else {}),
+            **({"route_loops": self.ocp.map_route.loops} if self.ocp.map_route else {}),
         }
 
     def _steering_cost(self) -> dict:

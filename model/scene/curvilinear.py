@@ -35,6 +35,7 @@ class Frame:
     points: NDArray[np.float64]
     tangents: NDArray[np.float64]
     normals: NDArray[np.float64]
+    chain: float | None = None  # m: ``project`` follows a path within this arclength of its previous point
 
     def at(self, s: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Point, tangent and normal at arclengths ``s`` (linear between samples, clipped), each (..., 2)."""
@@ -48,9 +49,35 @@ class Frame:
         return interp(self.points), t, np.stack([-t[..., 1], t[..., 0]], -1)
 
     def project(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Arclength of the nearest point of the (sampled) line to each point (..., 2)."""
+        """Arclength of the nearest point of the (sampled) line to each point (..., 2).
+
+        With ``chain`` (a line that passes a place twice, as a loop round a ring does) and points
+        (n, ..., 2) ordered along a path: the points of row k project to the nearest point of the line
+        within ``chain`` m of arclength of row k - 1's projections (row 0 and a single point: the whole line).
+        """
+        xy = np.asarray(xy, float)
         line = shapely.LineString(self.points)
-        return np.asarray(shapely.line_locate_point(line, shapely.points(np.asarray(xy, float))))
+        if self.chain is None or xy.ndim < 2:
+            return np.asarray(shapely.line_locate_point(line, shapely.points(xy)))
+        out = np.empty(xy.shape[:-1])
+        out[0] = shapely.line_locate_point(line, shapely.points(xy[0]))
+        for k in range(1, len(xy)):
+            lo, hi = float(np.min(out[k - 1])) - self.chain, float(np.max(out[k - 1])) + self.chain
+            out[k] = self.nearest_within(xy[k], max(lo, self.s[0]), min(hi, self.s[-1]))
+        return out
+
+    def nearest_within(self, xy: NDArray[np.float64], lo: float, hi: float) -> NDArray[np.float64]:
+        """Arclength of the nearest point to each point (..., 2) on the part of the line from ``lo`` to ``hi``."""
+        keep = np.flatnonzero((self.s[1:] >= lo) & (self.s[:-1] <= hi))
+        a, b = self.points[keep], self.points[keep + 1]
+        d = b - a
+        length2 = np.maximum(np.sum(d * d, axis=1), 1e-18)
+        p = xy[..., None, :]
+        u = np.clip(np.sum((p - a) * d, axis=-1) / length2, 0.0, 1.0)
+        dist = np.linalg.norm(p - (a + u[..., None] * d), axis=-1)
+        j = np.argmin(dist, axis=-1)
+        along = np.take_along_axis(u, j[..., None], -1)[..., 0] * np.sqrt(length2[j])
+        return np.clip(self.s[keep][j] + along, lo, hi)
 
     def curvature(self, s: NDArray[np.float64]) -> NDArray[np.float64]:
         """Signed curvature (1/m, > 0 turning left) at arclengths ``s``: the tangent's turn rate per metre
@@ -64,8 +91,9 @@ class Frame:
         return np.sum((np.asarray(xy, float) - c) * n, axis=-1)
 
 
-def frame(points: NDArray[np.float64], step: float = 0.25, sigma: float = 2.0) -> Frame:
-    """The smoothed frame of a polyline (resampled every ``step`` m, Gaussian of ``sigma`` m)."""
+def frame(points: NDArray[np.float64], step: float = 0.25, sigma: float = 2.0, chain: float | None = None) -> Frame:
+    """The smoothed frame of a polyline (resampled every ``step`` m, Gaussian of ``sigma`` m; ``chain``: as
+    ``Frame.chain``)."""
     pts = np.asarray(points, float)
     s0 = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
     s = np.linspace(0.0, s0[-1], max(int(np.ceil(s0[-1] / step)) + 1, 2))
@@ -75,7 +103,7 @@ def frame(points: NDArray[np.float64], step: float = 0.25, sigma: float = 2.0) -
     d = np.gradient(xy, axis=0)
     t = d / np.linalg.norm(d, axis=1, keepdims=True)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
-    return Frame(s=arc, points=xy, tangents=t, normals=np.column_stack([-t[:, 1], t[:, 0]]))
+    return Frame(s=arc, points=xy, tangents=t, normals=np.column_stack([-t[:, 1], t[:, 0]]), chain=chain)
 
 
 def _gaussian(xy: NDArray[np.float64], width: float) -> NDArray[np.float64]:

@@ -25,6 +25,7 @@ problem layer (``model/problem/maps.py``).
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import heapq
 import importlib.metadata
@@ -269,6 +270,10 @@ class MapRoute:
     apron_lanelets : tuple of int
         Lanelets that ``apron_use`` allows.
     apron_use : {"trailer", "all", "none"}
+    loops : int
+        How many more times the route's centre line goes round the first cycle it meets (a roundabout's
+        ring; ``looped``): the same corridor, the goal heading turned 2 pi further per loop. Not a
+        scenario key: the map search's last resort (``model.search.maps``).
 
     Raises
     ------
@@ -284,6 +289,7 @@ class MapRoute:
     lane_changes: bool = False
     apron_lanelets: tuple[int, ...] = ()
     apron_use: str = "trailer"
+    loops: int = 0
 
     def __post_init__(self) -> None:
         for key in ("from_lanelet", "to_lanelet"):
@@ -325,7 +331,15 @@ class MapRoute:
         path = shortest_path(self.map, self.from_lanelet, self.to_lanelet, lane_changes=False)
         if path is None and self.lane_changes:
             path = shortest_path(self.map, self.from_lanelet, self.to_lanelet, lane_changes=True)
+        for _ in range(self.loops if path else 0):
+            path = looped(self.map, path)
         return path or []
+
+    def looped(self) -> MapRoute | None:
+        """The same route going once more round the first cycle of successors it meets (None: none)."""
+        if looped(self.map, self.steps) is None:
+            return None
+        return dataclasses.replace(self, loops=self.loops + 1)
 
     @property
     def lanelets(self) -> list[int]:
@@ -426,6 +440,18 @@ def sub_polyline(points: NDArray[np.float64], start: float, stop: float) -> NDAr
     a, b = start * line.length, stop * line.length
     inner = line.points[(line.s > a) & (line.s < b)]
     return np.vstack([line.point(a)[None], inner, line.point(b)[None]])
+
+
+def looped(lanelet_map: LaneletMap, path: list[tuple[int, str]]) -> list[tuple[int, str]] | None:
+    """``path`` with a loop inserted: after the first lanelet of ``path`` (not its first or last) from whose
+    successors a path of successors leads back to it (shortest), that cycle once. None: no such lanelet."""
+    for k, (lanelet_id, _) in enumerate(path[1:-1], 1):
+        ahead = [j for j in lanelet_map.successors(lanelet_id) if lanelet_map.drivable(j)]
+        back = [b for j in ahead if (b := shortest_path(lanelet_map, j, lanelet_id, lane_changes=False))]
+        if back:
+            cycle = min(back, key=lambda b: sum(lanelet_map.lengths[i] for i, _ in b))
+            return [*path[: k + 1], *((i, "successor") for i, _ in cycle), *path[k + 1 :]]
+    return None
 
 
 def _edges(lanelet_map: LaneletMap, lanelet_id: int, lane_changes: bool) -> list[tuple[int, str, float]]:

@@ -25,7 +25,13 @@ until the projections move less than 5 cm (at most 8 solves). The search runs, u
 4. **other speeds** (``search = "thorough"`` only): the centre-line start at other fractions of the
    speed bound (other Tf guesses), each a sequence. With a free Tf they reach the same fixed point
    as step 1 (measured on Thiergarten 21 -> 90, SU-30: the same eight Tf to 4 digits from 0.3, 0.5
-   and 0.8), so the default search leaves them out.
+   and 0.8), so the default search leaves them out;
+5. **once more round the ring** (not with ``search = "quick"``): where steps 1-4 validated nothing and the route
+   meets a cycle of successors (a roundabout's ring), steps 1-4 again on the route going once more round it
+   (``MapRoute.looped``: the same corridor, the goal heading 2 pi further; ``looped_problem``). Kackertstrasse
+   104 -> 85, EU semitrailer: the direct right turn converges 0.15-0.20 m outside the lanelets, once round the
+   ring it validates (benchmarks/map-routes.md). Its answer is taken only where it validates (``route_loops`` in
+   summary.json, a note on the command line); a refusal's diagnosis says what the loop reached.
 
 The best validated answer (the lowest objective) is returned; with none, the failed answer whose
 bodies leave the corridor least, with ``diagnosis``: which body leaves it where and by how much
@@ -37,6 +43,7 @@ line per step and per strip solve.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -83,6 +90,7 @@ class MapSearch:
     tight: Strips | None = None  # the tight strips of ``_tight_step``, measured when first needed
     penalty_answer: dict | None = None  # the last converged penalty sequence's evidence (``_converged_penalty``)
     grid: str = "time"  # the current sequences' nodes: "time" (equal steps of a free Tf) or "arclength"
+    loop: dict | None = None  # step 5's outcome (``_loop_step``): loops, valid, least exact clearance at the nodes
 
     @property
     def deadline(self) -> float | None:
@@ -204,9 +212,17 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
         raise ValueError(f"search must be one of {', '.join(SPEEDS)}, got {search!r}")
     if grid not in GRIDS:
         raise ValueError(f"grid must be one of {', '.join(GRIDS)}, got {grid!r}")
-    first, *then = GRIDS[grid]
-    run = MapSearch(ocp, intervals, strips(ocp), ipopt, reporter(progress), time_limit, grid=first)
+    run = MapSearch(ocp, intervals, strips(ocp), ipopt, reporter(progress), time_limit, grid=GRIDS[grid][0])
     run.progress("map search: the strip sequence from the centre line")
+    _steps(run, search, grid)
+    if not run.best.ok and search != "quick" and not run.skip("loop round the ring"):
+        _loop_step(run, search, grid)
+    return _finished(run)
+
+
+def _steps(run: MapSearch, search: str, grid: str) -> None:
+    """Steps 1-4 of the module docstring on ``run``'s problem."""
+    first, *then = GRIDS[grid]
     run.sequence("centre line x0.5")
     _refine(run)
     if run.grid == "arclength":
@@ -224,9 +240,40 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
         if run.best.ok or run.skip(f"centre line x{speed:g}"):
             break
         run.progress(f"no sequence validated: the centre line at {speed:g} of the speed bound")
-        run.sequence(f"centre line x{speed:g}", centre_line_start(ocp, intervals, run.st, speed))
+        run.sequence(f"centre line x{speed:g}", centre_line_start(run.ocp, run.intervals, run.st, speed))
         _refine(run)
-    return _finished(run)
+
+
+def looped_problem(ocp: OCP) -> OCP | None:
+    """``ocp`` on its route going once more round the ring (``MapRoute.looped``): the same corridor, the goal
+    heading 2 pi further (None: the route meets no cycle)."""
+    route = ocp.map_route.looped()
+    if route is None:
+        return None
+    heading = ocp.vehicle.roles.heading
+    return dataclasses.replace(ocp, map_route=route, final={**ocp.final, heading: route.goal()[2]})
+
+
+def _loop_step(run: MapSearch, search: str, grid: str) -> None:
+    """Step 5: where nothing validated, steps 1-4 again on the route once more round the ring, in the time left
+    (Kackertstrasse 104 -> 85, EU semitrailer: the right turn's direct path converges 0.15-0.20 m outside the
+    lanelets, once round the ring it validates). Its sequences are recorded with ``loops``; its answer replaces
+    the direct route's only where it validates."""
+    looped = looped_problem(run.ocp)
+    if looped is None:
+        return
+    run.progress("no sequence validated on the route: the same once more round the ring (a loop)")
+    inner = MapSearch(looped, run.intervals, strips(looped), run.options, run.progress, run.time_limit,
+                      started=run.started, grid=GRIDS[grid][0])  # fmt: skip
+    _steps(inner, search, grid)
+    offset = len(run.sequences)
+    run.sequences += [{**s, "loops": looped.map_route.loops} for s in inner.sequences]
+    run.steps_skipped += inner.steps_skipped
+    run.loop = {"loops": looped.map_route.loops, "valid": bool(inner.best.ok),
+                "exact_clearance": float(inner.best_clearance)}  # fmt: skip
+    if inner.best.ok:
+        run.best, run.best_clearance, run.best_sequence = inner.best, inner.best_clearance, offset + inner.best_sequence
+        run.violation, run.penalty_answer = inner.violation, inner.penalty_answer
 
 
 def _penalty_step(run: MapSearch) -> Iterate | None:
@@ -337,19 +384,22 @@ def _finished(run: MapSearch) -> Solution:
         "time_limit": run.time_limit, "stopped_by_time_limit": bool(run.steps_skipped),
         "starts_skipped": len(run.steps_skipped), "steps_skipped": run.steps_skipped,
         "seconds": time.monotonic() - run.started,
+        **({"loop": run.loop} if run.loop else {}),
     }  # fmt: skip
     seconds = sum(x["seconds"] for s in run.sequences for x in s["solves"])
     sol.timings = {**sol.timings, "solves_seconds": float(seconds)}
     if not sol.ok:
-        sol.diagnosis = diagnosis(sol, run.violation, run.penalty_answer)
+        sol.diagnosis = diagnosis(sol, run.violation, run.penalty_answer, run.loop)
     return sol
 
 
-def diagnosis(sol: Solution, violation: tuple[float, float] | None = None, penalty: dict | None = None) -> dict:
+def diagnosis(sol: Solution, violation: tuple[float, float] | None = None, penalty: dict | None = None,
+              loop: dict | None = None) -> dict:  # fmt: skip
     """Why a map solve failed: the bodies that leave the corridor (where and by how much), the failed checks,
     the minimal violation of the strips (``violation``: sum and largest slack, m) where it was solved, and
     ``penalty`` (``MapSearch.penalty_answer``): the converged penalty answer's exact clearance and slack, m (the
-    answer reported is a plain sequence's: its bodies' excess may be far smaller than the penalty answer's)."""
+    answer reported is a plain sequence's: its bodies' excess may be far smaller than the penalty answer's);
+    ``loop`` (``MapSearch.loop``): step 5's outcome where it ran."""
     ocp = sol.ocp
     states = {k: np.asarray(sol.columns[k]) for k in ("t", *ocp.vehicle.states)}
     bodies = corridor_diagnosis(ocp, states)
@@ -367,10 +417,15 @@ def diagnosis(sol: Solution, violation: tuple[float, float] | None = None, penal
         parts.append(f"the arclength grid's penalty sequence ({penalty['strips']} strips) converged with the bodies' "
                      f"least exact clearance {penalty['exact_clearance']:+.3f} m at the nodes and "
                      f"{penalty['largest_slack']:.3f} m of strip slack at most")  # fmt: skip
+    if loop is not None:
+        parts.append(f"once more round the ring nothing validated either (least exact clearance "
+                     f"{loop['exact_clearance']:+.3f} m at the nodes)")  # fmt: skip
     out = {"kind": "map corridor", "message": "; ".join(parts) or "validation failed: " + ", ".join(failed),
            "bodies": bodies, "failed_checks": failed}  # fmt: skip
     if violation is not None:
         out["minimal_violation"] = {"sum": violation[0], "largest": violation[1]}
     if penalty is not None:
         out["penalty_answer"] = dict(penalty)
+    if loop is not None:
+        out["loop"] = dict(loop)
     return out

@@ -353,11 +353,12 @@ def cell_measures(ocp: OCP, solution) -> dict:
     ocp : OCP
         The cell's problem (with a ``map_route``).
     solution : Solution
-        Its solve; the apron is measured, and the swept path (GeoJSON, simplified to ``DRAWN``) kept,
+        Its solve (on ``ocp``'s route or, from the search's last step, on its loop round the ring); the
+        apron is measured, and the swept path (GeoJSON, simplified to ``DRAWN``) kept,
         only if it is valid.
     """
     measures = solution.validation.get("measures", {})
-    route = ocp.map_route
+    route = solution.ocp.map_route  # the cell's route, or its loop round the ring (``model.search.maps``)
     out = {
         "status": solution.status,
         "valid": bool(solution.ok),
@@ -366,6 +367,7 @@ def cell_measures(ocp: OCP, solution) -> dict:
         "min_clearance": measures.get("min_clearance"),
         "min_clearance_dense": measures.get("min_clearance_dense"),
         "route_lanelets": list(route.lanelets),
+        "route_loops": route.loops,
         "corridor_lanelets": list(route.corridor_lanelets),
         "lanelets_used": measures.get("lanelets_used"),
         "solves": len((solution.search or {}).get("solves", [])),

@@ -64,7 +64,8 @@ def flat(c: dict) -> dict:
         "apron_area_m2": c.get("apron_area_m2") if valid else None,
         "apron_gap_m": c.get("apron_gap_m"),
         "lanelets_used": " ".join(map(str, c.get("lanelets_used") or [])) if valid else None,  # of a solution only
-        "diagnosis": None if valid else (c.get("diagnosis") or {}).get("message"),
+        "diagnosis": (f"passes only once more round the ring ({c['route_loops']} loop)" if c.get("route_loops")
+                      else None) if valid else (c.get("diagnosis") or {}).get("message"),  # fmt: skip
         "seconds": c.get("seconds"),
     }
 
