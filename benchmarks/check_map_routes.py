@@ -396,6 +396,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--vehicles", nargs="+", default=["SU-30", "EU-semitrailer"])
     ap.add_argument("--kinds", nargs="+", default=list(KINDS), choices=list(KINDS))
     ap.add_argument("--no-apron-pairs", action="store_true", help="only the cases with the apron")
+    ap.add_argument("--only-without-apron", action="store_true", help="only the cases without the apron")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--intervals", type=int, default=100)
     ap.add_argument("--time-limit", type=float, default=120.0)
@@ -405,7 +406,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     todo = [c for c in cases(args.maps, args.vehicles, args.seed)
-            if c["kind"] in args.kinds and (c["apron"] or not args.no_apron_pairs)]  # fmt: skip
+            if c["kind"] in args.kinds and (c["apron"] or not args.no_apron_pairs)
+            and not (c["apron"] and args.only_without_apron)]  # fmt: skip
     records = []
     for i, case in enumerate(todo, 1):
         print(f"[{i}/{len(todo)}] {case['map']} {case['kind']} {case['movement']} {case['vehicle']} "
