@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from model.analysis.maps import corridor_diagnosis
+from model.analysis.validation import fails_only_between_nodes
 from model.direct.map_corridor import Iterate, Result, Strips, answer_start, centre_line_start, solve_map, strips
 from model.direct.solution import Solution
 from model.direct.solve import Start
@@ -313,8 +314,7 @@ def _tight_step(run: MapSearch, last: Iterate | None) -> None:
     result = run.sequence("tight strips, penalty", answer_start(run.ocp, last.solution), penalty=PENALTY, st=run.tight)
     _converged_penalty(run, result.iterates[-1], "tight")
     sol = result.iterates[-1].solution
-    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
-    if run.best.ok or failed != ["body_clearance_dense"] or run.skip("tight strips, mid-interval rows"):
+    if run.best.ok or not fails_only_between_nodes(sol.validation) or run.skip("tight strips, mid-interval rows"):
         return
     run.progress("the tight answer leaves the corridor only between the nodes: mid-interval strip rows from it")
     run.sequence("tight strips, penalty, mid-interval rows", answer_start(run.ocp, sol), penalty=PENALTY,
@@ -329,15 +329,14 @@ def tight_strips(ocp: OCP) -> Strips:
 def _refine(run: MapSearch) -> None:
     """Step 2: the sequence on 2N from an answer that fails only between the nodes."""
     best = run.best
-    failed = [k for k, c in best.validation.get("checks", {}).items() if not c["passed"]]
-    if best.ok or failed != ["body_clearance_dense"] or best.intervals != run.intervals or run.skip("finer grid"):
+    between = fails_only_between_nodes(best.validation)
+    if best.ok or not between or best.intervals != run.intervals or run.skip("finer grid"):
         return
     if run.grid == "arclength":  # first the strip rows also at each interval's mid-state, on the same N
         run.progress("the answer leaves the corridor only between the nodes: mid-interval strip rows from it")
         run.sequence(f"mid-interval rows from {run.sequences[-1]['start']}", answer_start(run.ocp, best), between=True)
         best = run.best
-        failed = [k for k, c in best.validation.get("checks", {}).items() if not c["passed"]]
-        if best.ok or failed != ["body_clearance_dense"] or run.skip("finer grid"):
+        if best.ok or not fails_only_between_nodes(best.validation) or run.skip("finer grid"):
             return
     n = 2 * run.intervals
     run.progress(f"the answer leaves the corridor only between the nodes: the strips on N = {n} from it")
