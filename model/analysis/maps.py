@@ -14,14 +14,14 @@ import shapely
 
 from model.analysis.bodies import body_corners, clearance_measures, substeps
 from model.problem.ocp import OCP
-from model.scene.geometry import clearance
+from model.scene.geometry import polygon_clearances
 
 AREA = 1e-3  # m^2: a lanelet counts as used when a body covers more of it than this
 
 
 def map_clearances(ocp: OCP, states: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Signed clearance (m) of each body's exact rectangle in its corridor at each state sample."""
-    return {name: np.array([clearance(ocp.map_route.corridor(name), c) for c in corners])
+    return {name: polygon_clearances(ocp.map_route.corridor(name), corners)
             for name, corners in body_corners(ocp, states).items()}  # fmt: skip
 
 

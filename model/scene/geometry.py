@@ -736,6 +736,18 @@ def clearance_detail(region: Region, body: Polygon | np.ndarray) -> tuple[float,
     return -depth, deepest.name if deepest else None, point
 
 
+def polygon_clearances(region: BaseGeometry, corners: np.ndarray) -> np.ndarray:
+    """``clearance`` in a plain shapely ``region`` of many bodies given as corners (m, n, 2): the bodies the
+    region covers measured together (their distance to its boundary), the others one by one."""
+    polys = shapely.polygons(np.asarray(corners, float))
+    shapely.prepare(region)
+    covered = shapely.covers(region, polys)
+    out = np.empty(len(polys))
+    out[covered] = shapely.distance(region.boundary, polys[covered])
+    out[~covered] = [_polygon_clearance(region, p) for p in polys[~covered]]
+    return out
+
+
 def _polygon_clearance(region: BaseGeometry, body: Polygon | np.ndarray) -> float:
     poly = body if isinstance(body, Polygon) else Polygon(body)
     if region.covers(poly):
