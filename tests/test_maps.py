@@ -386,8 +386,11 @@ def test_the_strip_prototype_keeps_the_exact_rectangles_in_the_real_corridor(exa
     last = result.iterates[-1]
     checks = last.solution.validation["checks"]
     # at the nodes the rectangles stay inside; between them (judged since map scenarios solve,
-    # ``body_clearance_dense``) N = 40 cuts an edge (measured: the truck -4.0 cm, the semitrailer -31 cm)
-    assert all(c["passed"] for k, c in checks.items() if k != "body_clearance_dense"), checks
+    # ``body_clearance_dense`` and, on the integrated motion, ``dense_clearance``) N = 40 cuts an edge
+    # (measured: the truck -4.0 cm, the semitrailer -31 cm)
+    from model.analysis.validation import BETWEEN_NODES
+
+    assert all(c["passed"] for k, c in checks.items() if k not in BETWEEN_NODES), checks
     assert last.moved < 0.05 and len(result.iterates) <= 4
     assert last.exact_clearance >= 0.0  # the rectangles, not the discs, in the shapely corridor
     route_length = ocp.map_route.goal_s - ocp.map_route.start_offset
