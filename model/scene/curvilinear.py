@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+import shapely.ops
 from numpy.typing import NDArray
 
 REACH = 40.0  # m: how far a normal is followed to find the corridor's edge
@@ -63,21 +64,10 @@ class Frame:
         out[0] = shapely.line_locate_point(line, shapely.points(xy[0]))
         for k in range(1, len(xy)):
             lo, hi = float(np.min(out[k - 1])) - self.chain, float(np.max(out[k - 1])) + self.chain
-            out[k] = self.nearest_within(xy[k], max(lo, self.s[0]), min(hi, self.s[-1]))
+            lo, hi = max(lo, float(self.s[0])), min(hi, float(self.s[-1]))
+            part = shapely.ops.substring(line, lo, hi)
+            out[k] = lo + shapely.line_locate_point(part, shapely.points(xy[k])) if part.length > 0 else lo
         return out
-
-    def nearest_within(self, xy: NDArray[np.float64], lo: float, hi: float) -> NDArray[np.float64]:
-        """Arclength of the nearest point to each point (..., 2) on the part of the line from ``lo`` to ``hi``."""
-        keep = np.flatnonzero((self.s[1:] >= lo) & (self.s[:-1] <= hi))
-        a, b = self.points[keep], self.points[keep + 1]
-        d = b - a
-        length2 = np.maximum(np.sum(d * d, axis=1), 1e-18)
-        p = xy[..., None, :]
-        u = np.clip(np.sum((p - a) * d, axis=-1) / length2, 0.0, 1.0)
-        dist = np.linalg.norm(p - (a + u[..., None] * d), axis=-1)
-        j = np.argmin(dist, axis=-1)
-        along = np.take_along_axis(u, j[..., None], -1)[..., 0] * np.sqrt(length2[j])
-        return np.clip(self.s[keep][j] + along, lo, hi)
 
     def curvature(self, s: NDArray[np.float64]) -> NDArray[np.float64]:
         """Signed curvature (1/m, > 0 turning left) at arclengths ``s``: the tangent's turn rate per metre

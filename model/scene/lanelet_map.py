@@ -332,14 +332,13 @@ class MapRoute:
         if path is None and self.lane_changes:
             path = shortest_path(self.map, self.from_lanelet, self.to_lanelet, lane_changes=True)
         for _ in range(self.loops if path else 0):
-            path = looped(self.map, path)
+            path = looped(self.map, path) or path  # no cycle on the way: the path as it is (``looped()``: None)
         return path or []
 
     def looped(self) -> MapRoute | None:
         """The same route going once more round the first cycle of successors it meets (None: none)."""
-        if looped(self.map, self.steps) is None:
-            return None
-        return dataclasses.replace(self, loops=self.loops + 1)
+        route = dataclasses.replace(self, loops=self.loops + 1)
+        return route if len(route.steps) > len(self.steps) else None
 
     @property
     def lanelets(self) -> list[int]:

@@ -39,6 +39,11 @@ COLUMNS = {
 }
 
 
+def note(c: dict) -> str | None:
+    """A passing cell's note: whether it passes only once more round the ring (``route_loops``)."""
+    return f"passes only once more round the ring ({c['route_loops']} loop)" if c.get("route_loops") else None
+
+
 def flat(c: dict) -> dict:
     """A cell as a table row."""
     valid = bool(c.get("valid"))
@@ -64,8 +69,7 @@ def flat(c: dict) -> dict:
         "apron_area_m2": c.get("apron_area_m2") if valid else None,
         "apron_gap_m": c.get("apron_gap_m"),
         "lanelets_used": " ".join(map(str, c.get("lanelets_used") or [])) if valid else None,  # of a solution only
-        "diagnosis": (f"passes only once more round the ring ({c['route_loops']} loop)" if c.get("route_loops")
-                      else None) if valid else (c.get("diagnosis") or {}).get("message"),  # fmt: skip
+        "diagnosis": note(c) if valid else (c.get("diagnosis") or {}).get("message"),
         "seconds": c.get("seconds"),
     }
 
