@@ -317,8 +317,14 @@ def _tight_step(run: MapSearch, last: Iterate | None) -> None:
     if run.best.ok or not fails_only_between_nodes(sol.validation) or run.skip("tight strips, mid-interval rows"):
         return
     run.progress("the tight answer leaves the corridor only between the nodes: mid-interval strip rows from it")
-    run.sequence("tight strips, penalty, mid-interval rows", answer_start(run.ocp, sol), penalty=PENALTY,
-                 between=True, st=run.tight)  # fmt: skip
+    sol = run.sequence("tight strips, penalty, mid-interval rows", answer_start(run.ocp, sol), penalty=PENALTY,
+                       between=True, st=run.tight).iterates[-1].solution  # fmt: skip
+    if run.best.ok or not fails_only_between_nodes(sol.validation) or run.skip("tight strips, finer grid"):
+        return
+    n = 2 * run.intervals
+    run.progress(f"the tight answer still leaves the corridor between the nodes: the same on N = {n} from it")
+    run.sequence("tight strips, penalty, mid-interval rows, finer grid", interpolated(run.ocp, sol, n, True), n,
+                 penalty=PENALTY, between=True, st=run.tight)  # fmt: skip
 
 
 def tight_strips(ocp: OCP) -> Strips:
