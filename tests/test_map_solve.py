@@ -310,3 +310,20 @@ def test_a_body_swinging_out_between_the_nodes_of_the_integrated_motion_is_not_v
         assert summary["valid"] and checks["dense_clearance"]["passed"] and check(path, out)["checks_pass"]
     else:
         assert run.returncode == 1 and not summary["valid"] and summary["diagnosis"]["kind"] == "map corridor"
+
+
+@pytest.mark.slow
+def test_a_u_turn_whose_tight_answer_cuts_between_the_nodes_validates_on_the_finer_grid(tmp_path):
+    """Thiergarten 21 -> 23 (U-turn, SU-30, seeds 2 and 3 of benchmarks/check_map_routes.py): on the tight strips
+    the penalty answer has every body inside at the nodes, but the free steps' one-step error (0.056 m) and the
+    linear sub-steps fail, as they do after the mid-interval rows; the same on 2N validates (refused before,
+    0.073 m outside between the nodes), and the benchmark's independent checks pass."""
+    from benchmarks.check_map_routes import check
+
+    summary, path, out, run = solve_route(tmp_path, "U-turn", "21-23")
+    sequences = summary["search"]["sequences"]
+    best = next(s for s in sequences if s["valid"])
+    assert best["strips"] == "tight" and best["intervals"] == 200 and best["between"]
+    assert summary["min_clearance"] > 0 and summary["route_loops"] == 0  # on the direct path
+    assert 20.0 < summary["final_time"] < 27.0  # benchmarks/map-routes.md: 23.430 s
+    assert check(path, out)["checks_pass"]

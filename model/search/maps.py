@@ -6,7 +6,7 @@ until the projections move less than 5 cm (at most 8 solves). The search runs, u
 
 1. **centre line**: the sequence from the reference point driven along the route's centre line at
    half the speed bound (the first cut's only start; where it validates the answer is the same);
-2. **finer grid**: where the answer fails only between the nodes (``body_clearance_dense``), the
+2. **finer grid**: where the answer fails only between the nodes (``BETWEEN_NODES``), the
    sequence on 2N from it (interpolated);
 3. **minimal violation, then the strips**: the strip rows get slacks whose sum is minimised (the
    sequence of ``relax=True`` from the centre line: a continuation in the corridor's width that is
@@ -21,7 +21,7 @@ until the projections move less than 5 cm (at most 8 solves). The search runs, u
 3c. **tight strips** (after 3b's penalty sequence, where it converged needing at most ``TIGHT_NEAR`` m of slack
    and nothing validated): the penalty sequence again from its answer on strips measured tighter
    (``tight_strips``: the cover discs and the bounds' rounding smaller than the default's conservatism), and for
-   an answer failing only between the nodes with the mid-interval rows;
+   an answer failing only between the nodes with the mid-interval rows, then (failing so still) on 2N from it;
 4. **other speeds** (``search = "thorough"`` only): the centre-line start at other fractions of the
    speed bound (other Tf guesses), each a sequence. With a free Tf they reach the same fixed point
    as step 1 (measured on Thiergarten 21 -> 90, SU-30: the same eight Tf to 4 digits from 0.3, 0.5
@@ -302,7 +302,8 @@ def _tight_step(run: MapSearch, last: Iterate | None) -> None:
     """Where the penalty sequence converged needing at most ``TIGHT_NEAR`` m of slack and nothing validated:
     the penalty sequence again from its answer on tighter strips (cover discs ``TIGHT_SLACK`` of the half-width
     beyond the sides, bounds in steps of ``TIGHT_RESOLUTION`` m, ``tight_strips``), then, for an answer failing
-    only between the nodes, with the mid-interval rows. The default strips' conservatism (discs 3 % wider,
+    only between the nodes, with the mid-interval rows, and for one still failing so, the same on 2N from it
+    (Thiergarten 21 -> 23, SU-30: the free steps' one-step error 0.056 m on N, every check passing on 2N). The default strips' conservatism (discs 3 % wider,
     bounds rounded down to 5 cm) is then the same size as the slack (Thiergarten 106 -> 90, SU-30: 0.062 m of
     slack, the rectangles 0.013 m outside; on the tight strips 8 mm of slack and the rectangles inside)."""
     if run.best.ok or last is None or last.violation is None or last.violation[1] > TIGHT_NEAR:
