@@ -303,9 +303,10 @@ def _tight_step(run: MapSearch, last: Iterate | None) -> None:
     the penalty sequence again from its answer on tighter strips (cover discs ``TIGHT_SLACK`` of the half-width
     beyond the sides, bounds in steps of ``TIGHT_RESOLUTION`` m, ``tight_strips``), then, for an answer failing
     only between the nodes, with the mid-interval rows, and for one still failing so, the same on 2N from it
-    (Thiergarten 21 -> 23, SU-30: the free steps' one-step error 0.056 m on N, every check passing on 2N). The default strips' conservatism (discs 3 % wider,
-    bounds rounded down to 5 cm) is then the same size as the slack (Thiergarten 106 -> 90, SU-30: 0.062 m of
-    slack, the rectangles 0.013 m outside; on the tight strips 8 mm of slack and the rectangles inside)."""
+    (Thiergarten 21 -> 23, SU-30: the free steps' one-step error 0.056 m on N, every check passing on 2N). The
+    default strips' conservatism (discs 3 % wider, bounds rounded down to 5 cm) is then the same size as the
+    slack (Thiergarten 106 -> 90, SU-30: 0.062 m of slack, the rectangles 0.013 m outside; on the tight strips
+    8 mm of slack and the rectangles inside)."""
     if run.best.ok or last is None or last.violation is None or last.violation[1] > TIGHT_NEAR:
         return
     if last.moved >= TOLERANCE or last.solution.status not in CONVERGED or run.skip("tight strips"):
