@@ -274,6 +274,22 @@ def test_a_refusal_reports_the_converged_penalty_answer():
     assert "0.402 m of strip slack at most" in out["message"]
 
 
+def test_a_refusal_says_which_checks_the_loop_round_the_ring_failed():
+    """Once round the ring an answer may have every body inside at the nodes and still fail between them
+    (Thiergarten 51 -> 90, SU-30: +0.002 m at the nodes, the integrated motion 0.021 m out): the diagnosis says
+    which checks failed and by how much, not only the positive clearance at the nodes."""
+    pytest.importorskip("commonroad")
+    from model.problem.scenario import parse_scenario
+    from model.search.maps import diagnosis
+
+    sol = parse_scenario(su30_left_21_90()).ocp.solve(intervals=30, time_limit=0.01)
+    loop = {"loops": 1, "valid": False, "exact_clearance": 0.002, "failed_checks": {"dense_clearance": 0.0212}}
+    out = diagnosis(sol, loop=loop)
+    assert "once more round the ring nothing validated either (least exact clearance +0.002 m at the nodes; " \
+           "failing dense_clearance 0.021)" in out["message"]
+    assert out["loop"] == loop
+
+
 @pytest.mark.slow
 def test_a_right_turn_too_tight_for_the_semitrailer_validates_once_round_the_ring(tmp_path):
     """Kackertstrasse 104 -> 85 (right, EU semitrailer, N = 100, as benchmarks/check_map_routes.py poses it, seed 0):

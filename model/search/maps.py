@@ -270,8 +270,10 @@ def _loop_step(run: MapSearch, search: str, grid: str) -> None:
     offset = len(run.sequences)
     run.sequences += [{**s, "loops": looped.map_route.loops} for s in inner.sequences]
     run.steps_skipped += inner.steps_skipped
+    checks = inner.best.validation.get("checks", {})
     run.loop = {"loops": looped.map_route.loops, "valid": bool(inner.best.ok),
-                "exact_clearance": float(inner.best_clearance)}  # fmt: skip
+                "exact_clearance": float(inner.best_clearance),
+                "failed_checks": {k: float(c["value"]) for k, c in checks.items() if not c["passed"]}}  # fmt: skip
     if inner.best.ok:
         run.best, run.best_clearance, run.best_sequence = inner.best, inner.best_clearance, offset + inner.best_sequence
         run.violation, run.penalty_answer = inner.violation, inner.penalty_answer
@@ -425,8 +427,9 @@ def diagnosis(sol: Solution, violation: tuple[float, float] | None = None, penal
                      f"least exact clearance {penalty['exact_clearance']:+.3f} m at the nodes and "
                      f"{penalty['largest_slack']:.3f} m of strip slack at most")  # fmt: skip
     if loop is not None:
+        failing = ", ".join(f"{k} {v:.3f}" for k, v in loop.get("failed_checks", {}).items())
         parts.append(f"once more round the ring nothing validated either (least exact clearance "
-                     f"{loop['exact_clearance']:+.3f} m at the nodes)")  # fmt: skip
+                     f"{loop['exact_clearance']:+.3f} m at the nodes{'; failing ' + failing if failing else ''})")
     out = {"kind": "map corridor", "message": "; ".join(parts) or "validation failed: " + ", ".join(failed),
            "bodies": bodies, "failed_checks": failed}  # fmt: skip
     if violation is not None:
