@@ -210,6 +210,8 @@ class FakeOCP:
     ({100: ["body_clearance_dense"], 200: []}, [100, 200], True),                # only between nodes: 2N
     ({100: ["body_clearance_dense"], 200: ["body_clearance_dense"]}, [100, 200], False),  # and no further
     ({100: ["body_clearance", "body_clearance_dense"]}, [100], False),           # at the nodes too: no re-solve
+    ({100: ["one_step_error"], 200: []}, [100, 200], True),                      # a free step's accuracy: 2N
+    ({100: ["body_clearance", "one_step_error"]}, [100], False),                 # with the nodes: no re-solve
 ])  # fmt: skip
 def test_a_cell_is_solved_again_on_2n_only_where_it_fails_between_the_nodes(outcomes, asked, ok):
     ocp = FakeOCP(outcomes)
