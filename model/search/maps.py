@@ -52,7 +52,16 @@ import numpy as np
 
 from model.analysis.maps import corridor_diagnosis
 from model.analysis.validation import fails_only_between_nodes
-from model.direct.map_corridor import Iterate, Result, Strips, answer_start, centre_line_start, solve_map, strips
+from model.direct.map_corridor import (
+    Iterate,
+    Result,
+    Strips,
+    answer_start,
+    back_offs,
+    centre_line_start,
+    solve_map,
+    strips,
+)
 from model.direct.solution import Solution
 from model.direct.solve import Start
 from model.problem.ocp import OCP
@@ -113,7 +122,7 @@ class MapSearch:
 
     def sequence(self, label: str, start: Start | None = None, intervals: int | None = None,
                  relax: bool = False, penalty: float | None = None, between: bool = False,
-                 st: Strips | None = None) -> Result:  # fmt: skip
+                 st: Strips | None = None, margins: dict[str, np.ndarray] | None = None) -> Result:  # fmt: skip
         """One sequence of strip solves (``solve_map``; ``st``: these strips instead of ``self.st``), recorded
         and reported; the best answer kept: the sequence's last (not of a minimal-violation sequence); on the
         arclength grid any of its solves (``penalty``: of a penalty sequence too) that validates, else the last."""
@@ -133,13 +142,15 @@ class MapSearch:
         arclength = self.grid == "arclength"
         result = solve_map(self.ocp, n, iterations=ITERATIONS, tol=TOLERANCE, options=self.options, st=st or self.st,
                            relax=relax or penalty is not None, start=start, deadline=self.deadline,
-                           arclength=arclength, penalty=penalty, between=between, on_iterate=report)  # fmt: skip
+                           arclength=arclength, penalty=penalty, between=between, on_iterate=report,
+                           margins=margins)  # fmt: skip
         last = result.iterates[-1]
         self.sequences.append({"start": label, "intervals": n, "relaxed": relax, "grid": self.grid, "solves": solves,
                                "converged": last.moved < TOLERANCE and last.solution.status in CONVERGED,
                                "valid": bool(last.solution.ok),
                                **({"penalty": penalty} if penalty is not None else {}),
                                **({"between": True} if between else {}),
+                               **({"backed_off": max(float(np.max(a)) for a in margins.values())} if margins else {}),
                                **({"strips": "tight"} if st is not None else {})})  # fmt: skip
         if relax:
             return result
@@ -327,8 +338,16 @@ def _tight_step(run: MapSearch, last: Iterate | None) -> None:
         return
     n = 2 * run.intervals
     run.progress(f"the tight answer still leaves the corridor between the nodes: the same on N = {n} from it")
-    run.sequence("tight strips, penalty, mid-interval rows, finer grid", interpolated(run.ocp, sol, n, True), n,
-                 penalty=PENALTY, between=True, st=run.tight)  # fmt: skip
+    sol = run.sequence("tight strips, penalty, mid-interval rows, finer grid", interpolated(run.ocp, sol, n, True), n,
+                       penalty=PENALTY, between=True, st=run.tight).iterates[-1].solution  # fmt: skip
+    margins = back_offs(run.ocp, sol.columns) if fails_only_between_nodes(sol.validation) else {}
+    if run.best.ok or not margins or run.skip("tight strips, backed off"):
+        return
+    largest = max(float(np.max(a)) for a in margins.values())
+    run.progress(f"the motion between the nodes still leaves the corridor: the rows next to it narrowed by up to "
+                 f"{largest:.3f} m")  # fmt: skip
+    run.sequence("tight strips, penalty, mid-interval rows, finer grid, backed off", answer_start(run.ocp, sol), n,
+                 penalty=PENALTY, between=True, st=run.tight, margins=margins)  # fmt: skip
 
 
 def tight_strips(ocp: OCP) -> Strips:
