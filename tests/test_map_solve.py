@@ -311,21 +311,21 @@ def test_a_right_turn_too_tight_for_the_semitrailer_validates_once_round_the_rin
 
 
 @pytest.mark.slow
-def test_a_body_swinging_out_between_the_nodes_of_the_integrated_motion_is_not_validated(tmp_path):
+def test_a_body_swinging_out_between_the_nodes_of_the_integrated_motion_is_backed_off(tmp_path):
     """Thiergarten 51 -> 90 (right, SU-30, seed 2 of benchmarks/check_map_routes.py): once round the ring the
     tight strips' mid-interval answer had every body inside at the nodes and on the linear sub-steps (+0.004 m),
     yet re-integrated from each node the SU-30 left the corridor by 0.165 m between them, and the solve said
-    validated. With ``dense_clearance`` on maps (the integrated motion within 0.02 m of the corridor, as the
-    benchmark checks) an answer the solve returns as validated passes the benchmark's checks; else it is refused."""
+    validated; with ``dense_clearance`` on maps it was refused (on 2N still 0.021 m out, at the end of an interval
+    whose speed jumps from 0 to 5.1 m/s). The backed-off rows (``back_offs``) narrow the strips next to such
+    intervals: validated, and the benchmark's independent checks pass (the integrated motion within 0.02 m)."""
     from benchmarks.check_map_routes import check
 
-    summary, path, out, run = solve_route(tmp_path, "right", "51-90", refused=None)
-    checks = summary["validation"]
-    assert "dense_clearance" in checks
-    if run.returncode == 0:
-        assert summary["valid"] and checks["dense_clearance"]["passed"] and check(path, out)["checks_pass"]
-    else:
-        assert run.returncode == 1 and not summary["valid"] and summary["diagnosis"]["kind"] == "map corridor"
+    summary, path, out, run = solve_route(tmp_path, "right", "51-90")
+    best = next(s for s in summary["search"]["sequences"] if s["valid"])
+    assert best["backed_off"] > 0 and best["intervals"] == 200 and best["loops"] == 1
+    assert summary["validation"]["dense_clearance"]["passed"] and summary["route_loops"] == 1
+    assert 26.0 < summary["final_time"] < 35.0  # benchmarks/map-routes.md: 30.773 s
+    assert check(path, out)["checks_pass"]
 
 
 @pytest.mark.slow

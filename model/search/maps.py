@@ -21,7 +21,9 @@ until the projections move less than 5 cm (at most 8 solves). The search runs, u
 3c. **tight strips** (after 3b's penalty sequence, where it converged needing at most ``TIGHT_NEAR`` m of slack
    and nothing validated): the penalty sequence again from its answer on strips measured tighter
    (``tight_strips``: the cover discs and the bounds' rounding smaller than the default's conservatism), and for
-   an answer failing only between the nodes with the mid-interval rows, then (failing so still) on 2N from it;
+   an answer failing only between the nodes with the mid-interval rows, then (failing so still) on 2N from it,
+   then backed off (``back_offs``: the node rows next to each interval whose integrated motion leaves the corridor
+   narrowed by that depth + 5 mm);
 4. **other speeds** (``search = "thorough"`` only): the centre-line start at other fractions of the
    speed bound (other Tf guesses), each a sequence. With a free Tf they reach the same fixed point
    as step 1 (measured on Thiergarten 21 -> 90, SU-30: the same eight Tf to 4 digits from 0.3, 0.5
