@@ -302,7 +302,9 @@ def test_a_right_turn_too_tight_for_the_semitrailer_validates_once_round_the_rin
     sequences = summary["search"]["sequences"]
     assert summary["valid"] and summary["route_loops"] == 1 and summary["search"]["loop"]["valid"]
     assert not any(s["valid"] for s in sequences if "loops" not in s)  # nothing validated on the direct path
-    assert summary["min_clearance"] > 0 and summary["min_clearance_dense"] >= 0
+    from model.analysis.validation import DENSE_CLEARANCE_TOL  # the linear sub-steps: within the integrated's 0.02 m
+
+    assert summary["min_clearance"] > 0 and summary["min_clearance_dense"] >= -DENSE_CLEARANCE_TOL
     assert "1 more time(s) round the ring" in run.stdout
     direct = load_scenario(path).ocp.final["theta"]  # the goal heading of the direct path
     assert trajectory(out)["theta"][-1] == pytest.approx(direct + 2 * np.pi, abs=1e-3)
