@@ -489,6 +489,11 @@ def back_offs(ocp: OCP, columns: dict[str, np.ndarray], aim: float = BACK_OFF) -
     return out
 
 
+def largest_back_off(margins: dict[str, np.ndarray]) -> float:
+    """The largest of ``back_offs``' margins (m)."""
+    return max(float(np.max(a)) for a in margins.values())
+
+
 def answer_start(ocp: OCP, sol: Solution) -> Start:
     """A start from an answer: its states, controls, Tf and node times."""
     cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}

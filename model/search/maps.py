@@ -61,6 +61,7 @@ from model.direct.map_corridor import (
     answer_start,
     back_offs,
     centre_line_start,
+    largest_back_off,
     solve_map,
     strips,
 )
@@ -152,7 +153,7 @@ class MapSearch:
                                "valid": bool(last.solution.ok),
                                **({"penalty": penalty} if penalty is not None else {}),
                                **({"between": True} if between else {}),
-                               **({"backed_off": max(float(np.max(a)) for a in margins.values())} if margins else {}),
+                               **({"backed_off": largest_back_off(margins)} if margins else {}),
                                **({"strips": "tight"} if st is not None else {})})  # fmt: skip
         if relax:
             return result
@@ -331,12 +332,12 @@ def _tight_step(run: MapSearch, last: Iterate | None) -> None:
     result = run.sequence("tight strips, penalty", answer_start(run.ocp, last.solution), penalty=PENALTY, st=run.tight)
     _converged_penalty(run, result.iterates[-1], "tight")
     sol = result.iterates[-1].solution
-    if run.best.ok or not fails_only_between_nodes(sol.validation) or run.skip("tight strips, mid-interval rows"):
+    if not _still_between(run, sol, "tight strips, mid-interval rows"):
         return
     run.progress("the tight answer leaves the corridor only between the nodes: mid-interval strip rows from it")
     sol = run.sequence("tight strips, penalty, mid-interval rows", answer_start(run.ocp, sol), penalty=PENALTY,
                        between=True, st=run.tight).iterates[-1].solution  # fmt: skip
-    if run.best.ok or not fails_only_between_nodes(sol.validation) or run.skip("tight strips, finer grid"):
+    if not _still_between(run, sol, "tight strips, finer grid"):
         return
     n = 2 * run.intervals
     run.progress(f"the tight answer still leaves the corridor between the nodes: the same on N = {n} from it")
@@ -345,11 +346,16 @@ def _tight_step(run: MapSearch, last: Iterate | None) -> None:
     margins = back_offs(run.ocp, sol.columns) if fails_only_between_nodes(sol.validation) else {}
     if run.best.ok or not margins or run.skip("tight strips, backed off"):
         return
-    largest = max(float(np.max(a)) for a in margins.values())
     run.progress(f"the motion between the nodes still leaves the corridor: the rows next to it narrowed by up to "
-                 f"{largest:.3f} m")  # fmt: skip
+                 f"{largest_back_off(margins):.3f} m")  # fmt: skip
     run.sequence("tight strips, penalty, mid-interval rows, finer grid, backed off", answer_start(run.ocp, sol), n,
                  penalty=PENALTY, between=True, st=run.tight, margins=margins)  # fmt: skip
+
+
+def _still_between(run: MapSearch, sol: Solution, step: str) -> bool:
+    """Whether ``step``, a remedy for an answer failing only between the nodes, is to run on ``sol``: nothing
+    validated yet, ``sol`` failing only between the nodes, and ``step`` not skipped (time, ``run.skip``)."""
+    return not run.best.ok and fails_only_between_nodes(sol.validation) and not run.skip(step)
 
 
 def tight_strips(ocp: OCP) -> Strips:
@@ -360,14 +366,13 @@ def tight_strips(ocp: OCP) -> Strips:
 def _refine(run: MapSearch) -> None:
     """Step 2: the sequence on 2N from an answer that fails only between the nodes."""
     best = run.best
-    between = fails_only_between_nodes(best.validation)
-    if best.ok or not between or best.intervals != run.intervals or run.skip("finer grid"):
+    if best.intervals != run.intervals or not _still_between(run, best, "finer grid"):
         return
     if run.grid == "arclength":  # first the strip rows also at each interval's mid-state, on the same N
         run.progress("the answer leaves the corridor only between the nodes: mid-interval strip rows from it")
         run.sequence(f"mid-interval rows from {run.sequences[-1]['start']}", answer_start(run.ocp, best), between=True)
         best = run.best
-        if best.ok or not fails_only_between_nodes(best.validation) or run.skip("finer grid"):
+        if not _still_between(run, best, "finer grid"):
             return
     n = 2 * run.intervals
     run.progress(f"the answer leaves the corridor only between the nodes: the strips on N = {n} from it")
