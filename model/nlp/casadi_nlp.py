@@ -55,12 +55,6 @@ from model.nlp.blocks import (
 )
 from model.nlp.pyomo_sx import PyomoToSX, component_rows
 
-# NLPs with at most this many columns get their functions expanded to SX: evaluations 30-50 % faster
-# (robustness N = 67, 409 columns: the Hessian 52 -> 32 us a call, a 129-iteration Ipopt run 122 ->
-# 105 ms; expanding 0.012 s once). A road with a body (N = 150): the Hessian 2.4 -> 2.0 ms but the
-# expansion 0.56 s, so large NLPs keep the MX functions.
-EXPAND_COLUMNS = 1000
-
 
 class CasadiNLP(NLP):
     """pynumero NLP of a Pyomo model (one active objective) via CasADi, presolved."""
@@ -253,8 +247,6 @@ class CasadiNLP(NLP):
         for block, (lo, hi) in zip(def_blocks, _segments(def_blocks), strict=True):
             graph.definition(block, C[:, lo:hi], c_obj[:, lo:hi])
         self._fns, jac, hess = graph.functions()
-        if len(self._cols) <= EXPAND_COLUMNS:
-            self._fns = {key: fn.expanded() for key, fn in self._fns.items()}
         self._jac_rc, self._hess_rc = (jac.rows, jac.cols), (hess.rows, hess.cols)
 
     # -- sizes and bounds -------------------------------------------------------
@@ -787,10 +779,6 @@ class _Buffered:
     def __call__(self, *args: np.ndarray) -> np.ndarray:
         """The first output (the buffer itself)."""
         return self.call_all(*args)[0]
-
-    def expanded(self) -> _Buffered:
-        """The same function expanded to SX (the same values, evaluated faster when it is small)."""
-        return _Buffered(self.fn.expand(), *(len(out) for out in self.outs))
 
     def call_all(self, *args: np.ndarray) -> list[np.ndarray]:
         """Every output (the buffers themselves)."""
