@@ -79,3 +79,25 @@ def test_final_time_is_variable_only_for_time_objective():
 def test_grid_is_uniform_for_awkward_n():
     m = build_model(straight_energy(), intervals=3200)
     assert np.max(np.abs(np.diff(np.array(list(m.tau))) - 1 / 3200)) < 1e-15
+
+
+@pytest.mark.parametrize("built, solved", [("ccw", "cw"), ("cw", "ccw")])
+def test_a_model_turned_to_the_other_pass_solves_as_one_built_for_it(built, solved):
+    """The search's two pass directions share one built model: the swept angle's bounds are Params."""
+    from model.direct.transcription import set_pass_direction
+    from model.nlp.casadi_nlp import CasadiNLP
+    from model.nlp.ipopt import run_ipopt
+    from tests.conftest import paper_energy_problem
+
+    ocp = paper_energy_problem()
+    fresh = CasadiNLP(build_model(ocp, 30, solved))
+    m = build_model(ocp, 30, built)
+    turned = CasadiNLP(m)
+    set_pass_direction(m, solved)
+    turned.refresh_parameters()
+    row = turned.rows_of("pass_direction")
+    assert (turned.constraints_lb()[row], turned.constraints_ub()[row]) == (fresh.constraints_lb()[row],
+                                                                           fresh.constraints_ub()[row])  # fmt: skip
+    a, b = run_ipopt(fresh), run_ipopt(turned)
+    assert a.status == b.status and a.iterations == b.iterations
+    np.testing.assert_array_equal(a.x, b.x)

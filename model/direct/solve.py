@@ -24,7 +24,7 @@ from model.direct.bodies import DEFAULT_FORMULATION
 from model.direct.costates import costates, obstacle_multiplier, path_multipliers
 from model.direct.moving import fill_moving, note_settling, solve_moving
 from model.direct.solution import Solution, trapezoid_energy
-from model.direct.transcription import build_model, grid
+from model.direct.transcription import PASS_BOUNDS, build_model, grid, set_pass_direction
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import IpoptResult
 from model.problem.ocp import OCP
@@ -95,7 +95,8 @@ def solve_starts(
     # model cost 3x the build and seconds in loading the duals of a large road model
     kind = "minimal-violation model" if relax else "model"
     LOG.debug("building the N = %d %s (pass %s)", intervals, kind, passing)
-    key = (id(ocp), intervals, passing, relax, formulation)
+    # the two pass directions share a model: their rows differ only in the swept angle's bounds
+    key = (id(ocp), intervals, "ccw|cw" if passing in PASS_BOUNDS else passing, relax, formulation)
     with paused_gc():
         owner, m, nlp, built = (models or {}).get(key, (None, None, None, None))
         if owner is not ocp:
@@ -104,6 +105,9 @@ def solve_starts(
         else:  # as built: the values a start does not set (auxiliaries, slacks) are not the last run's
             for var, value in zip(m.component_data_objects(pyo.Var), built, strict=True):
                 var.set_value(value, skip_validation=True)
+            if hasattr(m, "pass_direction"):
+                set_pass_direction(m, passing)
+                nlp.refresh_parameters()
         sols, timings = [], {}
         opts = {**({"print_level": 5} if verbose else {}), **(options or {})}
         for i, start in enumerate(starts, 1):

@@ -12,6 +12,8 @@ state and control, ``Vehicle.lateral_acceleration``) is a path constraint at eve
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pyomo.environ as pyo
 from pyomo.dae import ContinuousSet, DerivativeVar
@@ -274,7 +276,8 @@ def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
     steps wider than 90 degrees on coarse grids.
 
     Each step's angle is a defined variable (one templated constraint per step, which
-    the NLP presolve eliminates again); their sum must be >= 0 (ccw) or <= 0 (cw).
+    the NLP presolve eliminates again); their sum must be >= 0 (ccw) or <= 0 (cw), bounds that
+    are mutable Params (``set_pass_direction``), so one built model serves both directions.
     """
     px, py = ocp.vehicle.position
     X, Y, tp = m.component(px), m.component(py), m.tau_points
@@ -291,7 +294,21 @@ def _add_pass_direction(m: pyo.ConcreteModel, ocp: OCP, passing: str) -> None:
 
     m.sweep_step = pyo.Constraint(m.steps, rule=rule)
     total = pyo.quicksum(m.sweep[k] for k in m.steps)
-    m.pass_direction = pyo.Constraint(expr=(total >= 0) if passing == "ccw" else (total <= 0))
+    m.pass_lower = pyo.Param(mutable=True, initialize=0.0)
+    m.pass_upper = pyo.Param(mutable=True, initialize=0.0)
+    m.pass_direction = pyo.Constraint(expr=pyo.inequality(m.pass_lower, total, m.pass_upper))
+    set_pass_direction(m, passing)
+
+
+PASS_BOUNDS = {"ccw": (0.0, math.inf), "cw": (-math.inf, 0.0)}
+"""The bounds of the swept angle's sum for each pass direction."""
+
+
+def set_pass_direction(m: pyo.ConcreteModel, passing: str) -> None:
+    """Make a model built with a pass direction (``build_model``'s ``passing`` "ccw" or "cw") pass the other way,
+    or the same; an NLP of it reads the new bounds on ``refresh_parameters``."""
+    m.pass_lower.set_value(PASS_BOUNDS[passing][0])
+    m.pass_upper.set_value(PASS_BOUNDS[passing][1])
 
 
 def _add_objective(m: pyo.ConcreteModel, ocp: OCP) -> None:
