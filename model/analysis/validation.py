@@ -47,10 +47,15 @@ ONE_STEP_TOL = 0.05
 BETWEEN_NODES = ("body_clearance_dense", "dense_clearance", "one_step_error")
 
 
+def failed_checks(validation: dict) -> dict[str, float | None]:
+    """The checks a validation failed, each with its value (in the order of ``validation["checks"]``)."""
+    return {k: c.get("value") for k, c in validation.get("checks", {}).items() if not c["passed"]}
+
+
 def fails_only_between_nodes(validation: dict) -> bool:
     """Whether a validation failed, and only checks of the motion between the nodes (``BETWEEN_NODES``): every
     body inside at the nodes, a corner cut between two of them (the grid too coarse, not the road too narrow)."""
-    failed = {k for k, c in validation.get("checks", {}).items() if not c["passed"]}
+    failed = set(failed_checks(validation))
     return bool(failed) and failed <= set(BETWEEN_NODES)
 
 
@@ -248,6 +253,21 @@ def one_step(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray, steps: int =
     return sol.y.reshape(*shape, steps + 1) if sol.success else None
 
 
+def one_step_columns(ocp: OCP, columns: dict[str, np.ndarray], steps: int = DENSE_STEPS) -> np.ndarray | None:
+    """``one_step`` of a trajectory's columns (``t``, the states, the controls)."""
+    v = ocp.vehicle
+    return one_step(ocp, np.asarray(columns["t"], float), np.array([columns[s] for s in v.states]),
+                    np.array([columns[c] for c in v.controls]), steps)  # fmt: skip
+
+
+def interval_clearances(ocp: OCP, paths: np.ndarray, clearances) -> dict[str, np.ndarray]:
+    """Per body, its clearance (``clearances(ocp, states)``) at each interval's integrated sub-steps after its node
+    (``one_step``'s paths, the interval's end included): arrays (N, steps)."""
+    n, count, points = paths.shape
+    inside = {s: paths[i, :, 1:].ravel() for i, s in enumerate(ocp.vehicle.states)}
+    return {b: c.reshape(count, points - 1) for b, c in clearances(ocp, inside).items()}
+
+
 def _position_step_error(ocp: OCP, t: np.ndarray, X: np.ndarray, U: np.ndarray) -> dict:
     """Without bodies (measured, not judged): the reference point's one-step error, its largest value and node."""
     paths = one_step(ocp, t, X, U, steps=1)
@@ -273,8 +293,7 @@ def _between_nodes(ocp: OCP, traj: dict[str, np.ndarray], measures: dict) -> dic
     from model.analysis.bodies import clearances as body_clearances
 
     v = ocp.vehicle
-    X = np.array([traj[s] for s in v.states])
-    paths = one_step(ocp, traj["t"], X, np.array([traj[c] for c in v.controls]))
+    paths = one_step_columns(ocp, traj)
     if paths is None:
         measures["integration_error"] = {"success": False}
         return {"dense_clearance": _check(np.inf, DENSE_CLEARANCE_TOL, False)}
@@ -300,8 +319,7 @@ def _between_nodes(ocp: OCP, traj: dict[str, np.ndarray], measures: dict) -> dic
 def _integrated_clearance(ocp: OCP, paths: np.ndarray, clearances, measures: dict) -> dict:
     """``min_clearance_integrated`` (the bodies' least clearance, by ``clearances(ocp, states)``, along the
     one-step paths ``one_step`` integrated) into ``measures``; returns the check ``dense_clearance``."""
-    inside = {s: paths[i, :, 1:].ravel() for i, s in enumerate(ocp.vehicle.states)}
-    dense = min(float(np.min(c)) for c in clearances(ocp, inside).values())
+    dense = min(float(np.min(c)) for c in interval_clearances(ocp, paths, clearances).values())
     measures["min_clearance_integrated"] = dense
     return {"dense_clearance": _check(-min(dense, 0.0), DENSE_CLEARANCE_TOL)}
 
@@ -311,8 +329,7 @@ def _integrated_map_clearance(ocp: OCP, traj: dict[str, np.ndarray], measures: d
     controls linear) within ``DENSE_CLEARANCE_TOL`` of the corridor, as on roads: a free step of the arclength
     grid can swing a body out between nodes that both lie inside (Thiergarten 51 -> 90, SU-30, once round the ring:
     0.165 m, where the linear sub-steps of ``body_clearance_dense`` saw +0.004 m)."""
-    v = ocp.vehicle
-    paths = one_step(ocp, traj["t"], np.array([traj[s] for s in v.states]), np.array([traj[c] for c in v.controls]))
+    paths = one_step_columns(ocp, traj)
     if paths is None:
         return {"dense_clearance": _check(np.inf, DENSE_CLEARANCE_TOL, False)}
     return _integrated_clearance(ocp, paths, map_clearances, measures)

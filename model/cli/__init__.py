@@ -21,6 +21,7 @@ import sys
 import time
 from pathlib import Path
 
+from model.analysis.validation import failed_checks
 from model.cli.progress import Progress
 from model.errors import InputError
 from model.outputs import RUN_FILES, run_folder, write_files
@@ -453,7 +454,7 @@ def solve_line(scenario, sol) -> str:
 def failure_reason(sol) -> str:
     if (sol.diagnosis or {}).get("kind") in ("time limit", "map corridor"):
         return sol.diagnosis["message"]
-    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
+    failed = list(failed_checks(sol.validation))
     return sol.status if sol.status != "optimal" else "validation failed: " + ", ".join(failed)
 
 

@@ -33,7 +33,7 @@ import shapely
 
 from model.analysis.bodies import substeps
 from model.analysis.maps import map_clearances
-from model.analysis.validation import one_step
+from model.analysis.validation import interval_clearances, one_step_columns
 from model.direct.bodies import TIGHT_COVER_SLACK, _pose_point, disc_count
 from model.direct.options import TranscriptionOptions
 from model.direct.solution import Solution
@@ -473,16 +473,12 @@ def back_offs(ocp: OCP, columns: dict[str, np.ndarray], aim: float = BACK_OFF) -
     fails. Thiergarten 51 -> 90, SU-30, once round the ring, N = 200: the rectangle inside at every node (+0.003 m
     at node 198), 0.021 m outside at the end of interval 197, where the speed jumps from 0 to 5.1 m/s in 0.32 s
     and the integrated motion ends 0.024 m from the node."""
-    v = ocp.vehicle
-    X = np.array([columns[k] for k in v.states])
-    paths = one_step(ocp, np.asarray(columns["t"], float), X, np.array([columns[k] for k in v.controls]))
+    paths = one_step_columns(ocp, columns)
     if paths is None:
         return {}
-    count = paths.shape[1]
-    flat = {k: paths[i].ravel() for i, k in enumerate(v.states)}
     out = {}
-    for name, clear in map_clearances(ocp, flat).items():
-        worst = clear.reshape(count, -1)[:, 1:].min(axis=1)  # along each interval, its end included
+    for name, clear in interval_clearances(ocp, paths, map_clearances).items():
+        worst = clear.min(axis=1)  # along each interval, its end included
         short = np.where(worst < 0.0, aim - worst, 0.0)
         if np.any(short > 0):
             out[name] = np.maximum(np.append(short, 0.0), np.insert(short, 0, 0.0))

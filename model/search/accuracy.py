@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from model.analysis.validation import failed_checks
 from model.direct.solution import Solution
 from model.problem.ocp import OCP
 
@@ -59,7 +60,7 @@ def grid_failures(sol: Solution) -> list[str]:
     ``dense_clearance`` if it is the only failed check ([] if nothing, or if another check fails)."""
     if sol.status not in CONVERGED:
         return []
-    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
+    failed = list(failed_checks(sol.validation))
     if not set(failed) <= GRID_CHECKS:
         return []
     error = sol.validation.get("measures", {}).get("integration_error") or {}
@@ -99,7 +100,7 @@ def refine_for_accuracy(
             sol, (ratio, state) = finer, goal_drift(finer, accuracy)  # closer: one more doubling may cure it
             continue
         if not finer.ok:
-            failed = [k for k, c in finer.validation.get("checks", {}).items() if not c["passed"]]
+            failed = list(failed_checks(finer.validation))
             record["refinement_failed"] = finer.status + (f" ({', '.join(failed)})" if failed else "")
             break
         if sol.ok and finer.objective > sol.objective + SAME_OPTIMUM * abs(sol.objective):

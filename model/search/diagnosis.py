@@ -21,6 +21,7 @@ from collections import Counter
 import numpy as np
 
 from model.analysis.bodies import body_corners, substeps
+from model.analysis.validation import failed_checks
 from model.direct.solution import Solution
 from model.problem.ocp import OCP
 from model.scene.geometry import clearance_detail
@@ -99,7 +100,7 @@ def bound_diagnosis(ocp: OCP) -> dict | None:
 def solver_diagnosis(best: Solution) -> dict:
     """No proof: what the solver ended with (status, last primal infeasibility) and the failed checks."""
     log = getattr(getattr(best, "ipopt", None), "log", None) or []
-    failed = [k for k, c in best.validation.get("checks", {}).items() if not c["passed"]]
+    failed = list(failed_checks(best.validation))
     return {
         "kind": "solver",
         "status": best.status,
@@ -119,7 +120,7 @@ def refined_diagnosis(coarse: Solution, finer: Solution) -> dict:
     status and failed checks in ``refined_to`` and in the message.
     """
     out = dict(coarse.diagnosis) if coarse.diagnosis else solver_diagnosis(finer)
-    failed = [k for k, c in finer.validation.get("checks", {}).items() if not c["passed"]]
+    failed = list(failed_checks(finer.validation))
     out["refined_to"] = {"intervals": finer.intervals, "status": finer.status, "failed_checks": failed}
     out["message"] = (f"{out.get('message', 'no valid solution')}; re-solved on N = {finer.intervals}: "
                       f"{finer.status}" + (f" ({', '.join(failed)} failed)" if failed else ""))  # fmt: skip

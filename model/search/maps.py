@@ -53,7 +53,7 @@ from typing import Any
 import numpy as np
 
 from model.analysis.maps import corridor_diagnosis
-from model.analysis.validation import fails_only_between_nodes
+from model.analysis.validation import failed_checks, fails_only_between_nodes
 from model.direct.map_corridor import (
     Iterate,
     Result,
@@ -284,10 +284,9 @@ def _loop_step(run: MapSearch, search: str, grid: str) -> None:
     offset = len(run.sequences)
     run.sequences += [{**s, "loops": looped.map_route.loops} for s in inner.sequences]
     run.steps_skipped += inner.steps_skipped
-    checks = inner.best.validation.get("checks", {})
     run.loop = {"loops": looped.map_route.loops, "valid": bool(inner.best.ok),
                 "exact_clearance": float(inner.best_clearance),
-                "failed_checks": {k: float(c["value"]) for k, c in checks.items() if not c["passed"]}}  # fmt: skip
+                "failed_checks": failed_checks(inner.best.validation)}  # fmt: skip
     if inner.best.ok:
         run.best, run.best_clearance, run.best_sequence = inner.best, inner.best_clearance, offset + inner.best_sequence
         run.violation, run.penalty_answer = inner.violation, inner.penalty_answer
@@ -438,7 +437,7 @@ def diagnosis(sol: Solution, violation: tuple[float, float] | None = None, penal
     ocp = sol.ocp
     states = {k: np.asarray(sol.columns[k]) for k in ("t", *ocp.vehicle.states)}
     bodies = corridor_diagnosis(ocp, states)
-    failed = [k for k, c in sol.validation.get("checks", {}).items() if not c["passed"]]
+    failed = list(failed_checks(sol.validation))
     parts = [f"the {b['body']} body leaves the corridor by {b['outside']:.3f} m ({b['where']}, t = {b['t']:.2f} s, "
              f"reference point ({b['x']:.2f}, {b['y']:.2f}), lanelets {b['lanelets']})" for b in bodies]  # fmt: skip
     if sol.status not in ("optimal", "validation_failed"):  # validation_failed: Ipopt converged, a check failed

@@ -51,6 +51,7 @@ import numpy as np
 import pyomo.environ as pyo
 
 from model.analysis.bounds import ring_fit
+from model.analysis.validation import failed_checks
 from model.direct.solution import Solution
 from model.direct.solve import Start
 from model.problem.ocp import OCP
@@ -280,7 +281,7 @@ def feasibility_diagnosis(ocp: OCP, mv: Solution, violation: float, fast: Soluti
                            + (f" with the defects at {primal:.2g}" if primal is not None else "")
                            + ": no trajectory yet, and no proof that none exists"}  # fmt: skip
     best = fast if fast is not None and fast.status in CONVERGED else mv
-    failed = [k for k, c in best.validation.get("checks", {}).items() if not c["passed"]]
+    failed = list(failed_checks(best.validation))
     measures = best.validation.get("measures", {})
     speed = np.asarray(best.columns.get(ocp.vehicle.roles.speed, []), dtype=float)
     cusps = int(np.count_nonzero(np.diff(np.sign(speed[np.abs(speed) > REVERSING * np.abs(speed).max()])))) \

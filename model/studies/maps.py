@@ -29,7 +29,7 @@ import numpy as np
 import shapely
 
 from model.analysis.bodies import swept_polygons
-from model.analysis.validation import fails_only_between_nodes
+from model.analysis.validation import failed_checks, fails_only_between_nodes
 from model.errors import InputError
 from model.problem.maps import pose_clearances
 from model.problem.ocp import OCP
@@ -339,7 +339,7 @@ def solve_cell(ocp: OCP, intervals: int):
     solution, tried = None, []
     for n in (intervals, 2 * intervals):
         solution = ocp.solve(intervals=n)
-        failed = [k for k, c in solution.validation.get("checks", {}).items() if not c["passed"]]
+        failed = list(failed_checks(solution.validation))
         tried.append({"intervals": n, "status": solution.status, "valid": bool(solution.ok), "failed_checks": failed})
         if solution.ok or not fails_only_between_nodes(solution.validation):
             break
