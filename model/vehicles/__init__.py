@@ -23,6 +23,7 @@ Bodies (``Body``) and named parameter presets (``preset``, ``PRESETS``) live bes
 
 from model.vehicles.base import Roles, Vehicle, expression, sym
 from model.vehicles.body import Body, Cover
+from model.vehicles.longitudinal import Longitudinal
 from model.vehicles.presets import PRESETS, preset
 from model.vehicles.tractor_trailer import TractorTrailer
 from model.vehicles.tricycle import Tricycle
@@ -41,6 +42,7 @@ __all__ = [
     "VEHICLES",
     "Roles",
     "Body",
+    "Longitudinal",
     "Cover",
     "TractorTrailer",
     "Tricycle",

@@ -33,13 +33,18 @@ class Roles:
     steering : str or None
         The state of the steering angle, rad (None: the model does not steer, e.g. the unicycle).
     speed : str or None
-        The control that sets the speed along the path (the rear axle's, or the steered wheel's).
+        The control that sets the speed along the path (the rear axle's, or the steered wheel's); with
+        longitudinal dynamics (``Longitudinal``) the state ``v`` that is that speed.
     steering_rate : str or None
         The control that is the steering angle's rate, rad/s.
     turn_rate : str or None
         The control that is the heading's rate, rad/s, for a model without a steering angle.
     trailers : tuple of str
         The states of the trailers' headings, rad, first trailer first.
+    acceleration : str or None
+        The speed's rate, m/s^2: a control, or with a jerk limit a state (None: the speed is a control).
+    jerk : str or None
+        The control that is the acceleration's rate, m/s^3 (None: no jerk limit).
     """
 
     x: str = "x"
@@ -50,8 +55,11 @@ class Roles:
     steering_rate: str | None = "u2"
     turn_rate: str | None = None
     trailers: tuple[str, ...] = ()
+    acceleration: str | None = None
+    jerk: str | None = None
 
-    CONTROL_ROLES: ClassVar[tuple[str, ...]] = ("speed", "steering_rate", "turn_rate")
+    CONTROL_ROLES: ClassVar[tuple[str, ...]] = ("speed", "steering_rate", "turn_rate", "jerk")
+    EITHER_ROLES: ClassVar[tuple[str, ...]] = ("speed", "acceleration")  # a control, or a state when integrated
 
     @property
     def position(self) -> tuple[str, str]:
@@ -78,6 +86,8 @@ class Roles:
             for name in names if isinstance(names, tuple) else (names,):
                 if name is None:
                     continue
+                if role.name in self.EITHER_ROLES:
+                    kind = states if name in states else controls
                 if name not in kind:
                     which = "controls" if kind is controls else "states"
                     raise TypeError(f"Roles.{role.name} = {name!r} is not one of the {which} {kind}")
