@@ -59,7 +59,7 @@ class Roles:
     jerk: str | None = None
 
     CONTROL_ROLES: ClassVar[tuple[str, ...]] = ("speed", "steering_rate", "turn_rate", "jerk")
-    EITHER_ROLES: ClassVar[tuple[str, ...]] = ("speed", "acceleration")  # a control, or a state when integrated
+    INTEGRATED_BY: ClassVar[dict[str, str]] = {"speed": "acceleration", "acceleration": "jerk"}
 
     @property
     def position(self) -> tuple[str, str]:
@@ -86,8 +86,8 @@ class Roles:
             for name in names if isinstance(names, tuple) else (names,):
                 if name is None:
                     continue
-                if role.name in self.EITHER_ROLES:
-                    kind = states if name in states else controls
+                if role.name in self.INTEGRATED_BY:  # a state when the role that drives it is set
+                    kind = states if getattr(self, self.INTEGRATED_BY[role.name]) is not None else controls
                 if name not in kind:
                     which = "controls" if kind is controls else "states"
                     raise TypeError(f"Roles.{role.name} = {name!r} is not one of the {which} {kind}")
