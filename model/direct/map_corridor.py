@@ -345,18 +345,17 @@ def fixed_ends(ocp: OCP, start: Start, st: Strips) -> dict[str, np.ndarray]:
     return disc_centres(ocp, cols, st.covers)
 
 
-SMOOTHING = 0.1  # s: the arclength grid's weight on the controls' jumps (``_add_smoothing``)
+SMOOTHING = 0.1  # s: the arclength grid's weight on the controls' jumps (``control_jumps``)
 
 
-def _add_smoothing(m: pyo.ConcreteModel, ocp: OCP, weight: float) -> None:
-    """Add ``weight`` sum_k sum_c ((u_c,k - u_c,k-1) / range_c)^2 / step_k to the objective (the arclength grid).
+def control_jumps(m: pyo.ConcreteModel, ocp: OCP):
+    """sum_k sum_c ((u_c,k - u_c,k-1) / range_c)^2 / step_k over a free grid's intervals (a Pyomo expression).
 
-    Without it the arclength grid's answers chatter: the speed jumps between 0 and its bound from node to
-    node (Thiergarten 106 -> 108, SU-30, N = 100) where the wheels turn, the trapezoid rule's error exploited
-    (the answer re-integrated per interval drifts 0.068 m from the next node, the independent check's limit
-    0.05 m). ``range_c`` is the control's bound range (1 where unbounded)."""
-    if weight <= 0.0:
-        return
+    Weighted by ``SMOOTHING`` it is added to what the arclength grid's solves minimise (``strip_objective``), not
+    to the problem's objective. Without it the arclength grid's answers chatter: the speed jumps between 0 and its
+    bound from node to node (Thiergarten 106 -> 108, SU-30, N = 100) where the wheels turn, the trapezoid rule's
+    error exploited (the answer re-integrated per interval drifts 0.068 m from the next node, the independent
+    check's limit 0.05 m). ``range_c`` is the control's bound range (1 where unbounded)."""
     nodes, terms = m.nodes, []
     for c in ocp.vehicle.controls:
         lo, hi = ocp.bounds.get(c, (None, None))
@@ -364,7 +363,7 @@ def _add_smoothing(m: pyo.ConcreteModel, ocp: OCP, weight: float) -> None:
         u = m.component(c)
         pairs = enumerate(zip(nodes[:-1], nodes[1:], strict=True), start=1)
         terms += [((u[b] - u[a]) / scale) ** 2 / m.step[k] for k, (a, b) in pairs]
-    m.objective.expr = m.objective.expr + weight * pyo.quicksum(terms)
+    return pyo.quicksum(terms)
 
 
 def centre_line_start(ocp: OCP, intervals: int, st: Strips, speed_fraction: float = 0.5) -> Start:
@@ -403,18 +402,33 @@ def exact_clearance(ocp: OCP, columns: dict[str, np.ndarray], dense: bool = Fals
     return float(worst)
 
 
-def _minimal_violation(m: pyo.ConcreteModel, ocp: OCP, penalty: float | None = None) -> None:
-    """Replace the objective by the strips' summed slack (plus 1e-4 m per second of a free Tf); ``penalty``
-    (per m of slack): instead the problem's own objective plus ``penalty`` times the summed slack (an exact
-    L1 penalty: where the strips can be met and ``penalty`` exceeds their multipliers the answer is the plain
-    one). ``m.objective`` (deactivated) stays the problem's own, the objective ``finish`` reports."""
-    m.objective.deactivate()
+def strip_objective(m: pyo.ConcreteModel, ocp: OCP, smoothing: float = 0.0, relax: bool = False,
+                    penalty: float | None = None):
+    """What a strip solve minimises (None: the problem's own, ``m.objective``).
+
+    ``smoothing`` > 0 (the arclength grid): the problem's objective plus ``smoothing`` times ``control_jumps``.
+    ``relax``: instead the strips' summed slack (plus 1e-4 m per second of a free Tf); with ``penalty`` (per m of
+    slack) the objective so far plus ``penalty`` times the summed slack (an exact L1 penalty: where the strips can
+    be met and ``penalty`` exceeds their multipliers the answer is the plain one).
+    """
+    goal = m.objective.expr + smoothing * control_jumps(m, ocp) if smoothing > 0.0 else None
+    if not relax:
+        return goal
     total = pyo.quicksum(v[t] for v in m.strip_slacks for t in m.nodes)
     if penalty is not None:
-        m.violation = pyo.Objective(expr=m.objective.expr + penalty * total, sense=pyo.minimize)
-        return
+        return (m.objective.expr if goal is None else goal) + penalty * total
     time_price = 1e-4 * m.tf if ocp.cost.free_final_time else 0.0
-    m.violation = pyo.Objective(expr=total + time_price, sense=pyo.minimize)
+    return total + time_price
+
+
+def minimise_instead(m: pyo.ConcreteModel, goal) -> None:
+    """The strip solve's one objective swap: ``goal`` minimised (``m.search_objective``) in place of the problem's
+    own ``m.objective``, which stays as it is, deactivated: the objective ``finish`` reports (for the time
+    objective Tf, whatever the solve minimised). Nothing where ``goal`` is None."""
+    if goal is None:
+        return
+    m.objective.deactivate()
+    m.search_objective = pyo.Objective(expr=goal, sense=pyo.minimize)
 
 
 def _violation(m: pyo.ConcreteModel) -> tuple[float, float]:
@@ -435,7 +449,8 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
     ``relax``: the minimal-violation sequence instead (the strip
     rows widened by slacks, their sum minimised plus 1e-4 m per second of Tf, as the roads'
     ``diagnosis``); ``Iterate.violation`` is the sum and the largest slack. ``relax`` with ``penalty``
-    (per m): the problem's objective plus ``penalty`` times the summed slack (``_minimal_violation``).
+    (per m): the problem's objective plus ``penalty`` times the summed slack (``strip_objective``). The
+    reported ``objective`` is always the problem's own (for the time objective Tf, on either grid).
 
     ``start``: the first solve's start (default ``centre_line_start``; its projections fix the first
     strips). ``deadline`` (``time.monotonic()``): each Ipopt run gets the time left as ``max_wall_time``
@@ -519,11 +534,9 @@ def _strip_solve(ocp: OCP, intervals: int, st: Strips, s_fixed: dict[str, np.nda
         m = build_model(ocp, intervals, options=TranscriptionOptions(free_grid=True) if arclength else None)
         if arclength:
             add_node_rows(m, ocp, st, node_arclengths(ocp, intervals, st))
-            _add_smoothing(m, ocp, SMOOTHING)
         ends = fixed_ends(ocp, start, st) if arclength else None
         add_strip_constraints(m, ocp, st, s_fixed, trust, relax, curved, ends, margins)
-        if relax:
-            _minimal_violation(m, ocp, penalty)
+        minimise_instead(m, strip_objective(m, ocp, SMOOTHING if arclength else 0.0, relax, penalty))
         load_start(m, start)
         nlp = CasadiNLP(m)
         res = run_ipopt(nlp, options, x0=nlp.init_primals())
