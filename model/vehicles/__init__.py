@@ -24,7 +24,7 @@ Bodies (``Body``) and named parameter presets (``preset``, ``PRESETS``) live bes
 from model.vehicles.base import Roles, Vehicle, expression, sym
 from model.vehicles.body import Body, Cover
 from model.vehicles.longitudinal import Longitudinal
-from model.vehicles.presets import PRESETS, preset
+from model.vehicles.presets import PRESETS, OperationalLimits, operational_limits, preset
 from model.vehicles.tractor_trailer import TractorTrailer
 from model.vehicles.tricycle import Tricycle
 from model.vehicles.truck import Truck
@@ -44,12 +44,14 @@ __all__ = [
     "Body",
     "Longitudinal",
     "Cover",
+    "OperationalLimits",
     "TractorTrailer",
     "Tricycle",
     "Truck",
     "Unicycle",
     "Vehicle",
     "preset",
+    "operational_limits",
     "expression",
     "sym",
 ]

@@ -29,6 +29,17 @@ CommonRoad: Vehicle Models of the CommonRoad benchmarks (M. Althoff et al.), veh
     "semi-trailer truck", ``parameters_vehicle4`` of commonroad-vehicle-models (KST model, on-axle
     trailer); body placement as CommonRoad draws it: tractor front at l_total - l_hitch ahead of
     the hitch (= rear axle), trailer rear at l_hitch behind the hitch.
+
+Operational limits
+------------------
+``operational_limits(name)`` gives each preset's ``OperationalLimits`` (docs/dynamics-format.md,
+"Operational limits of the design vehicles"): longitudinal acceleration and comfortable braking,
+jerk, the bound of the speed v, the steering rate, the static rollover threshold, the lateral
+acceleration a designer allows and a crawl speed for design turns; ``sources`` names, per field,
+the reference or "assumed: <reason>". The bound of v is the vehicle's top speed on the road class
+these presets are used on, an urban road with a roundabout: 50 km/h for every preset (assumed, see
+``URBAN_SPEED``), below each vehicle's own top speed; on the ring the lateral-acceleration bound,
+not this one, limits v.
 """
 
 from __future__ import annotations
@@ -36,6 +47,7 @@ from __future__ import annotations
 import copy
 import difflib
 import math
+from dataclasses import dataclass, field
 from typing import Any
 
 from model.errors import InputError
@@ -219,3 +231,210 @@ def _unknown(name: str, by_lower: dict[str, str]) -> str:
     if close:
         return f"unknown preset '{name}' (did you mean '{by_lower[close[0]]}'?)"
     return f"unknown preset '{name}' (known: {', '.join(PRESETS)})"
+
+
+# -- operational limits ---------------------------------------------------------------------------
+
+G = 9.80665  # m/s^2, standard gravity
+KMH = 1.0 / 3.6  # m/s per km/h
+
+SUMO = (
+    "SUMO vClass defaults (sumo.dlr.de/docs/Vehicle_Type_Parameter_Defaults.html): passenger accel 2.6, "
+    "decel 4.5, emergencyDecel 9.0 m/s^2, maxSpeed 200 km/h; truck accel 1.3, decel 4.0, emergencyDecel 7.0, "
+    "maxSpeed 130 km/h; trailer accel 1.0, decel 4.0, emergencyDecel 7.0, maxSpeed 130 km/h"
+)
+AASHTO_SSD = (
+    "AASHTO Green Book 2018 (7th ed.), stopping sight distance: deceleration 3.4 m/s^2 (11.2 ft/s^2), "
+    "comfortable for most drivers"
+)
+JARVIS = (
+    "Jarvis (1989), The in-service braking levels of Australian heavy vehicles, SAE 892505: heavy vehicles "
+    "brake at 0.4-0.7 m/s^2 on average; 0.25 g is the accepted limit of comfortable passenger-car braking"
+)
+UMTRI = (
+    "NHTSA/UMTRI: static rollover threshold of loaded tractor-semitrailers 0.25-0.40 g "
+    "(Winkler & Ervin 1999, Rollover of Heavy Commercial Vehicles, UMTRI-99-19)"
+)
+GERTSCH = (
+    "Gertsch & Eichelhard (2003), SAE 2003-01-3385: a tractor-semitrailer's dynamic rollover threshold "
+    "is about 25 % below its static one"
+)
+CRAWL = (
+    "AASHTO Green Book 2018 (7th ed.) Table 2-1/2-2 dimensions; design turns at <= 15 km/h (10 mph); 10 km/h "
+    "chosen within it (assumed) so that a full-lock turn keeps within lateral_acceleration (at 15 km/h the rear "
+    "axle's a_lat at full lock is P 3.18, WB-40 1.69, WB-62/67 1.58, CommonRoad-4 2.96 m/s^2, above their bounds); "
+    "for EU-semitrailer and CommonRoad-4 applied by analogy (their sources name no turning speed)"
+)
+COMMONROAD_2 = (
+    "CommonRoad vehicle models, parameters_vehicle2 (BMW 320i): steering velocity bound 0.4 rad/s; "
+    "tracks 1.387 / 1.364 m, h_cg 0.575 m"
+)
+COMMONROAD_4_LIMITS = (
+    "CommonRoad vehicle models, parameters_vehicle4 (semi-trailer truck): steering velocity +-0.7103 rad/s, "
+    "v_max 22.22 m/s, a_max 11.5 m/s^2 (the car models' friction-level bound, not a truck's drive)"
+)
+URBAN_SPEED = (
+    "assumed: the road class of these presets, an urban road with a roundabout: 50 km/h, the general urban "
+    "limit for every motor vehicle (German StVO sec. 3(3) no. 1); each vehicle's own top speed is higher "
+    "(SUMO truck/trailer maxSpeed 130 km/h, CommonRoad-4 v_max 22.22 m/s); on the ring the lateral-acceleration "
+    "bound limits v"
+)
+JERK_TRUCK = (
+    "assumed: ISO 2631 / comfort: jerk ~ 0.5-1 m/s^3 for heavy vehicles (no standard gives a jerk limit; "
+    "the upper end taken)"
+)
+STEER_TRUCK = (
+    "assumed: a steering wheel turned at 1-1.5 rev/s through a heavy truck's overall steering ratio of "
+    "about 20:1 moves the road wheels 0.31-0.47 rad/s"
+)
+
+
+@dataclass(frozen=True)
+class OperationalLimits:
+    """How a design vehicle may accelerate, brake, steer and corner (SI units, radians).
+
+    Parameters
+    ----------
+    acceleration : tuple of float
+        (lo, hi), m/s^2: comfortable braking (lo < 0) and the longitudinal acceleration's upper bound.
+    jerk : tuple of float
+        (lo, hi), m/s^3, lo < 0 < hi.
+    speed : float
+        Upper bound of the speed v, m/s (the vehicle's top speed on the presets' road class).
+    steering_rate : float
+        Symmetric bound of the steering angle's rate, rad/s.
+    rollover_threshold : float
+        Static rollover threshold, m/s^2 (a vehicle that slides before it rolls: its friction limit).
+    lateral_acceleration : float
+        Symmetric bound of the lateral acceleration a designer allows, m/s^2, below ``rollover_threshold``.
+    crawl_speed : float
+        Speed of design turns, m/s.
+    sources : dict of str to str
+        Field name -> the reference of its number(s), or "assumed: <reason>".
+    """
+
+    acceleration: tuple[float, float]
+    jerk: tuple[float, float]
+    speed: float
+    steering_rate: float
+    rollover_threshold: float
+    lateral_acceleration: float
+    crawl_speed: float
+    sources: dict[str, str] = field(default_factory=dict)
+
+
+def _car_limits() -> OperationalLimits:
+    """AASHTO P: a passenger car."""
+    ssf = (1.38684 + 1.36398) / 2 / (2 * 0.57486895)  # CommonRoad vehicle 2: mean track / (2 h_cg), in g
+    return OperationalLimits(
+        acceleration=(-3.4, 2.6),
+        jerk=(-2.0, 2.0),
+        speed=50.0 * KMH,
+        steering_rate=0.4,
+        rollover_threshold=0.8 * G,
+        lateral_acceleration=3.0,
+        crawl_speed=10.0 * KMH,
+        sources={
+            "acceleration": f"lo: {AASHTO_SSD}; hi: {SUMO} (passenger accel)",
+            "jerk": "assumed: a car's comfortable jerk, twice the heavy vehicles' 1 m/s^3 (no standard gives one)",
+            "speed": URBAN_SPEED,
+            "steering_rate": COMMONROAD_2,
+            "rollover_threshold": "assumed: a car slides before it rolls: tyre-road friction ~0.8 g (dry) is below "
+            f"its static stability factor T/(2 h_cg) = {ssf:.2f} g ({COMMONROAD_2})",
+            "lateral_acceleration": "assumed: ~0.3 g, a comfortable car's cornering level, well below the 0.8 g "
+            "friction limit",
+            "crawl_speed": CRAWL,
+        },
+    )
+
+
+def _rigid_truck_limits() -> OperationalLimits:
+    """AASHTO SU-30: a loaded single-unit truck."""
+    return OperationalLimits(
+        acceleration=(-2.5, 1.3),
+        jerk=(-1.0, 1.0),
+        speed=50.0 * KMH,
+        steering_rate=0.4,
+        rollover_threshold=0.45 * G,
+        lateral_acceleration=2.0,
+        crawl_speed=10.0 * KMH,
+        sources={
+            "acceleration": f"lo: assumed: 0.25 g, the comfort limit of car braking ({JARVIS}), below SUMO's "
+            f"'convenient' truck decel 4.0; hi: {SUMO} (truck accel)",
+            "jerk": JERK_TRUCK,
+            "speed": URBAN_SPEED,
+            "steering_rate": STEER_TRUCK,
+            "rollover_threshold": "assumed: 0.45 g for a loaded rigid truck, above the 0.25-0.40 g of loaded "
+            f"tractor-semitrailers ({UMTRI}): a single unit with a lower load than a semitrailer's",
+            "lateral_acceleration": "assumed: 2.0 m/s^2 (0.20 g), under half the rollover threshold "
+            f"for the dynamic effects ({GERTSCH})",
+            "crawl_speed": CRAWL,
+        },
+    )
+
+
+def _semitrailer_limits(steering_rate: float = 0.4, steering_source: str = STEER_TRUCK) -> OperationalLimits:
+    """A loaded tractor-semitrailer (AASHTO WB-40/62/67, EU 16.50 m, CommonRoad-4)."""
+    return OperationalLimits(
+        acceleration=(-2.0, 1.0),
+        jerk=(-1.0, 1.0),
+        speed=50.0 * KMH,
+        steering_rate=steering_rate,
+        rollover_threshold=0.35 * G,
+        lateral_acceleration=1.5,
+        crawl_speed=10.0 * KMH,
+        sources={
+            "acceleration": f"lo: assumed: 0.2 g for a loaded articulated truck, under the 0.25 g comfort limit "
+            f"of car braking ({JARVIS}) and half SUMO's 'convenient' trailer decel 4.0; hi: {SUMO} (trailer accel)",
+            "jerk": JERK_TRUCK,
+            "speed": URBAN_SPEED,
+            "steering_rate": steering_source,
+            "rollover_threshold": f"assumed: 0.35 g, chosen inside the range of {UMTRI}",
+            "lateral_acceleration": "assumed: 1.5 m/s^2 (0.15 g), under half the rollover threshold "
+            f"for the dynamic effects ({GERTSCH}) and the trailer's rearward amplification",
+            "crawl_speed": CRAWL,
+        },
+    )
+
+
+_OPERATIONAL: dict[str, OperationalLimits] = {
+    "P": _car_limits(),
+    "SU-30": _rigid_truck_limits(),
+    "WB-40": _semitrailer_limits(),
+    "WB-62": _semitrailer_limits(),
+    "WB-67": _semitrailer_limits(),
+    "EU-semitrailer": _semitrailer_limits(),
+    "CommonRoad-4": _semitrailer_limits(0.7103, COMMONROAD_4_LIMITS),
+}
+
+
+def operational_limits(name: str) -> OperationalLimits | None:
+    """The named preset's operational limits, a fresh copy (case-insensitive name).
+
+    Parameters
+    ----------
+    name : str
+        One of ``PRESETS``.
+
+    Returns
+    -------
+    OperationalLimits or None
+        The limits, each with its source in ``sources``; None for a preset without limits.
+
+    Raises
+    ------
+    InputError
+        ``vehicle.preset``: unknown name, with the closest known one suggested.
+
+    Examples
+    --------
+    >>> lim = operational_limits("EU-semitrailer")
+    >>> lim.acceleration, round(lim.rollover_threshold, 3), lim.lateral_acceleration
+    ((-2.0, 1.0), 3.432, 1.5)
+    """
+    by_lower = {k.lower(): k for k in PRESETS}
+    key = by_lower.get(str(name).lower())
+    if key is None:
+        raise InputError("vehicle.preset", _unknown(str(name), by_lower))
+    limits = _OPERATIONAL.get(key)
+    return None if limits is None else copy.deepcopy(limits)
