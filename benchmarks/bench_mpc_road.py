@@ -93,8 +93,8 @@ first run compiles in the MPC's constructor): 8.0 / 21.6 and 6.6 / 17.7, 17.1 / 
 
 Third round (semitrailer, ``--no-peer``, load 0.4-2.0, CPU mean / max ms): baseline 23.2 / 69.5;
 ``--qp-max-changes 40`` 26.1 / 146.9 (7 fallbacks, 4 failed, goal missed), ``70`` 21.2 / 152.1 (1 / 1,
-goal missed): qpOASES' early stop (its intermediate iterate) does not keep the loop; the README has
-the profile of a step.
+goal missed): qpOASES' early stop (its intermediate iterate) does not keep the loop; benchmarks/mpc-road.md
+has the profile of a step.
 With the Opti peer (``--controllers rti``, load 1.7 -> 3.2): CPU mean / max ms 10.5 / 26.5 (truck,
 Opti ratio 0.124), 24.0 / 63.5 (semitrailer, 0.100), 21.0 / 71.2 (crossing car, 0.131); all checks held.
 
@@ -105,13 +105,13 @@ ms; goals missed: the interior point takes 14-29 iterations when it converges (t
 9-10 ms, semitrailer 17-19 ms) and reaches its cap from some sample on. qpOASES stays the default.
 With the Opti peer (``--controllers rti``, N = 40, x86_64 2 shared cores, load 12 -> 7): CPU mean / max
 ms 11.8 / 25.4 (truck, ratio 0.107), 26.6 / 64.1 (semitrailer, 0.108), 23.3 / 78.4 (crossing car,
-0.130); same closed loops, all checks held; the 10 / 30 ms target is not met (README).
+0.130); same closed loops, all checks held; the 10 / 30 ms target is not met (benchmarks/mpc-road.md).
 
 Fifth round (20c7296, idle, load 0.5-0.8): 20 prediction intervals of 2 samples (``--interval-samples 2``,
 the default here), ``MPCSettings.rti_regularization`` 0.1, the slack repair sign-aware. With the Opti peer,
 CPU mean / worst ms: truck 3.6 / 8.6 (ratio to Opti's wall mean 0.137), semitrailer 8.2 / 21.0 (0.125),
 crossing car 6.9 / 16.6 (0.162; another run of it 7.7 / 30.5); every step RTI, goals reached, 0 samples
-outside the exact corridor, the car >= 0.825 m away. The 10 / 30 ms target is met (README).
+outside the exact corridor, the car >= 0.825 m away. The 10 / 30 ms target is met (benchmarks/mpc-road.md).
 """
 
 from __future__ import annotations

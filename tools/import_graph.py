@@ -1,13 +1,15 @@
 """The project's import graph, read from the source (stdlib only): layers and code closures.
 
 Used by the Snakemake rules (a rule's outputs depend on exactly the code its script can
-import) and by ``tests/test_layers.py`` (no module imports a layer above its own).
+import), by ``tests/test_layers.py`` (no module imports a layer above its own) and by
+``tests/test_architecture_claims.py`` (docs/architecture.md states what each layer imports).
 Imports under ``if TYPE_CHECKING:`` are annotations only and are left out.
 """
 
 from __future__ import annotations
 
 import ast
+from collections.abc import Iterable
 from functools import cache
 from pathlib import Path
 
@@ -85,3 +87,53 @@ def _parents(path: Path) -> list[Path]:
 def project_modules() -> list[Path]:
     """Every .py file of the project's packages."""
     return sorted(p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py"))
+
+
+def layer_of(module: str, layers: Iterable[str]) -> str | None:
+    """The longest of ``layers`` that is ``module`` or a package above it (``model.direct.solve`` -> ``model.direct``).
+
+    Parameters
+    ----------
+    module : str
+        A dotted module name.
+    layers : iterable of str
+        Dotted package or module names.
+
+    Returns
+    -------
+    str or None
+        The layer, or None when no layer holds the module.
+    """
+    held = [name for name in layers if module == name or module.startswith(name + ".")]
+    return max(held, key=len) if held else None
+
+
+def layer_imports(layers: Iterable[str]) -> dict[str, set[str]]:
+    """The other layers each layer's modules import at run time (functions included, TYPE_CHECKING excluded).
+
+    Parameters
+    ----------
+    layers : iterable of str
+        Dotted package names; every project module must belong to one of them.
+
+    Returns
+    -------
+    dict of str to set of str
+        For each layer, the layers (not itself) that any of its modules imports.
+
+    Raises
+    ------
+    ValueError
+        If a project module, or a project module one imports, belongs to no layer.
+    """
+    layers = tuple(layers)
+    found: dict[str, set[str]] = {name: set() for name in layers}
+    for path in project_modules():
+        modules = [module_name(path), *imports_of(path)]
+        owners = [layer_of(m, layers) for m in modules]
+        if None in owners:
+            raise ValueError(f"{modules[owners.index(None)]} belongs to no layer of {layers}")
+        found[owners[0]].update(owners[1:])
+    for name, imported in found.items():
+        imported.discard(name)
+    return found
