@@ -154,8 +154,10 @@ class OCP:
             if not lo <= val <= hi:
                 raise InputError(f"{where}.{key}", f"{val} lies outside bounds [{lo}, {hi}]")
         if require_all:
+            r = self.vehicle.roles
+            free = {r.speed, r.acceleration} if r.acceleration is not None else set()  # integrated: free if absent
             for key in self.vehicle.states:
-                if key not in values:
+                if key not in values and key not in free:
                     raise InputError(f"{where}.{key}", "missing: every state must be fixed at t = 0")
 
     def _check_obstacles(self) -> None:
@@ -224,7 +226,8 @@ class OCP:
         return None
 
     def max_speed(self) -> float | None:
-        """max |u1|, u1 the vehicle's speed control (``roles.speed``); None without one or its bounds."""
+        """max |u1|, u1 the vehicle's speed (``roles.speed``, a control or the state v); None without one or its
+        bounds."""
         speed = self.vehicle.roles.speed
         if speed not in self.bounds:
             return None

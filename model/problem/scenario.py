@@ -7,13 +7,14 @@ errors, every state is fixed at t = 0, any subset at Tf.
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from model.errors import InputError
-from model.problem.closed_loop import ControlSettings, Disturbance, parse_closed_loop
+from model.problem.closed_loop import ControlSettings, Disturbance, PlantSettings, parse_closed_loop, parse_plant
 from model.problem.costs import Energy, Time
 from model.problem.maps import check_poses, parse_map
 from model.problem.ocp import OCP, PASSES
@@ -33,11 +34,11 @@ from model.problem.traffic import TrafficSettings, parse_traffic
 from model.scene.moving import MovingVehicle
 from model.scene.obstacles import Circle
 from model.scene.roundabout import check_lane_width
-from model.vehicles import VEHICLES, Body, Vehicle, preset
+from model.vehicles import VEHICLES, Body, Longitudinal, Vehicle, preset
 
 TOP_KEYS = {
     "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
-    "disturbance", "control", "moving_obstacles", "map", "traffic",
+    "disturbance", "control", "moving_obstacles", "map", "traffic", "plant",
 }  # fmt: skip
 PROBLEM_KEYS = {"objective", "final_time", "intervals", "scheme", "pass", "weights", "steering_weight"}
 OBSTACLE_KEYS = {"center", "radius", "safety"}
@@ -56,6 +57,7 @@ class Scenario:
     disturbance: Disturbance = field(default_factory=Disturbance)
     control: ControlSettings = field(default_factory=ControlSettings)
     traffic: TrafficSettings | None = None
+    plant: PlantSettings = field(default_factory=PlantSettings)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -98,6 +100,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
         raise InputError("problem.intervals", f"must be a whole number >= 1, got {intervals!r}")
     final_time = number(problem, "final_time", "problem.") if "final_time" in problem else None
     disturbance, control = parse_closed_loop(data, vehicle)
+    plant = parse_plant(data, vehicle, disturbance)
     map_route = parse_map(data, path.parent if path is not None else None)
     road = parse_road(data) if map_route is None else None
     traffic = parse_traffic(data, road)
@@ -114,7 +117,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     ocp = OCP(
         vehicle=vehicle,
         cost=_cost(objective, problem, vehicle),
-        bounds={**preset_bounds, **_bounds(table_of(data, "bounds"))},
+        bounds=_all_bounds(vehicle, preset_bounds, _bounds(table_of(data, "bounds"))),
         initial=initial,
         final=final,
         obstacles=_obstacles(data.get("obstacles", [])),
@@ -129,7 +132,7 @@ def parse_scenario(data: dict[str, Any], default_name: str = "scenario", path: P
     )
     return Scenario(
         ocp=ocp, intervals=intervals, scheme=scheme, path=path,
-        disturbance=disturbance, control=control, traffic=traffic,
+        disturbance=disturbance, control=control, traffic=traffic, plant=plant,
     )  # fmt: skip
 
 
@@ -162,6 +165,7 @@ def _cost(objective: str, problem: dict[str, Any], vehicle: Vehicle):
 
 
 BODY_TABLES = {"body": "vehicle", "trailer_body": "trailer"}  # [vehicle.<table>] -> body name
+LONGITUDINAL_KEYS = {"acceleration", "jerk"}
 
 
 def _vehicle(table: dict[str, Any]) -> tuple[Vehicle, dict[str, Body], dict[str, tuple[float, float]]]:
@@ -171,13 +175,46 @@ def _vehicle(table: dict[str, Any]) -> tuple[Vehicle, dict[str, Body], dict[str,
     model = choice(merged, "model", VEHICLES, "vehicle.", required=True)
     cls = VEHICLES[model]
     fields = {f.name for f in dataclasses.fields(cls)}
-    no_unknown(table, fields | {"model", "preset"} | set(BODY_TABLES), "vehicle.")
+    no_unknown(table, fields | {"model", "preset", "longitudinal", "operational"} | set(BODY_TABLES), "vehicle.")
     kwargs = {k: number(merged, k, "vehicle.") for k in fields if k in merged}
     bodies = {}
     for key, name in BODY_TABLES.items():
         if key in merged:
             bodies[name] = _body({**base.get(key, {}), **_subtable(table, key, "vehicle.")}, f"vehicle.{key}")
-    return cls(**kwargs), bodies, preset_bounds
+    vehicle, limits = _longitudinal(
+        cls(**kwargs), {**base.get("longitudinal", {}), **_subtable(table, "longitudinal", "vehicle.")}
+    )
+    return vehicle, bodies, {**preset_bounds, **limits}
+
+
+def _longitudinal(vehicle: Vehicle, table: dict[str, Any]) -> tuple[Vehicle, dict[str, tuple[float, float]]]:
+    """``[vehicle.longitudinal]`` (docs/dynamics-format.md): the vehicle with the speed as the state ``v``,
+    and the bounds of the acceleration (and jerk) it gives; the vehicle unchanged without the table."""
+    if not table:
+        return vehicle, {}
+    where = "vehicle.longitudinal."
+    no_unknown(table, LONGITUDINAL_KEYS, where)
+    if "acceleration" not in table:
+        raise InputError(where + "acceleration", "missing: [vehicle.longitudinal] needs acceleration = [lo, hi] m/s^2")
+    r = vehicle.roles
+    if r.speed is None or r.speed not in vehicle.controls:
+        raise InputError("vehicle.longitudinal", f"the {vehicle.model} model has no speed control to integrate")
+    integrated = Longitudinal(vehicle, jerk="jerk" in table)
+    out = {}
+    for key, role in (("acceleration", integrated.roles.acceleration), ("jerk", integrated.roles.jerk)):
+        if key in table:
+            out[role] = _signed_pair(table[key], where + key, "m/s^2" if key == "acceleration" else "m/s^3")
+    return integrated, out
+
+
+def _signed_pair(val: Any, key: str, unit: str) -> tuple[float, float]:
+    """[lo, hi] with finite lo < 0 < hi, or InputError naming ``key``."""
+    if not (isinstance(val, list) and len(val) == 2 and all(is_number(x) for x in val)):
+        raise InputError(key, f"must be [lo, hi] (two numbers, {unit}), got {val!r}")
+    lo, hi = float(val[0]), float(val[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < 0 < hi):
+        raise InputError(key, f"must be finite with lo < 0 < hi ({unit}), got [{lo:g}, {hi:g}]")
+    return lo, hi
 
 
 def _preset(table: dict[str, Any]) -> tuple[dict[str, Any], dict[str, tuple[float, float]]]:
@@ -206,6 +243,24 @@ def _body(table: dict[str, Any], key: str) -> Body:
         if name not in table:
             raise InputError(f"{key}.{name}", "missing")
     return Body(*(number(table, k, key + ".") for k in ("length", "width", "rear_overhang")), key=key)
+
+
+def _all_bounds(vehicle: Vehicle, preset_bounds: dict, file_bounds: dict) -> dict[str, tuple[float, float]]:
+    """The file's bounds over the preset's; with longitudinal dynamics the speed's bound is ``bounds.v``
+    (a preset's bound of the speed control becomes it), and one of the speed control is an error."""
+    if not isinstance(vehicle, Longitudinal):
+        return {**preset_bounds, **file_bounds}
+    control, speed = vehicle.base.roles.speed, vehicle.roles.speed
+    if control in file_bounds:
+        raise InputError(f"bounds.{control}", f"the speed is the state {speed} with [vehicle.longitudinal]: "
+                         f"bound it as bounds.{speed}")  # fmt: skip
+    preset_bounds = dict(preset_bounds)
+    if control in preset_bounds:
+        preset_bounds.setdefault(speed, preset_bounds.pop(control))
+    out = {**preset_bounds, **file_bounds}
+    if speed not in out:
+        raise InputError(f"bounds.{speed}", "required with [vehicle.longitudinal]: the speed's bounds [lo, hi] m/s")
+    return out
 
 
 def _bounds(table: dict[str, Any]) -> dict[str, tuple[float, float]]:

@@ -8,7 +8,14 @@ import numpy as np
 import sympy as sp
 
 from model.problem.ocp import OCP
-from model.search.paths import Path, min_turning_radius, path_guess, reeds_shepp, trailer_angle
+from model.search.paths import (
+    Path,
+    integrated_speed,
+    min_turning_radius,
+    path_guess,
+    reeds_shepp,
+    trailer_angle,
+)
 from model.vehicles import sym
 
 
@@ -75,7 +82,7 @@ def _controls(ocp: OCP, states: dict[str, np.ndarray], speed: np.ndarray, s: np.
     """The speed control is the speed; a control that is some state's derivative is that derivative."""
     v = ocp.vehicle
     out = {c: np.zeros_like(s) for c in v.controls}
-    if v.roles.speed is not None:
+    if v.roles.speed in v.controls:
         out[v.roles.speed] = speed
     for name, f in zip(v.states, v.rhs(numeric=False), strict=True):
         if isinstance(f, sp.Symbol) and f.name in out and f == sym(f.name):
@@ -168,6 +175,9 @@ def three_point_guess(ocp: OCP, n: int, tf_scale: float = 1.0) -> tuple[dict[str
 def _complete(ocp: OCP, guess: dict, speed: np.ndarray, s: np.ndarray, tf: float) -> dict:
     """``guess`` with its missing states linear in ``s`` from start to goal, every state clipped to its
     bounds, and the controls that drive it at ``speed`` over ``tf``."""
+    r = ocp.vehicle.roles
+    if r.acceleration is not None:  # longitudinal dynamics: the speed is a state, driven by a (or j)
+        guess.update(integrated_speed(ocp.vehicle, speed, s * tf, ocp.initial, ocp.final))
     for name in ocp.vehicle.states:
         if name not in guess:
             a, b = ocp.initial[name], ocp.final.get(name, ocp.initial[name])
@@ -214,4 +224,4 @@ def reeds_shepp_guess(
     if path is None:
         return None
     tf = ocp.final_time if ocp.final_time is not None else tf_scale * max(path.length, 1e-3) / (0.7 * ocp.max_speed())
-    return path_guess(ocp.vehicle, path, tf, n, initial=ocp.initial), tf
+    return path_guess(ocp.vehicle, path, tf, n, initial=ocp.initial, final=ocp.final), tf

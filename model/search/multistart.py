@@ -21,7 +21,7 @@ from collections.abc import Callable
 from model.analysis.columns import Columns
 from model.direct.bodies import DEFAULT_FORMULATION, check_formulation
 from model.direct.solution import Solution
-from model.direct.solve import NOT_BELOW, paused_gc, solve_starts, wall_time_options
+from model.direct.solve import NOT_BELOW, paused_gc, solve_starts
 from model.problem.ocp import OCP
 from model.search.accuracy import GOAL_ACCURACY, grid_failures, refine_for_accuracy
 from model.search.accuracy import ROUTE as ACCURACY_ROUTE
@@ -104,10 +104,10 @@ def solve_ocp(
     start = time.perf_counter()
     if time_limit is not None and not time_limit > 0:
         raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
+    tight = time_limit is not None and ocp.road is not None and bool(ocp.bodies)  # room for the geometry continuation
     ctx = Search(ocp, intervals, verbose, dict(options or {}), check_formulation(formulation), reporter(progress),
-                 time_limit, clock=clock)  # fmt: skip
-    if time_limit is not None and ocp.road is not None and ocp.bodies:  # room for the geometry continuation
-        ctx.run_cap, ctx.reserve = ROAD_RUN_SHARE * time_limit, ROAD_FINISH_SHARE * time_limit
+                 time_limit, clock=clock, run_cap=ROAD_RUN_SHARE * time_limit if tight else None,
+                 reserve=ROAD_FINISH_SHARE * time_limit if tight else 0.0)  # fmt: skip
     proof = refusal_from_bounds(ocp) if guess is None and starts is None else None
     if proof is not None:
         refused = _refuse(ctx, proof)
@@ -286,7 +286,7 @@ def _continue_or_diagnose(ctx: Search, best: Solution, continuation: bool) -> So
             return inner
 
         def budget():
-            options = wall_time_options({}, ctx.deadline, clock=ctx.clock)
+            options = ctx.budget.run_options({})
             if options is None:
                 ctx.stop()
             return options
@@ -348,7 +348,10 @@ def default_starts(ocp: OCP) -> tuple[tuple[float, str], ...]:
     else:
         starts = DETOUR_STARTS if ocp.obstacles else ((1.0, "arc"),)
     if ocp.road is None:
-        starts += tuple(start for start in REEDS_SHEPP_STARTS if reeds_shepp_start_path(ocp, reeds_shepp_ends(start)))
+        # with longitudinal dynamics the reversing words' starts (a speed through 0 at each cusp) ran into
+        # Ipopt's 3000 iterations (54-69 s each) on a rest-to-rest truck that the forward starts solve in 0.1 s
+        words = REEDS_SHEPP_STARTS[:1] if ocp.vehicle.roles.acceleration is not None else REEDS_SHEPP_STARTS
+        starts += tuple(start for start in words if reeds_shepp_start_path(ocp, reeds_shepp_ends(start)))
     return starts
 
 

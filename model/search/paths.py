@@ -445,7 +445,12 @@ def _evaluate(path: Path, s: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def path_guess(
-    vehicle: Vehicle, path: Path, final_time: float, n: int, initial: Mapping[str, float] | None = None
+    vehicle: Vehicle,
+    path: Path,
+    final_time: float,
+    n: int,
+    initial: Mapping[str, float] | None = None,
+    final: Mapping[str, float] | None = None,
 ) -> dict[str, np.ndarray]:
     """Node values of every state and control that drive ``path`` in ``final_time`` at constant speed.
 
@@ -471,7 +476,9 @@ def path_guess(
     n : int
         Number of time steps; nodes at ``np.linspace(0, final_time, n + 1)``.
     initial : mapping, optional
-        Start values of states the path does not fix (the trailer heading).
+        Start values of states the path does not fix (the trailer heading; the speed v).
+    final : mapping, optional
+        End values: a stated final speed v (longitudinal dynamics) is blended into the guess's speed.
 
     Returns
     -------
@@ -493,6 +500,10 @@ def path_guess(
         out[r.steering] = np.arctan(d * smp["kappa"])
     for trailer in r.trailers:
         out[trailer] = _trailer_angle(vehicle, path, n, initial.get(trailer, path.start[2]))
+    if r.acceleration is not None:  # longitudinal dynamics: the speed is a state, driven by a (or j)
+        filled = {k: out.get(k, np.ones(n + 1)) for k in vehicle.states}
+        (factor,) = vehicle.state_function([vehicle.reference_speed()])(filled)
+        out.update(integrated_speed(vehicle, speed / factor, t, initial, dict(final or {})))
     for name in vehicle.states:
         if name not in out:
             if name not in initial:
@@ -502,19 +513,48 @@ def path_guess(
     return {name: out[name] for name in (*vehicle.states, *vehicle.controls)}
 
 
+SPEED_RAMP = 0.25  # of the duration: the share at each end over which a guess's speed blends into a stated end speed
+
+
+def integrated_speed(
+    vehicle: Vehicle, speed: np.ndarray, t: np.ndarray, initial: Mapping[str, float], final: Mapping[str, float]
+) -> dict[str, np.ndarray]:
+    """The longitudinal states and control of a guess (``roles.speed`` v, ``roles.acceleration`` a, ``roles.jerk`` j).
+
+    ``speed``: the signed speed along the guess at the node times ``t``. Where ``initial`` or ``final``
+    states v, the guess's speed blends linearly into it over SPEED_RAMP of the duration at that end; at
+    each change of direction it passes through 0 within SPEED_RAMP / 2 of the duration either side; a and
+    j are the derivatives (an approximate start: the transcription makes them consistent).
+    """
+    r = vehicle.roles
+    speed = np.asarray(speed, dtype=float)
+    span = max(float(t[-1] - t[0]), 1e-9)
+    cusps = [(t[k] + t[k + 1]) / 2 for k in np.flatnonzero(np.sign(speed[:-1]) * np.sign(speed[1:]) < 0)]
+    v = speed * np.clip(
+        np.min([np.abs(t - c) / (0.5 * SPEED_RAMP * span) for c in cusps], axis=0) if cusps else 1.0, 0.0, 1.0
+    )
+    for values, end, ramp in ((initial, 0, t - t[0]), (final, -1, t[-1] - t)):
+        if r.speed in values:
+            v = v + np.clip(1 - ramp / (SPEED_RAMP * span), 0.0, 1.0) * (values[r.speed] - speed[end])
+    out = {r.speed: v, r.acceleration: np.gradient(v, t)}
+    if r.jerk is not None:
+        out[r.jerk] = np.gradient(out[r.acceleration], t)
+    return out
+
+
 def _path_controls(
     vehicle: Vehicle, states: dict[str, np.ndarray], smp: dict[str, np.ndarray], speed: np.ndarray, t: np.ndarray
 ) -> dict[str, np.ndarray]:
     """The speed control (over the reference speed), the steering rate or (no steering) the turn rate."""
     r, out = vehicle.roles, {}
-    if r.speed is not None:
+    if r.speed in vehicle.controls:
         (factor,) = vehicle.state_function([vehicle.reference_speed()])(states)
         out[r.speed] = speed / factor
     if r.steering_rate is not None and r.steering is not None:
         out[r.steering_rate] = np.gradient(states[r.steering], t)
     if r.turn_rate is not None:
         out[r.turn_rate] = speed * smp["kappa"]
-    missing = set(vehicle.controls) - set(out)
+    missing = set(vehicle.controls) - set(out) - set(states)
     if missing:
         raise ValueError(f"no path guess for controls {sorted(missing)} of {vehicle.model!r}")
     return out
