@@ -216,7 +216,7 @@ def pose_clearances(ocp: OCP) -> dict:
         free_trailer = any(t not in values for t in r.trailers)
         full = {**({r.steering: 0.0} if r.steering else {}), **dict.fromkeys(r.trailers, values.get(r.heading, 0.0))}
         full |= dict(values)
-        states = {s: np.array([float(full[s])]) for s in v.states}
+        states = {s: np.array([float(full.get(s, 0.0))]) for s in v.states}  # v, a: no pose
         fixed = {b: body for b, body in ocp.bodies.items() if not (free_trailer and b == "trailer")}
         view = SimpleNamespace(vehicle=v, bodies=fixed, road=ocp.road)
         out[where] = {b: float(c[0]) for b, c in clearances(view, states).items()}

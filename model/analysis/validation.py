@@ -7,7 +7,8 @@ and the pass direction decide; the clearance between the nodes and the
 drift of a scipy re-integration of the controls are measured and reported. The
 lateral acceleration (``Vehicle.lateral_acceleration``) is measured at the nodes and on
 the dense re-integration; bounded, it is checked at the nodes with the other bounds and
-between them within 5 % of the bound (``lateral_acceleration_dense``).
+between them within 5 % of the bound (``lateral_acceleration_dense``); so are the speed, acceleration
+and jerk of longitudinal dynamics (``longitudinal_dense``, docs/dynamics-format.md).
 
 Between the nodes, on a road with bodies: the controls are integrated from each node to the next
 (``one_step``). The exact rectangles along that motion, interval ends included, may not leave the
@@ -151,7 +152,37 @@ def validate(ocp: OCP, traj: Columns, tf: float, passing: str | None = None, fre
         if "bound" in lateral:
             ok = dense is not None and lateral["dense_excess"] <= DENSE_SHARE * lateral["scale"]
             checks["lateral_acceleration_dense"] = _check(lateral["dense_excess"], DENSE_SHARE * lateral["scale"], ok)
+    if v.roles.acceleration is not None:
+        measures["longitudinal"] = longitudinal = longitudinal_measures(ocp, traj, dense)
+        ok = dense is not None and longitudinal["dense_excess_share"] <= DENSE_SHARE
+        checks["longitudinal_dense"] = _check(longitudinal["dense_excess_share"], DENSE_SHARE, ok)
     return {"passed": all(c["passed"] for c in checks.values()), "checks": checks, "measures": measures}
+
+
+def longitudinal_measures(ocp: OCP, traj: dict[str, np.ndarray], dense: dict[str, np.ndarray] | None) -> dict:
+    """The speed, acceleration (and jerk) of longitudinal dynamics at the nodes and on the dense re-integration.
+
+    ``max_acceleration``, ``min_acceleration`` (and ``max_abs_jerk``) at the nodes and ``..._dense``
+    between them, each variable's ``bounds``, and ``dense_excess_share``: the largest excess of v, a or j
+    over its bound between the nodes as a share of that bound's scale max(|lo|, |hi|) (the check allows
+    ``DENSE_SHARE``).
+    """
+    r = ocp.vehicle.roles
+    names = [n for n in (r.speed, r.acceleration, r.jerk) if n is not None]
+    out: dict = {"bounds": {n: list(ocp.bounds[n]) for n in names if n in ocp.bounds}}
+    for where, series in (("", traj), ("_dense", dense)):
+        acc = None if series is None else np.asarray(series[r.acceleration], float)
+        out["max_acceleration" + where] = None if acc is None else float(np.max(acc))
+        out["min_acceleration" + where] = None if acc is None else float(np.min(acc))
+        if r.jerk is not None:
+            out["max_abs_jerk" + where] = None if series is None else float(np.max(np.abs(series[r.jerk])))
+    share = 0.0
+    for name, (lo, hi) in out["bounds"].items():
+        values = np.asarray((dense if dense is not None else traj)[name], float)
+        excess = max(float(np.max(lo - values, initial=0.0)), float(np.max(values - hi, initial=0.0)))
+        share = max(share, excess / max(abs(lo), abs(hi), 1e-12))
+    out["dense_excess_share"] = share
+    return out
 
 
 def _grid_check(t: np.ndarray, tf: float, n: int, free_grid: bool = False) -> dict:

@@ -17,6 +17,9 @@ if TYPE_CHECKING:
     import pandas as pd
 
 
+SUMMARY_MEASURES = ("lateral_acceleration", "longitudinal", "integration_error", "min_clearance_integrated")
+"""The validation's measures that summary.json carries under their own keys."""
+
 @dataclass
 class Solution:
     """The result of ``OCP.solve``; ``ok`` is True only if Ipopt converged and validation passed.
@@ -84,8 +87,7 @@ class Solution:
             "valid": bool(self.validation.get("passed")),
             "validation": self.validation.get("checks", {}),
             "reintegration": measures.get("reintegration"),
-            **({k: measures[k] for k in ("lateral_acceleration", "integration_error", "min_clearance_integrated")
-                if k in measures}),
+            **{k: measures[k] for k in SUMMARY_MEASURES if k in measures},
             **self._steering_cost(),
             **({"accuracy": self.accuracy} if self.accuracy else {}),
             "solver_message": self.solver_message,

@@ -72,9 +72,10 @@ def road_boundary_values(
 ) -> tuple[dict, dict]:
     """[initial] and [final] of a routed scenario (a roundabout's or a map's): the route's poses (the
     vehicle's position and heading, steering 0, the trailers in line at the start) plus the steering
-    and trailer headings where given."""
+    and trailer headings (and with longitudinal dynamics v and a) where given."""
     r = vehicle.roles
-    free = tuple(s for s in (r.steering, *r.trailers) if s is not None)  # the only states a route leaves free
+    integrated = (r.speed, r.acceleration) if r.acceleration is not None else ()  # longitudinal dynamics' states
+    free = tuple(s for s in (r.steering, *r.trailers, *integrated) if s in vehicle.states)  # a route leaves these
     for where, values in (("initial", initial), ("final", final)):
         for key in values:
             if key not in vehicle.states:

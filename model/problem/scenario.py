@@ -34,7 +34,7 @@ from model.problem.traffic import TrafficSettings, parse_traffic
 from model.scene.moving import MovingVehicle
 from model.scene.obstacles import Circle
 from model.scene.roundabout import check_lane_width
-from model.vehicles import VEHICLES, Body, Longitudinal, Vehicle, preset
+from model.vehicles import VEHICLES, Body, Longitudinal, Vehicle, operational_limits, preset
 
 TOP_KEYS = {
     "name", "title", "vehicle", "bounds", "obstacles", "initial", "final", "problem", "roundabout", "route",
@@ -181,10 +181,34 @@ def _vehicle(table: dict[str, Any]) -> tuple[Vehicle, dict[str, Body], dict[str,
     for key, name in BODY_TABLES.items():
         if key in merged:
             bodies[name] = _body({**base.get(key, {}), **_subtable(table, key, "vehicle.")}, f"vehicle.{key}")
-    vehicle, limits = _longitudinal(
-        cls(**kwargs), {**base.get("longitudinal", {}), **_subtable(table, "longitudinal", "vehicle.")}
-    )
-    return vehicle, bodies, {**preset_bounds, **limits}
+    operational = _operational(table)
+    longitudinal = {**operational.get("longitudinal", {}), **_subtable(table, "longitudinal", "vehicle.")}
+    vehicle, limits = _longitudinal(cls(**kwargs), longitudinal)
+    turning = vehicle.roles.steering_rate
+    extra = {turning if key == "steering_rate" else key: pair for key, pair in operational.get("bounds", {}).items()}
+    extra.pop(None, None)  # a model without a steering rate takes no steering-rate bound
+    return vehicle, bodies, _speed_bound(vehicle, preset_bounds) | extra | limits
+
+
+def _operational(table: dict[str, Any]) -> dict[str, Any]:
+    """``[vehicle] operational = true``: the preset's ``[vehicle.longitudinal]`` and bounds (v, the lateral
+    acceleration, the steering rate) by key, from ``operational_limits``; nothing when false or absent."""
+    flag = table.get("operational", False)
+    if not isinstance(flag, bool):
+        raise InputError("vehicle.operational", f"must be true or false, got {flag!r}")
+    if not flag:
+        return {}
+    if "preset" not in table:
+        raise InputError("vehicle.operational", "needs a preset ([vehicle] preset = ...) whose limits it applies")
+    limits = operational_limits(table["preset"])
+    if limits is None:
+        raise InputError("vehicle.operational", f"the preset {table['preset']!r} has no operational limits")
+    lat = limits.lateral_acceleration
+    return {
+        "longitudinal": {"acceleration": list(limits.acceleration), "jerk": list(limits.jerk)},
+        "bounds": {"v": (0.0, limits.speed), "lateral_acceleration": (-lat, lat),
+                   "steering_rate": (-limits.steering_rate, limits.steering_rate)},
+    }  # fmt: skip
 
 
 def _longitudinal(vehicle: Vehicle, table: dict[str, Any]) -> tuple[Vehicle, dict[str, tuple[float, float]]]:
@@ -245,18 +269,23 @@ def _body(table: dict[str, Any], key: str) -> Body:
     return Body(*(number(table, k, key + ".") for k in ("length", "width", "rear_overhang")), key=key)
 
 
+def _speed_bound(vehicle: Vehicle, preset_bounds: dict) -> dict[str, tuple[float, float]]:
+    """A preset's bounds; with longitudinal dynamics its bound of the speed control is the state v's."""
+    out = dict(preset_bounds)
+    if isinstance(vehicle, Longitudinal) and vehicle.base.roles.speed in out:
+        out[vehicle.roles.speed] = out.pop(vehicle.base.roles.speed)
+    return out
+
+
 def _all_bounds(vehicle: Vehicle, preset_bounds: dict, file_bounds: dict) -> dict[str, tuple[float, float]]:
     """The file's bounds over the preset's; with longitudinal dynamics the speed's bound is ``bounds.v``
-    (a preset's bound of the speed control becomes it), and one of the speed control is an error."""
+    (required), and one of the speed control is an error."""
     if not isinstance(vehicle, Longitudinal):
         return {**preset_bounds, **file_bounds}
     control, speed = vehicle.base.roles.speed, vehicle.roles.speed
     if control in file_bounds:
         raise InputError(f"bounds.{control}", f"the speed is the state {speed} with [vehicle.longitudinal]: "
                          f"bound it as bounds.{speed}")  # fmt: skip
-    preset_bounds = dict(preset_bounds)
-    if control in preset_bounds:
-        preset_bounds.setdefault(speed, preset_bounds.pop(control))
     out = {**preset_bounds, **file_bounds}
     if speed not in out:
         raise InputError(f"bounds.{speed}", "required with [vehicle.longitudinal]: the speed's bounds [lo, hi] m/s")
