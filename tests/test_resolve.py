@@ -1,5 +1,7 @@
 """Warm-started re-solves of a built model after a parameter change."""
 
+from dataclasses import replace
+
 import pytest
 
 from model import Circle
@@ -38,3 +40,12 @@ def test_time_objective_refuses_final_time_parameter():
     sol = solve_pass(straight_time(), 20, "none")
     with pytest.raises(ValueError, match="variable"):
         Resolver(sol).solve(final_time=2.0)
+
+
+def test_a_solution_of_the_search_re_solves_in_its_own_pass_direction():
+    """``OCP.solve`` tries both pass directions on one built model; the answer's model may be left set to the
+    other one, and a re-solve must not inherit it (it then ended "infeasible" at the answer's own Tf)."""
+    first = replace(paper_energy_problem(4.5), passing="auto").solve(intervals=100)  # as the README's example
+    again = Resolver(first).solve(final_time=first.final_time)
+    assert first.ok and again.ok, (first.status, again.status)
+    assert again.objective == pytest.approx(first.objective, rel=1e-6)

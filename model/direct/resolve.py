@@ -16,6 +16,7 @@ import time
 from model.direct.moving import fill_moving, note_settling, solve_moving
 from model.direct.solution import Solution
 from model.direct.solve import finish
+from model.direct.transcription import set_pass_direction
 from model.nlp.ipopt import WARM_OPTIONS
 from model.scene.obstacles import Circle
 
@@ -74,6 +75,8 @@ class Resolver:
         """
         t0 = time.perf_counter()
         self._apply(final_time, initial or {}, final or {}, obstacles or {})
+        if hasattr(self.model, "pass_direction"):  # the search's model serves both directions: set this one's
+            set_pass_direction(self.model, self.passing)
         fill_moving(self.model, self.ocp)  # the moving obstacles at the (new) node times
         self.nlp.refresh_parameters()
         prev = self.last.ipopt
