@@ -1,0 +1,216 @@
+"""Longitudinal dynamics (docs/dynamics-format.md): the speed a state, the acceleration (or jerk) a control.
+
+The solved answers are checked here independently of the project's validation: the extended truck
+written out by hand, re-integrated by scipy from trajectory.csv's nodes under linear controls, its
+bounds, and the final time against the point-mass bound for the path driven.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.integrate import solve_ivp
+
+from model.errors import InputError
+from model.problem.scenario import parse_scenario
+from model.vehicles import Longitudinal, TractorTrailer, Tricycle, Truck, Unicycle, sym
+
+REST = """
+name = "{name}"
+[vehicle]
+model = "truck"
+wheelbase = 5.0
+[vehicle.longitudinal]
+acceleration = [-2.0, 1.0]
+{jerk}
+[bounds]
+v = [0.0, 8.33]
+u2 = [-0.4, 0.4]
+phi = [-0.6, 0.6]
+lateral_acceleration = [-2.0, 2.0]
+[initial]
+x = 0.0
+y = 0.0
+theta = 0.0
+phi = 0.0
+v = {v0}
+[final]
+x = 60.0
+y = 10.0
+theta = 0.0
+v = 0.0
+[problem]
+objective = "time"
+intervals = 60
+"""
+
+
+def _doc(**kw) -> dict:
+    import tomllib
+
+    text = REST.format(**({"name": "rest", "jerk": "", "v0": 0.0} | kw))
+    return tomllib.loads(text)
+
+
+@pytest.mark.parametrize("cls", [Truck, Tricycle, Unicycle, TractorTrailer])
+@pytest.mark.parametrize("jerk", [False, True])
+def test_every_model_gets_the_speed_as_a_state(cls, jerk):
+    base = cls()
+    ext = Longitudinal(base, jerk=jerk)
+    assert ext.states == base.states + (("v", "a") if jerk else ("v",))
+    assert ext.controls == tuple(("j" if jerk else "a") if c == base.roles.speed else c for c in base.controls)
+    f, g = ext.dynamics(), base.dynamics()
+    for name in base.states:
+        assert (f[name] - g[name].subs(sym(base.roles.speed), sym("v"))).simplify() == 0
+    assert f["v"] == sym("a")
+    assert (f.get("a") == sym("j")) if jerk else ("a" not in f)
+    assert ext.roles.speed == "v" and ext.roles.acceleration == "a"
+
+
+def _bad(doc: dict) -> str:
+    with pytest.raises(InputError) as err:
+        parse_scenario(doc)
+    return str(err.value)
+
+
+def test_the_contracts_bad_inputs_name_the_key():
+    doc = _doc()
+    doc["bounds"]["u1"] = [-1.0, 1.0]
+    assert "bounds.u1" in _bad(doc) and "state v" in _bad(doc)
+    doc = _doc()
+    del doc["bounds"]["v"]
+    assert "bounds.v" in _bad(doc)
+    for pair in ([0.0, 1.0], [-1.0, 0.0], [1.0, -1.0], [-math.inf, 1.0], [1.0], "fast"):
+        doc = _doc()
+        doc["vehicle"]["longitudinal"]["acceleration"] = pair
+        assert "vehicle.longitudinal.acceleration" in _bad(doc)
+    doc = _doc(jerk="jerk = [-1.0, 1.0]")
+    doc["initial"]["a"] = 3.0
+    assert "initial.a" in _bad(doc)
+    doc = _doc()
+    doc["vehicle"]["longitudinal"]["jerks"] = [-1.0, 1.0]
+    assert "vehicle.longitudinal.jerks" in _bad(doc)
+    doc = _doc()
+    doc["vehicle"]["operational"] = True
+    assert "vehicle.operational" in _bad(doc)  # no preset
+
+
+def test_operational_takes_the_presets_limits_and_the_file_overrides_them():
+    doc = _doc()
+    doc["vehicle"] = {"preset": "SU-30", "operational": True, "longitudinal": {"acceleration": [-1.5, 0.8]}}
+    del doc["bounds"]["v"], doc["bounds"]["u2"]
+    ocp = parse_scenario(doc).ocp
+    assert ocp.vehicle.states[-2:] == ("v", "a") and ocp.vehicle.controls == ("j", "u2")
+    assert ocp.bounds["a"] == (-1.5, 0.8)  # the file's
+    assert ocp.bounds["j"] == (-1.0, 1.0) and ocp.bounds["v"] == pytest.approx((0.0, 50 / 3.6))
+    assert ocp.bounds["u2"] == (-0.4, 0.4)
+    assert ocp.bounds["lateral_acceleration"] == (-2.0, 2.0)  # the file's [bounds] over the preset's
+
+
+def test_a_bad_input_on_the_command_line_writes_nothing(tmp_path):
+    doc = REST.format(name="bad", jerk="", v0=0.0).replace("v = [0.0, 8.33]", "u1 = [0.0, 8.33]")
+    path = tmp_path / "bad.toml"
+    path.write_text(doc)
+    run = subprocess.run(
+        [sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 2
+    assert run.stderr.strip().count("\n") == 0 and "bounds.u1" in run.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def _extended_truck(t, y, u_at, d, jerk):
+    """The extended truck written out here (not from the project): x, y, theta, phi, v (, a)."""
+    x, yy, th, phi, v, *rest = y
+    u = u_at(t)
+    acc = rest[0] if jerk else u[0]
+    out = [v * math.cos(th), v * math.sin(th), v * math.tan(phi) / d, u[1], acc]
+    return out + ([u[0]] if jerk else [])
+
+
+def _point_mass_time(length: float, v0: float, vf: float, vmax: float, up: float, down: float) -> float:
+    """Least time to drive ``length`` from v0 to vf with |dv/dt| in [-down, up] and v <= vmax."""
+    peak = math.sqrt((2 * up * down * length + down * v0**2 + up * vf**2) / (up + down))
+    if peak <= vmax:
+        return (peak - v0) / up + (peak - vf) / down
+    ramp = (vmax**2 - v0**2) / (2 * up) + (vmax**2 - vf**2) / (2 * down)
+    return (vmax - v0) / up + (vmax - vf) / down + (length - ramp) / vmax
+
+
+@pytest.mark.parametrize(
+    "jerk, v0", [("", 0.0), ("jerk = [-1.0, 1.0]", 0.0), ("", 5.0)], ids=["rest", "jerk", "rolling"]
+)
+def test_solved_answers_pass_an_independent_check(tmp_path, jerk, v0):
+    path = tmp_path / "s.toml"
+    path.write_text(REST.format(name="s", jerk=jerk, v0=v0))
+    out = tmp_path / "out"
+    run = subprocess.run(
+        [sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(out), "--quiet"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["valid"] and summary["longitudinal"]["bounds"]["a"] == [-2.0, 1.0]
+    tr = pd.read_csv(out / "trajectory.csv")
+    has_jerk = bool(jerk)
+    names = ["t", "x", "y", "theta", "phi", "v", "a", "j"][: 7 + has_jerk]
+    assert list(tr.columns[: len(names)]) == names
+    t = tr["t"].to_numpy()
+    controls = tr[["j" if has_jerk else "a", "u2"]].to_numpy()
+    states = ["x", "y", "theta", "phi", "v"] + (["a"] if has_jerk else [])
+    X = tr[states].to_numpy()
+    worst = 0.0
+    for k in range(len(t) - 1):
+        h = t[k + 1] - t[k]
+
+        def u_at(s, k=k, h=h):
+            w = (s - t[k]) / h
+            return (1 - w) * controls[k] + w * controls[k + 1]
+
+        sol = solve_ivp(_extended_truck, (t[k], t[k + 1]), X[k], args=(u_at, 5.0, has_jerk), rtol=1e-10, atol=1e-10)
+        worst = max(worst, float(np.max(np.abs(sol.y[:2, -1] - X[k + 1, :2]))))
+    assert worst < 0.02  # the trapezoid's one-step error, metres
+    tol = 1e-6
+    assert tr["v"].between(-tol, 8.33 + tol).all() and tr["a"].between(-2 - tol, 1 + tol).all()
+    if has_jerk:
+        assert tr["j"].between(-1 - tol, 1 + tol).all()
+    lateral = tr["v"] ** 2 * np.tan(tr["phi"]) / 5.0
+    assert lateral.abs().max() <= 2.0 + tol
+    assert tr["v"].iloc[0] == pytest.approx(v0, abs=1e-6) and tr["v"].iloc[-1] == pytest.approx(0.0, abs=1e-6)
+    driven = float(np.sum(np.hypot(np.diff(tr["x"]), np.diff(tr["y"]))))
+    assert summary["final_time"] >= _point_mass_time(driven, v0, 0.0, 8.33, 1.0, 2.0) - 1e-6
+    assert summary["final_time"] <= 1.05 * _point_mass_time(driven, v0, 0.0, 8.33, 1.0, 2.0) + (2.0 if jerk else 0.5)
+
+
+def test_derive_prints_the_speeds_costate_and_the_accelerations_switching_function(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(REST.format(name="s", jerk="", v0=0.0))
+    run = subprocess.run([sys.executable, "-m", "model.cli", "derive", str(path)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert "p_v' = " in run.stdout and "psi_a = dH/da = p_v" in run.stdout
+
+
+def test_seed_models_are_unchanged_without_the_table():
+    doc = _doc()
+    del doc["vehicle"]["longitudinal"], doc["bounds"]["v"], doc["initial"]["v"], doc["final"]["v"]
+    doc["bounds"]["u1"] = [-8.33, 8.33]
+    ocp = parse_scenario(doc).ocp
+    assert type(ocp.vehicle) is Truck and ocp.vehicle.controls == ("u1", "u2")
+
+
+def test_docs_copy_the_contract():
+    shared = Path(__file__).resolve().parents[2] / "shared" / "dynamics-format.md"
+    if not shared.exists():
+        pytest.skip("no shared/ beside the checkout")
+    assert shared.read_text() in (Path(__file__).resolve().parents[1] / "docs" / "dynamics-format.md").read_text()
