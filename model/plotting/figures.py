@@ -37,7 +37,8 @@ STYLE = {
 }
 PALETTE = plt.get_cmap("tab10").colors
 LINESTYLES = ("-", "--", "-.", ":")
-ROLE_UNITS = {"heading": "rad", "steering": "rad", "speed": "m/s", "steering_rate": "rad/s", "turn_rate": "rad/s"}
+ROLE_UNITS = {"heading": "rad", "steering": "rad", "speed": "m/s", "steering_rate": "rad/s", "turn_rate": "rad/s",
+              "acceleration": "m/s²", "jerk": "m/s³"}  # fmt: skip
 # The energy J = 1/2 int (u1^2 + u2^2) dt adds an m^2/s term (u1 in m/s) and a rad^2/s term (u2 in rad/s): the
 # paper adds them as numbers in SI units (the radian counted as 1), so every J is written with this unit.
 ENERGY_UNIT = "m²/s + rad²/s"
@@ -142,11 +143,15 @@ def draw_moving_obstacles(ax: plt.Axes, ocp, times: Sequence[float], final_time:
 
 
 def controls_panel(ax: plt.Axes, frame: pd.DataFrame, bounds: dict, roles: Roles) -> None:
-    """The speed and the steering (or turn) rate over time, bounds dashed."""
-    for name, color in ((roles.speed, PALETTE[0]), (roles.turning, PALETTE[3])):
+    """The speed (with longitudinal dynamics also the acceleration) and the steering (or turn) rate over time,
+    bounds dashed."""
+    names = ((roles.speed, PALETTE[0]), (roles.acceleration, PALETTE[1]), (roles.turning, PALETTE[3]))
+    for name, color in ((n, c) for n, c in names if n is not None):
         ax.plot(frame["t"], frame[name], color=color, label=f"{tex(name)} ({unit(roles, name)})")
         _bounds(ax, bounds, name, color)
-    ax.set(xlabel="t (s)", ylabel="control", title="(a) controls (bounds dashed)")
+    title = "(a) speed, acceleration and steering rate" if roles.acceleration else "(a) controls"
+    ylabel = "value (SI units)" if roles.acceleration else "control"
+    ax.set(xlabel="t (s)", ylabel=ylabel, title=title + " (bounds dashed)")
     ax.legend(loc="best")
 
 

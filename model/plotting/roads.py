@@ -45,6 +45,8 @@ NICE_LENGTHS = (1, 2, 5, 10, 20, 25, 50, 100, 200, 500)
 DEG = 180.0 / math.pi
 ROLE_PANELS = {  # a time panel per role of the vehicle (the name in TeX after the text), in display units
     "speed": ("speed", "m/s", 1.0),
+    "acceleration": ("acceleration", "m/s$^2$", 1.0),
+    "jerk": ("jerk", "m/s$^3$", 1.0),
     "steering_rate": ("steering rate", "deg/s", DEG),
     "turn_rate": ("turn rate", "deg/s", DEG),
     "steering": ("steering", "deg", DEG),
