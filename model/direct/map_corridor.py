@@ -37,7 +37,7 @@ from model.analysis.validation import interval_clearances, one_step_columns
 from model.direct.bodies import TIGHT_COVER_SLACK, _pose_point, disc_count
 from model.direct.options import TranscriptionOptions
 from model.direct.solution import Solution
-from model.direct.solve import Start, finish, load_start, paused_gc
+from model.direct.solve import Start, finish, load_start, paused_gc, time_left, wall_time_options
 from model.direct.transcription import build_model
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import run_ipopt
@@ -53,6 +53,7 @@ FLAT = 1e-6  # 1/m: a frame curvature below this is a straight line (the curved 
 DISC_RESOLUTION = 0.05  # m: the ``disc`` strips' bounds are multiples of this (``disc_extents``'s step)
 CHAIN = 10.0  # m: on a looped route a node's discs project within this arclength of the previous node's
 STEP_CAP = 30.0  # s: the longest interval of the arclength grid (a stop to turn the wheels fits; a crawl does not)
+MIN_WALL_TIME = 0.5  # s: a strip solve begun before the deadline runs at least this long (of its clock)
 
 
 @dataclass
@@ -440,7 +441,7 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
               st: Strips | None = None, trust: float | None = None, relax: bool = False, start: Start | None = None,
               deadline: float | None = None, curved: bool = False, arclength: bool = False, between: bool = False,
               penalty: float | None = None, on_iterate: Callable[[Iterate], None] | None = None,
-              margins: dict[str, np.ndarray] | None = None) -> Result:  # fmt: skip
+              margins: dict[str, np.ndarray] | None = None, clock: str = "wall") -> Result:  # fmt: skip
     """The sequence of strip solves from the centre-line start (see the module docstring); ``trust``
     and ``curved`` as in ``add_strip_constraints``. ``arclength``: the nodes fixed to the arclengths
     ``node_arclengths`` (``add_node_rows``) and the time free per interval (``TranscriptionOptions.free_grid``).
@@ -453,18 +454,22 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
     reported ``objective`` is always the problem's own (for the time objective Tf, on either grid).
 
     ``start``: the first solve's start (default ``centre_line_start``; its projections fix the first
-    strips). ``deadline`` (``time.monotonic()``): each Ipopt run gets the time left as ``max_wall_time``
-    (at least ``MIN_WALL_TIME``) and no solve begins after it. ``on_iterate``: called with each Iterate.
+    strips). ``deadline``, an instant of ``clock`` (``model.direct.solve.CLOCKS``: "wall", ``time.monotonic()``, or
+    "cpu", ``time.process_time()``): each Ipopt run gets the time left as ``max_wall_time`` (``max_cpu_time``), at
+    least ``MIN_WALL_TIME`` (``wall_time_options``), and no solve begins after it. ``on_iterate``: called with each
+    Iterate.
     """
     st = st or strips(ocp)
     start = start or centre_line_start(ocp, intervals, st)
     s_fixed = projections(ocp, start.values, st, between)
     result = Result()
     for k in range(iterations):
-        if k and deadline is not None and time.monotonic() >= deadline:
+        left = time_left(deadline, clock)
+        if k and left is not None and left <= 0.0:
             break
-        it, s_new = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, _timed(options, deadline), curved,
-                                 arclength, between, penalty, margins)  # fmt: skip
+        timed = wall_time_options(dict(options or {}), deadline, MIN_WALL_TIME, clock)
+        it, s_new = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, timed, curved, arclength, between,
+                                 penalty, margins)  # fmt: skip
         result.iterates.append(it)
         if on_iterate is not None:
             on_iterate(it)
@@ -509,18 +514,6 @@ def answer_start(ocp: OCP, sol: Solution) -> Start:
     """A start from an answer: its states, controls, Tf and node times."""
     cols = {k: np.asarray(sol.columns[k]) for k in ocp.vehicle.states + ocp.vehicle.controls}
     return Start(values=cols, final_time=sol.final_time, times=np.asarray(sol.columns["t"], float))
-
-
-MIN_WALL_TIME = 0.5  # s: a strip solve begun before the deadline runs at least this long
-
-
-def _timed(options: dict | None, deadline: float | None) -> dict:
-    """``options`` with the time left before ``deadline`` as Ipopt's ``max_wall_time`` (the smaller of the two)."""
-    out = dict(options or {})
-    if deadline is not None:
-        left = max(deadline - time.monotonic(), MIN_WALL_TIME)
-        out["max_wall_time"] = min(float(out.get("max_wall_time", left)), left)
-    return out
 
 
 def _strip_solve(ocp: OCP, intervals: int, st: Strips, s_fixed: dict[str, np.ndarray], start: Start,

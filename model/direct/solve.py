@@ -136,18 +136,27 @@ CLOCKS = {"wall": (time.monotonic, "max_wall_time"), "cpu": (time.process_time, 
 """A time limit's clock: the function its deadline is an instant of, and the Ipopt option that bounds a run."""
 
 
+def time_left(deadline: float | None, clock: str = "wall") -> float | None:
+    """Seconds of ``clock`` (``CLOCKS``) left until ``deadline``, an instant of that clock (negative once past;
+    None: no deadline)."""
+    return None if deadline is None else deadline - CLOCKS[clock][0]()
+
+
 def wall_time_options(options: dict, deadline: float | None, floor: float | None = None,
                       clock: str = "wall") -> dict | None:  # fmt: skip
     """``options`` with ``max_wall_time`` (``clock`` "cpu": ``max_cpu_time``) at most the seconds left until
-    ``deadline`` (but at least ``floor``, if given); None if none are left."""
-    if deadline is None:
+    ``deadline`` (but at least ``floor``, if given); None if none are left.
+
+    The one time budget of an Ipopt run: the roundabout search's starts (``solve_starts``) and the map search's
+    strip solves (``model.direct.map_corridor.solve_map``, with its ``floor``) both take it from here."""
+    left = time_left(deadline, clock)
+    if left is None:
         return options
-    now, key = CLOCKS[clock]
-    left = deadline - now()
     if floor is not None:
         left = max(left, floor)
     if left <= 0.0:
         return None
+    key = CLOCKS[clock][1]
     return {**options, key: min(left, float(options.get(key, left)))}
 
 
@@ -283,5 +292,6 @@ __all__ = [
     "paused_gc",
     "primal_columns",
     "solve_starts",
+    "time_left",
     "wall_time_options",
 ]

@@ -3,7 +3,8 @@
 ``solve_ocp`` (``model.search.multistart``) makes one ``Search`` and hands it to each step
 (screening, cold starts, smooth routes, the road's steps, continuation, accuracy). Every Ipopt
 run of the search goes through ``Search.solve``: the body formulation and the Ipopt options are
-the search's, and with a time limit each run gets the time left as ``max_wall_time`` and the
+the search's, and with a time limit (its ``Budget``, ``model.search.budget``, which the map search
+keeps too) each run gets the time left as ``max_wall_time`` (``max_cpu_time``) and the
 starts not begun in time are counted as skipped (``Search.record_of_search`` is summary.json's
 ``search``). The first validated (analysed) start of a search always runs, for at least
 ``MIN_WALL_TIME``, so even a budget too small for anything leaves an answer or the evidence of a
@@ -19,9 +20,10 @@ from dataclasses import dataclass, field
 from model.analysis.columns import Columns
 from model.direct.bodies import DEFAULT_FORMULATION
 from model.direct.solution import Solution
-from model.direct.solve import CLOCKS, NOT_BELOW, Start, solve_starts
+from model.direct.solve import NOT_BELOW, Start, solve_starts
 from model.problem.ocp import OCP
 from model.search.accuracy import CONVERGED
+from model.search.budget import Budget
 from model.search.starts import distinct_starts, passes_to_try, start_values
 
 MIN_WALL_TIME = 0.1  # s: the first start of a search runs at least this long whatever the budget left
@@ -95,35 +97,38 @@ class Search:
     models: dict = field(default_factory=dict)  # the models built, reused by later steps (``solve_starts``' models)
 
     def __post_init__(self) -> None:
-        if self.clock not in CLOCKS:
-            raise ValueError(f"clock must be one of {', '.join(CLOCKS)}, got {self.clock!r}")
-        if self.started is None:
-            self.started = self.now()
+        self.started = Budget(self.time_limit, self.clock, self.started, self.reserve).started  # (checks the clock)
+
+    @property
+    def budget(self) -> Budget:
+        """The search's time budget (``model.search.budget``): ``time_limit`` of ``clock`` from ``started``, less
+        ``reserve``. Made from those fields whenever asked, so that a copy of the search (``dataclasses.replace``)
+        or a changed field never keeps a stale one."""
+        return Budget(self.time_limit, self.clock, self.started, self.reserve)
 
     def now(self) -> float:
         """The search clock's reading (``time.monotonic()`` or ``time.process_time()``)."""
-        return CLOCKS[self.clock][0]()
+        return self.budget.now()
 
     @property
     def deadline(self) -> float | None:
         """The clock's instant the budget ends, ``reserve`` before the limit (None: no limit)."""
-        return None if self.time_limit is None else self.started + self.time_limit - self.reserve
+        return self.budget.deadline
 
     def remaining(self) -> float | None:
         """Seconds left (negative once over; None: no limit)."""
-        return None if self.deadline is None else self.deadline - self.now()
+        return self.budget.remaining()
 
     def expired(self) -> bool:
         """Whether the time limit has passed."""
-        left = self.remaining()
-        return left is not None and left <= 0.0
+        return self.budget.expired()
 
     def skip(self, step: str, starts: int = 0) -> bool:
         """True (and ``step`` and its ``starts`` noted as skipped) if the time limit has passed.
 
-        Never before the search's first analysed start (it always runs: ``Search.solve``).
+        Never before the search's first analysed start (it always runs: ``Search.solve``): ``Budget.skips``.
         """
-        if not self.expired() or not self.answered():
+        if not self.budget.skips(self.answered()):
             return False
         self.steps_skipped.append(step)
         self.starts_skipped += starts
@@ -149,7 +154,7 @@ class Search:
         """
         if not self.stopped and self.time_limit is not None:
             self.stopped = True
-            self.progress(f"time limit of {self.time_limit:g} s reached: the search stops with what it has found")
+            self.progress(self.budget.reached("the search"))
 
     def solve(
         self,
@@ -170,7 +175,7 @@ class Search:
         is not analysed (``solve_starts``' ``analyse_below``; for the steps that only choose the best).
         """
         first = MIN_WALL_TIME if analyse and not self.answered() else None  # the search's first answer always comes
-        capped = {CLOCKS[self.clock][1]: self.run_cap} if self.run_cap is not None else {}
+        capped = {self.budget.run_option: self.run_cap} if self.run_cap is not None else {}
         distinct, index = distinct_starts(list(starts))  # a start equal to an earlier one gets its answer
         solved = solve_starts(self.ocp, intervals, passing, distinct, self.verbose,
                               {**capped, **(extra or {}), **self.options}, relax, analyse,

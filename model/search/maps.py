@@ -38,8 +38,8 @@ until the projections move less than 5 cm (at most 8 solves). The search runs, u
 The best validated answer (the lowest objective) is returned; with none, the failed answer whose
 bodies leave the corridor least, with ``diagnosis``: which body leaves it where and by how much
 (``model.analysis.maps``), the failed checks, and the minimal violation of step 3. ``time_limit``
-(s) is honoured as the roundabout search does (``model.search.context``): each Ipopt run gets the
-time left, no solve begins after it, and ``search`` says what it cut short. ``progress`` gets one
+(s of ``clock``, "wall" or "cpu") is honoured with the roundabout search's ``Budget`` (``model.search.budget``): each
+Ipopt run gets the time left, no solve begins after it, and ``search`` says what it cut short. ``progress`` gets one
 line per step and per strip solve.
 """
 
@@ -68,6 +68,7 @@ from model.direct.map_corridor import (
 from model.direct.solution import Solution
 from model.direct.solve import Start
 from model.problem.ocp import OCP
+from model.search.budget import Budget
 from model.search.context import Reporter, reporter
 
 ITERATIONS = 8  # at most this many strip solves in a sequence
@@ -80,20 +81,24 @@ TIGHT_SLACK = 0.01  # the tight strips' cover discs: at most 1 % of the half-wid
 TIGHT_RESOLUTION = 0.01  # m: the tight strips' bounds are multiples of this (default 0.05)
 PENALTY = 100.0  # per m of strip slack (s/m for the time objective): the arclength grid's penalty sequence
 GRIDS = {"time": ("time",), "arclength": ("arclength",), "time+arclength": ("time", "arclength")}  # ``grid``'s
+ARCLENGTH = "arclength"  # the grid of node k fixed to the frame's arclength s_k (``solve_map(arclength=True)``)
 CONVERGED = ("optimal", "acceptable", "validation_failed")  # Ipopt converged (a check may have failed)
 
 
 @dataclass
 class MapSearch:
-    """One map search's state: the problem, strips, Ipopt options, clock, the sequences run."""
+    """One map search's state: the problem, strips, Ipopt options, time budget, the sequences run.
+
+    Each step gets its grid as an argument (``sequence``'s ``grid``, ``GRIDS``), none is kept here.
+    """
 
     ocp: OCP
     intervals: int
     st: Strips
     options: dict
     progress: Reporter
-    time_limit: float | None = None
-    started: float = field(default_factory=time.monotonic)
+    budget: Budget = field(default_factory=Budget)  # the time limit on its clock (``model.search.budget``)
+    started: float = field(default_factory=time.monotonic)  # wall clock: the record's ``seconds``
     sequences: list[dict] = field(default_factory=list)
     steps_skipped: list[str] = field(default_factory=list)
     best: Solution | None = None
@@ -102,33 +107,25 @@ class MapSearch:
     best_sequence: int = -1  # the index in ``sequences`` of the best answer's sequence
     tight: Strips | None = None  # the tight strips of ``_tight_step``, measured when first needed
     penalty_answer: dict | None = None  # the last converged penalty sequence's evidence (``_converged_penalty``)
-    grid: str = "time"  # the current sequences' nodes: "time" (equal steps of a free Tf) or "arclength"
     loop: dict | None = None  # step 5's outcome (``_loop_step``): loops, valid, least exact clearance at the nodes
 
-    @property
-    def deadline(self) -> float | None:
-        """The ``time.monotonic()`` instant the budget ends (None: no limit)."""
-        return None if self.time_limit is None else self.started + self.time_limit
-
-    def expired(self) -> bool:
-        """Whether the time limit has passed."""
-        return self.deadline is not None and time.monotonic() >= self.deadline
-
     def skip(self, step: str) -> bool:
-        """True (and ``step`` noted as skipped) if the time limit has passed (never before the first sequence)."""
-        if not self.sequences or not self.expired():
+        """True (and ``step`` noted as skipped) if the time limit has passed (never before the first sequence:
+        ``Budget.skips``)."""
+        if not self.budget.skips(bool(self.sequences)):
             return False
         if not self.steps_skipped:
-            self.progress(f"time limit of {self.time_limit:g} s reached: the map search stops with what it has found")
+            self.progress(self.budget.reached("the map search"))
         self.steps_skipped.append(step)
         return True
 
-    def sequence(self, label: str, start: Start | None = None, intervals: int | None = None,
+    def sequence(self, label: str, grid: str, start: Start | None = None, intervals: int | None = None,
                  relax: bool = False, penalty: float | None = None, between: bool = False,
                  st: Strips | None = None, margins: dict[str, np.ndarray] | None = None) -> Result:  # fmt: skip
-        """One sequence of strip solves (``solve_map``; ``st``: these strips instead of ``self.st``), recorded
-        and reported; the best answer kept: the sequence's last (not of a minimal-violation sequence); on the
-        arclength grid any of its solves (``penalty``: of a penalty sequence too) that validates, else the last."""
+        """One sequence of strip solves (``solve_map``) on ``grid`` ("time": equal steps of a free Tf, or
+        "arclength"; ``st``: these strips instead of ``self.st``), recorded and reported; the best answer kept: the
+        sequence's last (not of a minimal-violation sequence); on the arclength grid any of its solves
+        (``penalty``: of a penalty sequence too) that validates, else the last."""
         n = intervals or self.intervals
         solves: list[dict] = []
 
@@ -142,13 +139,13 @@ class MapSearch:
                           f"moved {it.moved:.3f} m, exact clearance {it.exact_clearance:+.3f} m{extra}, "
                           f"{it.seconds:.1f} s")  # fmt: skip
 
-        arclength = self.grid == "arclength"
+        arclength = grid == ARCLENGTH
         result = solve_map(self.ocp, n, iterations=ITERATIONS, tol=TOLERANCE, options=self.options, st=st or self.st,
-                           relax=relax or penalty is not None, start=start, deadline=self.deadline,
+                           relax=relax or penalty is not None, start=start, deadline=self.budget.deadline,
                            arclength=arclength, penalty=penalty, between=between, on_iterate=report,
-                           margins=margins)  # fmt: skip
+                           margins=margins, clock=self.budget.clock)  # fmt: skip
         last = result.iterates[-1]
-        self.sequences.append({"start": label, "intervals": n, "relaxed": relax, "grid": self.grid, "solves": solves,
+        self.sequences.append({"start": label, "intervals": n, "relaxed": relax, "grid": grid, "solves": solves,
                                "converged": last.moved < TOLERANCE and last.solution.status in CONVERGED,
                                "valid": bool(last.solution.ok),
                                **({"penalty": penalty} if penalty is not None else {}),
@@ -189,7 +186,7 @@ def _before(it: Iterate, best: Solution | None, clearance: float) -> bool:
 
 def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None, verbose: bool = False,
                     progress=None, time_limit: float | None = None, search: str = "default",
-                    grid: str = "time+arclength", **_ignored: Any) -> Solution:  # fmt: skip
+                    grid: str = "time+arclength", clock: str = "wall", **_ignored: Any) -> Solution:  # fmt: skip
     """Solve a route through a lanelet map by the steps of the module docstring.
 
     Parameters
@@ -203,7 +200,10 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
     progress : callable, optional
         Receives the search's progress lines.
     time_limit : float, optional
-        Seconds for the whole search (None: no limit).
+        Seconds of ``clock`` for the whole search (None: no limit).
+    clock : str
+        What ``time_limit`` counts (``model.search.budget.Budget``): "wall" seconds, or the process's "cpu"
+        seconds (each strip solve's Ipopt ``max_cpu_time``), as the roundabout search's ``clock``.
     search : str
         "quick" (steps 1-2), "default" (steps 1-3) or "thorough" (steps 1-4).
     grid : str
@@ -211,13 +211,14 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
         the route's frame and the time free per interval (``solve_map(arclength=True)``); "time+arclength":
         the time grid's steps 1-3, then, where none validated, the arclength grid's (not with "quick").
     **_ignored
-        The roundabout search's other options (``guess``, ``starts``, ``formulation``), not used here.
+        The roundabout search's other options (``guess``, ``starts``, ``formulation``), not used here (``clock`` is:
+        a CPU budget stays one on a map).
 
     Returns
     -------
     Solution
         The best answer; ``search`` records each sequence (start, N, each solve's status, Tf, how far
-        the projections moved, the exact clearance at the nodes) and the time limit; ``diagnosis`` is
+        the projections moved, the exact clearance at the nodes) and the time limit and its clock; ``diagnosis`` is
         set unless ``ok``.
     """
     ipopt = dict(options or {})
@@ -227,7 +228,7 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
         raise ValueError(f"search must be one of {', '.join(SPEEDS)}, got {search!r}")
     if grid not in GRIDS:
         raise ValueError(f"grid must be one of {', '.join(GRIDS)}, got {grid!r}")
-    run = MapSearch(ocp, intervals, strips(ocp), ipopt, reporter(progress), time_limit, grid=GRIDS[grid][0])
+    run = MapSearch(ocp, intervals, strips(ocp), ipopt, reporter(progress), Budget(time_limit, clock))
     run.progress("map search: the strip sequence from the centre line")
     _steps(run, search, grid)
     if not run.best.ok and search != "quick" and not run.skip("loop round the ring"):
@@ -238,25 +239,23 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
 def _steps(run: MapSearch, search: str, grid: str) -> None:
     """Steps 1-4 of the module docstring on ``run``'s problem."""
     first, *then = GRIDS[grid]
-    run.sequence("centre line x0.5")
-    _refine(run)
-    if run.grid == "arclength":
+    run.sequence("centre line x0.5", first)
+    _refine(run, first)
+    if first == ARCLENGTH:
         _tight_step(run, _penalty_step(run))
     if not run.best.ok and search != "quick" and not run.skip("minimal violation"):
-        _minimal_violation_step(run)
+        _minimal_violation_step(run, first)
     if then and not run.best.ok and search != "quick" and not run.skip("arclength grid"):
-        run.grid = "arclength"
         run.progress("no sequence validated on the time grid: the arclength grid (nodes fixed to the frame)")
-        run.sequence("arclength grid, centre line x0.5")
-        _refine(run)
+        run.sequence("arclength grid, centre line x0.5", ARCLENGTH)
+        _refine(run, ARCLENGTH)
         _tight_step(run, _penalty_step(run))
-        run.grid = first  # step 4 on the time grid, as before
-    for speed in SPEEDS[search]:
+    for speed in SPEEDS[search]:  # step 4 on the first grid, as before
         if run.best.ok or run.skip(f"centre line x{speed:g}"):
             break
         run.progress(f"no sequence validated: the centre line at {speed:g} of the speed bound")
-        run.sequence(f"centre line x{speed:g}", centre_line_start(run.ocp, run.intervals, run.st, speed))
-        _refine(run)
+        run.sequence(f"centre line x{speed:g}", first, centre_line_start(run.ocp, run.intervals, run.st, speed))
+        _refine(run, first)
 
 
 def looped_problem(ocp: OCP) -> OCP | None:
@@ -278,8 +277,7 @@ def _loop_step(run: MapSearch, search: str, grid: str) -> None:
     if looped is None:
         return
     run.progress("no sequence validated on the route: the same once more round the ring (a loop)")
-    inner = MapSearch(looped, run.intervals, strips(looped), run.options, run.progress, run.time_limit,
-                      started=run.started, grid=GRIDS[grid][0])  # fmt: skip
+    inner = MapSearch(looped, run.intervals, strips(looped), run.options, run.progress, run.budget, run.started)
     _steps(inner, search, grid)
     offset = len(run.sequences)
     run.sequences += [{**s, "loops": looped.map_route.loops} for s in inner.sequences]
@@ -299,7 +297,7 @@ def _penalty_step(run: MapSearch) -> Iterate | None:
     if run.best.ok or run.skip("penalty"):
         return None
     run.progress(f"no solve validated: the strips as an exact penalty ({PENALTY:g} per m of slack)")
-    last = run.sequence("centre line x0.5, penalty", penalty=PENALTY).iterates[-1]
+    last = run.sequence("centre line x0.5, penalty", ARCLENGTH, penalty=PENALTY).iterates[-1]
     _converged_penalty(run, last, "default")
     return last
 
@@ -328,27 +326,30 @@ def _tight_step(run: MapSearch, last: Iterate | None) -> None:
         return
     run.progress(f"the penalty answer needs {last.violation[1]:.3f} m of slack at most: the same on tighter strips")
     run.tight = run.tight or tight_strips(run.ocp)
-    result = run.sequence("tight strips, penalty", answer_start(run.ocp, last.solution), penalty=PENALTY, st=run.tight)
+    result = run.sequence("tight strips, penalty", ARCLENGTH, answer_start(run.ocp, last.solution), penalty=PENALTY,
+                          st=run.tight)  # fmt: skip
     _converged_penalty(run, result.iterates[-1], "tight")
     sol = result.iterates[-1].solution
     if not _still_between(run, sol, "tight strips, mid-interval rows"):
         return
     run.progress("the tight answer leaves the corridor only between the nodes: mid-interval strip rows from it")
-    sol = run.sequence("tight strips, penalty, mid-interval rows", answer_start(run.ocp, sol), penalty=PENALTY,
-                       between=True, st=run.tight).iterates[-1].solution  # fmt: skip
+    sol = run.sequence("tight strips, penalty, mid-interval rows", ARCLENGTH, answer_start(run.ocp, sol),
+                       penalty=PENALTY, between=True, st=run.tight).iterates[-1].solution  # fmt: skip
     if not _still_between(run, sol, "tight strips, finer grid"):
         return
     n = 2 * run.intervals
     run.progress(f"the tight answer still leaves the corridor between the nodes: the same on N = {n} from it")
-    sol = run.sequence("tight strips, penalty, mid-interval rows, finer grid", interpolated(run.ocp, sol, n, True), n,
-                       penalty=PENALTY, between=True, st=run.tight).iterates[-1].solution  # fmt: skip
+    sol = run.sequence("tight strips, penalty, mid-interval rows, finer grid", ARCLENGTH,
+                       interpolated(run.ocp, sol, n, True), n, penalty=PENALTY, between=True,
+                       st=run.tight).iterates[-1].solution  # fmt: skip
     margins = back_offs(run.ocp, sol.columns) if fails_only_between_nodes(sol.validation) else {}
     if run.best.ok or not margins or run.skip("tight strips, backed off"):
         return
     run.progress(f"the motion between the nodes still leaves the corridor: the rows next to it narrowed by up to "
                  f"{largest_back_off(margins):.3f} m")  # fmt: skip
-    run.sequence("tight strips, penalty, mid-interval rows, finer grid, backed off", answer_start(run.ocp, sol), n,
-                 penalty=PENALTY, between=True, st=run.tight, margins=margins)  # fmt: skip
+    run.sequence("tight strips, penalty, mid-interval rows, finer grid, backed off", ARCLENGTH,
+                 answer_start(run.ocp, sol), n, penalty=PENALTY, between=True, st=run.tight,
+                 margins=margins)  # fmt: skip
 
 
 def _still_between(run: MapSearch, sol: Solution, step: str) -> bool:
@@ -362,21 +363,22 @@ def tight_strips(ocp: OCP) -> Strips:
     return strips(ocp, slack=TIGHT_SLACK, resolution=TIGHT_RESOLUTION)
 
 
-def _refine(run: MapSearch) -> None:
-    """Step 2: the sequence on 2N from an answer that fails only between the nodes."""
+def _refine(run: MapSearch, grid: str) -> None:
+    """Step 2 on ``grid``: the sequence on 2N from an answer that fails only between the nodes."""
     best = run.best
     if best.intervals != run.intervals or not _still_between(run, best, "finer grid"):
         return
-    if run.grid == "arclength":  # first the strip rows also at each interval's mid-state, on the same N
+    if grid == ARCLENGTH:  # first the strip rows also at each interval's mid-state, on the same N
         run.progress("the answer leaves the corridor only between the nodes: mid-interval strip rows from it")
-        run.sequence(f"mid-interval rows from {run.sequences[-1]['start']}", answer_start(run.ocp, best), between=True)
+        run.sequence(f"mid-interval rows from {run.sequences[-1]['start']}", grid, answer_start(run.ocp, best),
+                     between=True)  # fmt: skip
         best = run.best
         if not _still_between(run, best, "finer grid"):
             return
     n = 2 * run.intervals
     run.progress(f"the answer leaves the corridor only between the nodes: the strips on N = {n} from it")
-    start = interpolated(run.ocp, best, n, run.grid == "arclength")
-    run.sequence(f"finer grid from {run.sequences[-1]['start']}", start, n)
+    start = interpolated(run.ocp, best, n, grid == ARCLENGTH)
+    run.sequence(f"finer grid from {run.sequences[-1]['start']}", grid, start, n)
 
 
 def interpolated(ocp: OCP, sol: Solution, intervals: int, by_node: bool = False) -> Start:
@@ -390,17 +392,17 @@ def interpolated(ocp: OCP, sol: Solution, intervals: int, by_node: bool = False)
                  final_time=sol.final_time, times=np.interp(new, tau, t) if by_node else None)  # fmt: skip
 
 
-def _minimal_violation_step(run: MapSearch) -> None:
-    """Step 3: the minimal-violation sequence from the centre line; the plain strips from its answer."""
+def _minimal_violation_step(run: MapSearch, grid: str) -> None:
+    """Step 3 on ``grid``: the minimal-violation sequence from the centre line; the plain strips from its answer."""
     run.progress("no sequence validated: the strips with slacks (minimal violation), then the strips from it")
-    relaxed = run.sequence("minimal violation", relax=True).iterates[-1]
+    relaxed = run.sequence("minimal violation", grid, relax=True).iterates[-1]
     if relaxed.violation is None or relaxed.solution.status not in CONVERGED:
         return
     run.violation = relaxed.violation
     if relaxed.violation[1] > NEAR or run.skip("strips from the minimal violation"):
         return
-    run.sequence("from the minimal violation", answer_start(run.ocp, relaxed.solution))
-    _refine(run)
+    run.sequence("from the minimal violation", grid, answer_start(run.ocp, relaxed.solution))
+    _refine(run, grid)
 
 
 def _finished(run: MapSearch) -> Solution:
@@ -415,7 +417,7 @@ def _finished(run: MapSearch) -> Solution:
         "solves": last["solves"],  # the sequence of the answer
         "converged": sol.search.get("converged", False),
         "sequences": run.sequences,
-        "time_limit": run.time_limit, "stopped_by_time_limit": bool(run.steps_skipped),
+        "time_limit": run.budget.limit, "clock": run.budget.clock, "stopped_by_time_limit": bool(run.steps_skipped),
         "starts_skipped": len(run.steps_skipped), "steps_skipped": run.steps_skipped,
         "seconds": time.monotonic() - run.started,
         **({"loop": run.loop} if run.loop else {}),
