@@ -184,15 +184,16 @@ def _vehicle(table: dict[str, Any]) -> tuple[Vehicle, dict[str, Body], dict[str,
     operational = _operational(table)
     longitudinal = {**operational.get("longitudinal", {}), **_subtable(table, "longitudinal", "vehicle.")}
     vehicle, limits = _longitudinal(cls(**kwargs), longitudinal)
-    turning = vehicle.roles.steering_rate
-    extra = {turning if key == "steering_rate" else key: pair for key, pair in operational.get("bounds", {}).items()}
+    by_role = {"steering_rate": vehicle.roles.steering_rate, "speed": vehicle.roles.speed}
+    extra = {by_role.get(key, key): pair for key, pair in operational.get("bounds", {}).items()}
     extra.pop(None, None)  # a model without a steering rate takes no steering-rate bound
     return vehicle, bodies, _speed_bound(vehicle, preset_bounds) | extra | limits
 
 
 def _operational(table: dict[str, Any]) -> dict[str, Any]:
-    """``[vehicle] operational = true``: the preset's ``[vehicle.longitudinal]`` and bounds (v, the lateral
-    acceleration, the steering rate) by key, from ``operational_limits``; nothing when false or absent."""
+    """``[vehicle] operational = true``: the preset's ``[vehicle.longitudinal]`` and bounds (of the lateral
+    acceleration, and by role of the speed and the steering rate), from ``operational_limits``; nothing when
+    false or absent."""
     flag = table.get("operational", False)
     if not isinstance(flag, bool):
         raise InputError("vehicle.operational", f"must be true or false, got {flag!r}")
@@ -206,7 +207,7 @@ def _operational(table: dict[str, Any]) -> dict[str, Any]:
     lat = limits.lateral_acceleration
     return {
         "longitudinal": {"acceleration": list(limits.acceleration), "jerk": list(limits.jerk)},
-        "bounds": {"v": (0.0, limits.speed), "lateral_acceleration": (-lat, lat),
+        "bounds": {"speed": (0.0, limits.speed), "lateral_acceleration": (-lat, lat),
                    "steering_rate": (-limits.steering_rate, limits.steering_rate)},
     }  # fmt: skip
 
