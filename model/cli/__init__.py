@@ -97,6 +97,8 @@ def parser() -> argparse.ArgumentParser:
     m.add_argument("--controller", required=True, metavar="NAME", help="|".join(CONTROLLERS))
     m.add_argument("--runs", type=int, default=1, metavar="K", help="K runs with seeds seed, seed + 1, ... (runs.csv)")
     m.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals of the open-loop solve")
+    m.add_argument("--plant", metavar="MODEL",
+                   help="kinematic|single-track: override plant.model (docs/closed-loop-format.md)")  # fmt: skip
     m.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log of the open-loop solve")
     m.add_argument("--quiet", action="store_true", help="print no progress on stderr (results and errors only)")
     f = sub.add_parser("traffic", help="drive the truck through SUMO traffic; DIR/summary.json, traffic.csv")
@@ -316,6 +318,13 @@ def check_simulate(args, scenario) -> None:
         raise InputError("--controller", f"must be one of {list(CONTROLLERS)}, got {args.controller!r}")
     if args.runs < 1:
         raise InputError("--runs", f"must be >= 1, got {args.runs}")
+    if args.plant is not None and args.plant != scenario.plant.model:
+        from model.problem.closed_loop import PLANT_MODELS, PlantSettings, check_plant
+
+        if args.plant not in PLANT_MODELS:
+            raise InputError("--plant", f"must be one of {list(PLANT_MODELS)}, got {args.plant!r}")
+        scenario.plant = PlantSettings(model=args.plant)  # the scenario's [plant] numbers are another model's
+        check_plant(scenario.plant, scenario.ocp.vehicle, scenario.disturbance, key="--plant")
     tf, h = scenario.ocp.final_time, scenario.control.sample_time
     if not scenario.ocp.cost.free_final_time and h > tf:
         raise InputError("control.sample_time", f"{h:g} s exceeds problem.final_time = {tf:g} s")

@@ -18,6 +18,14 @@ from model.vehicles import Vehicle
 DISTURBANCE_KEYS = {"speed_gain", "steering_bias", "drift", "wheelbase", "delay", "noise", "seed"}
 CONTROL_KEYS = {"sample_time", "horizon", "interval_samples", "realtime"}
 MULTIPLE_TOL = 1e-9  # relative: delay / sample_time within this of a whole number
+PLANT_MODELS = ("kinematic", "single-track")
+PLANT_NUMBERS = {  # [plant] key -> the model's name for it (model.simulation.single_track), each > 0
+    "mass": "mass", "yaw_inertia": "yaw_inertia", "cg_to_front_axle": "lf", "cg_to_rear_axle": "lr",
+    "cornering_coefficient_front": "cf", "cornering_coefficient_rear": "cr", "cg_height": "h_cg",
+    "friction_coefficient": "mu", "speed_tracking_gain": "speed_gain",
+}  # fmt: skip
+PLANT_KEYS = {"model", "acceleration_limits", *PLANT_NUMBERS}
+LENGTH_TOL = 1e-6  # m: cg_to_front_axle + cg_to_rear_axle must be the plant's wheelbase within this
 
 
 @dataclass(frozen=True)
@@ -198,4 +206,107 @@ def _lengths(val: Any, vehicle: Vehicle | None) -> dict[str, float]:
     return lengths
 
 
-__all__ = ["ControlSettings", "Disturbance", "parse_closed_loop"]
+@dataclass(frozen=True)
+class PlantSettings:
+    """The ``[plant]`` table: which model the plant integrates and the values a scenario sets for it.
+
+    ``model`` is ``"kinematic"`` (the planning model with the disturbances, today's plant) or
+    ``"single-track"`` (CommonRoad's dynamic single-track model, ``model.simulation.single_track``).
+    ``values`` holds the numbers the scenario gives, by the model's names (``mass``, ``yaw_inertia``,
+    ``lf``, ``lr``, ``cf``, ``cr``, ``h_cg``, ``mu``, ``speed_gain``, ``acceleration_limits``); the
+    others take the defaults of ``model.simulation.single_track`` (from the wheelbase, with sources).
+    """
+
+    model: str = "kinematic"
+    values: dict[str, Any] = field(default_factory=dict)
+
+
+def parse_plant(data: dict[str, Any], vehicle: Vehicle, disturbance: Disturbance) -> PlantSettings:
+    """The scenario's ``[plant]`` table (``PlantSettings()`` when absent).
+
+    Raises
+    ------
+    InputError
+        Naming the first bad key: unknown keys, a model not in ``PLANT_MODELS``, numbers that are
+        not finite and > 0, keys of the single-track model beside ``model = "kinematic"``, axle
+        distances that do not add up to the plant's wheelbase, a vehicle or disturbance the
+        single-track plant does not take (``check_plant``).
+    """
+    table = table_of(data, "plant") if "plant" in data else {}
+    no_unknown(table, PLANT_KEYS, "plant.")
+    model = table.get("model", "kinematic")
+    if model not in PLANT_MODELS:
+        raise InputError("plant.model", f"must be one of {list(PLANT_MODELS)}, got {model!r}")
+    values: dict[str, Any] = {}
+    for key, name in PLANT_NUMBERS.items():
+        if key in table:
+            values[name] = _finite(table, key, "plant.", 0.0)
+            if values[name] <= 0:
+                raise InputError("plant." + key, f"must be > 0, got {values[name]:g}")
+    if "acceleration_limits" in table:
+        values["acceleration_limits"] = _acceleration_limits(table["acceleration_limits"])
+    if model == "kinematic" and values:
+        key = next(k for k in table if k != "model")
+        raise InputError("plant." + key, 'only with model = "single-track" (the kinematic plant takes no parameters)')
+    settings = PlantSettings(model=model, values=values)
+    check_plant(settings, vehicle, disturbance)
+    return settings
+
+
+def check_plant(settings: PlantSettings, vehicle: Vehicle, disturbance: Disturbance, key: str = "plant.model") -> None:
+    """Whether the single-track plant takes this vehicle and disturbance (nothing to check for the kinematic).
+
+    Parameters
+    ----------
+    settings : PlantSettings
+    vehicle : Vehicle
+    disturbance : Disturbance
+    key : str
+        The key an error names (``--plant`` when the command line chose the model).
+
+    Raises
+    ------
+    InputError
+        For a vehicle without a steering angle and its rate, a tractor-trailer (not yet), a model
+        whose speed is not along the heading times a factor of the steering angle, the disturbances
+        of the kinematic plant (speed gain, steering bias, drift), axle distances that do not add
+        up to the plant's wheelbase.
+    """
+    if settings.model == "kinematic":
+        return
+    r = vehicle.roles
+    if r.trailers:
+        raise InputError(key, f'"single-track" is not yet for {vehicle.model} (a model with trailers)')
+    if r.steering is None or r.steering_rate is None or r.steering_rate not in vehicle.controls:
+        raise InputError(key, f'"single-track" needs a steering angle and its rate; the {vehicle.model} model has none')
+    if "wheelbase" not in vehicle.parameter_keys.values():
+        raise InputError(key, f'"single-track" needs a wheelbase; the {vehicle.model} model has none')
+    for name in ("speed_gain", "steering_bias", "drift"):
+        if getattr(disturbance, name) != getattr(Disturbance(), name):
+            raise InputError(f"disturbance.{name}", 'for the kinematic plant only (not with "single-track")')
+    _axle_distances(settings.values, vehicle, disturbance)
+
+
+def _axle_distances(values: dict[str, Any], vehicle: Vehicle, disturbance: Disturbance) -> None:
+    """Both axle distances given: their sum is the plant's wheelbase; one: it is shorter than the wheelbase."""
+    wheelbase = disturbance.wheelbase.get("wheelbase", vehicle.parameter_values()["wheelbase"])
+    given = {name: values[name] for name in ("lf", "lr") if name in values}
+    keys = {"lf": "plant.cg_to_front_axle", "lr": "plant.cg_to_rear_axle"}
+    if len(given) == 2 and abs(given["lf"] + given["lr"] - wheelbase) > LENGTH_TOL:
+        raise InputError(
+            keys["lr"], f"cg_to_front_axle + cg_to_rear_axle = {given['lf'] + given['lr']:g} m must be the wheelbase "
+            f"{wheelbase:g} m (give one, the other follows)",
+        )  # fmt: skip
+    for name, val in given.items():
+        if len(given) == 1 and val >= wheelbase:
+            raise InputError(keys[name], f"must be < the wheelbase {wheelbase:g} m, got {val:g}")
+
+
+def _acceleration_limits(val: Any) -> tuple[float, float]:
+    ok = isinstance(val, list) and len(val) == 2 and all(is_number(v) and math.isfinite(v) for v in val)
+    if not ok or not val[0] < 0 < val[1]:
+        raise InputError("plant.acceleration_limits", f"must be [lo, hi] with lo < 0 < hi (m/s^2), got {val!r}")
+    return float(val[0]), float(val[1])
+
+
+__all__ = ["ControlSettings", "Disturbance", "PlantSettings", "check_plant", "parse_closed_loop", "parse_plant"]

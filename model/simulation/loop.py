@@ -26,7 +26,7 @@ from model.problem.closed_loop import ControlSettings, Disturbance
 from model.problem.scenario import Scenario
 from model.simulation.base import Controller
 from model.simulation.controllers import wrap
-from model.simulation.plant import Plant
+from model.simulation.single_track import make_plant, plan_mismatch
 
 POSITION_SHARE = 0.02  # goal tolerance on the position: this share of the start-goal distance
 ANGLE_TOL = 0.05  # rad: goal tolerance on every angle the scenario fixes at Tf
@@ -122,15 +122,15 @@ def simulate(
     v = ocp.vehicle
     h = control.sample_time
     tf = float(solution.columns["t"][-1])
-    plant = Plant(v, disturbance, h)
+    plant = make_plant(v, disturbance, h, scenario.plant)
     rng = np.random.default_rng(disturbance.seed)
     zero = np.zeros(len(v.controls))
     queue = deque([zero] * control.delay_samples(disturbance))
-    x = np.array([ocp.initial[s] for s in v.states], dtype=float)
-    rows: dict[str, list] = {k: [] for k in ("state", "applied", "measured", "sent", "seconds")}
+    z = plant.start(np.array([ocp.initial[s] for s in v.states], dtype=float))
+    rows: dict[str, list] = {k: [] for k in ("state", "applied", "measured", "sent", "seconds", "plant")}
     failed, grid = 0, [0.0]
     while grid[-1] < _end(controller, tf) - 1e-9:
-        t = grid[-1]
+        t, x = grid[-1], plant.state(z)
         y = plant.measure(x, rng)
         pending = np.array(queue, dtype=float).reshape(len(queue), len(v.controls))
         t0 = time.perf_counter()
@@ -143,11 +143,15 @@ def simulate(
         applied = queue.popleft()
         for key, val in (("state", x), ("applied", applied), ("measured", y), ("sent", sent)):
             rows[key].append(val)
+        rows["plant"].append(plant.extras(z, applied))
         grid.append(min(len(grid) * h, _end(controller, tf)))
-        x = plant.step(x, applied, grid[-1] - t)
-    rows["state"].append(x)
+        z = plant.step(z, applied, grid[-1] - t)
+    rows["state"].append(plant.state(z))
+    rows["plant"].append(plant.extras(z, rows["applied"][-1]))
     columns = _columns(v, solution, np.array(grid), rows)
     summary = _summary(scenario, solution, controller, columns, rows["seconds"], failed, h)
+    if scenario.plant.model != "kinematic":  # the summary of the kinematic plant is as before
+        summary["plant"] = plan_mismatch(plant, columns, solution.columns) | {"min_clearance": summary["min_clearance"]}
     return ClosedLoop(columns=columns, summary=summary)
 
 
@@ -169,6 +173,7 @@ def _columns(v, solution: Solution, grid: np.ndarray, rows: dict) -> dict[str, n
     cols |= {f"sent_{c}": S[:, j] for j, c in enumerate(v.controls)}
     t = np.asarray(solution.columns["t"], dtype=float)
     cols |= {f"ref_{s}": np.interp(grid, t, solution.columns[s]) for s in v.states}
+    cols |= {f"plant_{k}": np.array([row[k] for row in rows["plant"]]) for k in rows["plant"][0]}
     return cols
 
 

@@ -109,6 +109,18 @@ class Plant:
             raise RuntimeError(f"plant integration failed: {sol.message}")
         return sol.y[:, -1]
 
+    def start(self, x: np.ndarray) -> np.ndarray:
+        """The plant's state at the model's state ``x``: the same (a plant of another model converts it)."""
+        return np.asarray(x, dtype=float).copy()
+
+    def state(self, z: np.ndarray) -> np.ndarray:
+        """The model's state at the plant's state ``z``: the same."""
+        return np.asarray(z, dtype=float).copy()
+
+    def extras(self, z: np.ndarray, u: np.ndarray) -> dict[str, float]:
+        """Quantities of the plant beyond the model's state (closed_loop.csv's ``plant_*`` columns): none."""
+        return {}
+
     def measure(self, x: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """The measured state: x, y with noise of std ``noise`` (m), theta with ``noise / 10`` (rad).
 
