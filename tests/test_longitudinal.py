@@ -214,3 +214,58 @@ def test_docs_copy_the_contract():
     if not shared.exists():
         pytest.skip("no shared/ beside the checkout")
     assert shared.read_text() in (Path(__file__).resolve().parents[1] / "docs" / "dynamics-format.md").read_text()
+
+
+def _casadi_reference(n: int, jerk: bool) -> float:
+    """Least time of the rest-to-rest truck by an independent CasADi Opti transcription (trapezoid, N steps)."""
+    import casadi as ca
+
+    opti = ca.Opti()
+    nx = 6 if jerk else 5
+    X, U, tf = opti.variable(nx, n + 1), opti.variable(2, n + 1), opti.variable()
+
+    def f(x, u):
+        acc = x[5] if jerk else u[0]
+        rows = [x[4] * ca.cos(x[2]), x[4] * ca.sin(x[2]), x[4] * ca.tan(x[3]) / 5.0, u[1], acc]
+        return ca.vertcat(*(rows + ([u[0]] if jerk else [])))
+
+    h = tf / n
+    for k in range(n):
+        opti.subject_to(X[:, k + 1] == X[:, k] + h / 2 * (f(X[:, k], U[:, k]) + f(X[:, k + 1], U[:, k + 1])))
+    opti.subject_to(X[:5, 0] == [0, 0, 0, 0, 0])
+    opti.subject_to(X[[0, 1, 2, 4], n] == [60.0, 10.0, 0.0, 0.0])
+    opti.subject_to(opti.bounded(0.0, X[4, :], 8.33))
+    opti.subject_to(opti.bounded(-0.6, X[3, :], 0.6))
+    opti.subject_to(opti.bounded(-0.4, U[1, :], 0.4))
+    opti.subject_to(opti.bounded(-2.0, X[4, :] ** 2 * ca.tan(X[3, :]) / 5.0, 2.0))
+    if jerk:
+        opti.subject_to(X[5, 0] == 0)
+        opti.subject_to(opti.bounded(-2.0, X[5, :], 1.0))
+        opti.subject_to(opti.bounded(-1.0, U[0, :], 1.0))
+    else:
+        opti.subject_to(opti.bounded(-2.0, U[0, :], 1.0))
+    opti.subject_to(tf >= 1.0)
+    s = np.linspace(0, 1, n + 1)
+    opti.set_initial(X[0, :], 60 * s)
+    opti.set_initial(X[1, :], 10 * s)
+    opti.set_initial(X[4, :], 4.0 * np.sin(np.pi * s))
+    opti.set_initial(tf, 16.0)
+    opti.minimize(tf)
+    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "max_iter": 3000})
+    return float(opti.solve().value(tf))
+
+
+@pytest.mark.parametrize("jerk", [False, True], ids=["acceleration", "jerk"])
+def test_the_final_time_is_at_most_an_independent_casadi_references(tmp_path, jerk):
+    path = tmp_path / "s.toml"
+    path.write_text(REST.format(name="s", jerk="jerk = [-1.0, 1.0]" if jerk else "", v0=0.0))
+    run = subprocess.run(
+        [sys.executable, "-m", "model.cli", "solve", str(path), "--out", str(tmp_path / "o"), "--quiet"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    reference = _casadi_reference(summary["intervals"], jerk)
+    assert summary["final_time"] <= reference * (1 + 1e-4)
