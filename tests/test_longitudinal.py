@@ -239,7 +239,6 @@ def _casadi_reference(n: int, jerk: bool) -> float:
     opti.subject_to(opti.bounded(-0.4, U[1, :], 0.4))
     opti.subject_to(opti.bounded(-2.0, X[4, :] ** 2 * ca.tan(X[3, :]) / 5.0, 2.0))
     if jerk:
-        opti.subject_to(X[5, 0] == 0)
         opti.subject_to(opti.bounded(-2.0, X[5, :], 1.0))
         opti.subject_to(opti.bounded(-1.0, U[0, :], 1.0))
     else:
