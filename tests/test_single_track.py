@@ -219,6 +219,20 @@ def test_simulate_tracking_reports_the_mismatch(tmp_path):
     assert kinematic["final_position_error"] < summary["final_position_error"]
 
 
+def test_runs_report_the_worst_mismatch(tmp_path):
+    """With --runs 2 and measurement noise, the summary's ``plant`` holds the larger lateral deviation of the two."""
+    scenario = small_scenario(tmp_path, '[disturbance]\nnoise = 0.05\n[plant]\nmodel = "single-track"\n')
+    code = main(["simulate", str(scenario), "--out", str(tmp_path / "runs"), "--controller", "tracking", "--quiet",
+                 "--runs", "2"])  # fmt: skip
+    assert code in (0, 1)
+    summary = json.loads((tmp_path / "runs" / "summary.json").read_text())
+    cols = read_csv(tmp_path / "runs" / "closed_loop.csv")  # the first run's
+    optimum = read_csv(tmp_path / "runs" / "optimum" / "trajectory.csv")
+    first = path_distance(np.column_stack([cols["x"], cols["y"]]), np.column_stack([optimum["x"], optimum["y"]]))
+    assert summary["runs"] == 2 and summary["plant"]["max_lateral_deviation"] >= float(np.max(first))
+    assert summary["plant"]["min_clearance"] == summary["min_clearance"]
+
+
 BAD = {
     "unknown key": ('[plant]\nmodel = "single-track"\nmas = 1.0\n', "plant.mas"),
     "model": ('[plant]\nmodel = "dynamic"\n', "plant.model"),

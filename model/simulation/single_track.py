@@ -363,6 +363,18 @@ def plan_mismatch(plant: SingleTrackPlant, columns: dict[str, np.ndarray], plan:
     }
 
 
+def worst_mismatch(tables: list[dict]) -> dict:
+    """The ``plant`` tables of several runs at their worst: the largest ``max_*``, the smallest clearance."""
+    out = dict(tables[0])
+    for key in out:
+        vals = [t[key] for t in tables if t[key] is not None]
+        if key.startswith("max_") and vals:
+            out[key] = max(vals)
+        elif key == "min_clearance" and vals:
+            out[key] = min(vals)
+    return out
+
+
 def path_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     """Each point's distance (m) to the polyline ``path`` (shape (n, 2), n >= 1)."""
     a, b = path[:-1], path[1:]
@@ -378,5 +390,5 @@ def path_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
 
 __all__ = [
     "SingleTrackParameters", "SingleTrackPlant", "make_plant", "path_distance", "plan_mismatch",
-    "single_track_parameters", "single_track_rhs", "speed_factor",
+    "single_track_parameters", "single_track_rhs", "speed_factor", "worst_mismatch",
 ]  # fmt: skip
