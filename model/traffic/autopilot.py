@@ -136,6 +136,8 @@ class Autopilot:
     merge_arc: float = field(init=False)  # the front's path length where it passes nearest the merge point
     merge_time: float = field(init=False)  # the plan time there
     length: float = field(init=False)  # SUMO's length of the truck (the straight vehicle's overall length)
+    leader_decel: float = LEADER_DECEL  # m/s^2: the truck's vType decel, which SUMO's follower assumes
+    rate_slope: float = field(init=False)  # 1/s: the progress rate's largest change per second (``slope``)
 
     def __post_init__(self) -> None:
         self.give_way = self._give_way_time()
@@ -146,6 +148,7 @@ class Autopilot:
         poses = v.body_poses()
         self.body_poses = {name: v.state_function(list(poses[name])) for name in self.scenario.ocp.bodies}
         self.reach, self.top_speed = self._reach()
+        self.rate_slope = self.slope()
         self.length = truck_geometry(self.scenario)["length"]
         self._merge_geometry()
 
@@ -174,6 +177,17 @@ class Autopilot:
             c = body.corners(*self.body_poses[name](st))  # (n, 4, 2)
             far = max(far, float(np.hypot(c[..., 0] - x[:, None], c[..., 1] - y[:, None]).max()))
         return far, float(np.abs(st[v.roles.speed]).max())
+
+    def slope(self) -> float:
+        """``RATE_SLOPE``, or less with the scenario's acceleration bounds (``[vehicle.longitudinal]``): at the
+        plan's top speed a change of the rate at this slope needs at most the smaller of the largest
+        acceleration and braking, so that the truck can follow its reference under its limits."""
+        ocp = self.scenario.ocp
+        name = ocp.vehicle.roles.acceleration
+        if name is None or name not in ocp.bounds or self.top_speed <= 0.0:
+            return RATE_SLOPE
+        lo, hi = ocp.bounds[name]
+        return min(RATE_SLOPE, min(hi, -lo) / self.top_speed)
 
     def _give_way_time(self) -> float:
         """Plan time at which the front bumper first comes within ``line_radius`` (or Ro + GIVE_WAY_MARGIN)."""
@@ -347,7 +361,8 @@ class Autopilot:
         v_l = np.interp(s_t, self.front_arc[0], self.front_speed) * np.interp(grid, tau, rates)  # the front's
         to_merge = self.merge_arc - np.interp(s_t, *self.front_arc)  # the front's path length to the merge point
         inside = s_t > self.give_way
-        return max(_krauss_follower(d, v, to_merge, v_l, inside, self.length, step) for d, v in ahead)
+        return max(_krauss_follower(d, v, to_merge, v_l, inside, self.length, step, self.leader_decel)
+                   for d, v in ahead)  # fmt: skip
 
     def _ring_to_merge(self, theirs: np.ndarray, step: float,
                        exiting: np.ndarray | None = None) -> list[tuple[float, float]]:  # fmt: skip
@@ -378,10 +393,10 @@ class Autopilot:
     def profiles(self, tau: np.ndarray) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
         """The candidate (name, rates, plan times) at ``tau``, fastest first (made as they are asked for)."""
         step = tau[1]
-        # committed: too near the line to stop by it braking at RATE_SLOPE; it may then enter a little slower
-        committed = self.s < self.give_way and self.s + self.rate**2 / (2.0 * RATE_SLOPE) > self.give_way
+        # committed: too near the line to stop by it braking at the rate slope; it may then enter a little slower
+        committed = self.s < self.give_way and self.s + self.rate**2 / (2.0 * self.rate_slope) > self.give_way
         for target in TARGETS:
-            r = np.clip(target, self.rate - RATE_SLOPE * tau, self.rate + RATE_SLOPE * tau)
+            r = np.clip(target, self.rate - self.rate_slope * tau, self.rate + self.rate_slope * tau)
             s = self.s + _integral(r, tau)
             enters = target == 1.0 or (committed and target >= COMMITTED_RATE_MIN)  # else only the plan's pace
             if enters or s[-1] <= self.give_way or self.s >= self.give_way:
@@ -398,17 +413,17 @@ class Autopilot:
         yield "stand", np.zeros_like(tau), np.full_like(tau, self.s)
 
     def approach(self, tau: np.ndarray, step: float, target: float) -> tuple[np.ndarray, np.ndarray] | None:
-        """Toward ``target`` for one step, then braking at ``RATE_SLOPE`` to a stop by the line; None if too late."""
-        first = float(np.clip(target, self.rate - RATE_SLOPE * step, self.rate + RATE_SLOPE * step))
+        """Toward ``target`` for one step, then braking at ``rate_slope`` to a stop by the line; None if too late."""
+        first = float(np.clip(target, self.rate - self.rate_slope * step, self.rate + self.rate_slope * step))
         s1 = self.s + 0.5 * (self.rate + first) * step
-        if s1 + first**2 / (2.0 * RATE_SLOPE) > self.give_way:
+        if s1 + first**2 / (2.0 * self.rate_slope) > self.give_way:
             return None
         r = np.where(tau <= step, self.rate + (first - self.rate) * tau / step,
-                     np.clip(first - RATE_SLOPE * (tau - step), 0.0, None))  # fmt: skip
+                     np.clip(first - self.rate_slope * (tau - step), 0.0, None))  # fmt: skip
         # exact plan times of the piecewise-linear rate (a trapezoid on the grid would miss the kink at the stop)
-        after = np.clip(tau - step, 0.0, first / RATE_SLOPE)
+        after = np.clip(tau - step, 0.0, first / self.rate_slope)
         s = np.where(tau <= step, self.s + self.rate * tau + 0.5 * (first - self.rate) * tau**2 / step,
-                     s1 + first * after - 0.5 * RATE_SLOPE * after**2)  # fmt: skip
+                     s1 + first * after - 0.5 * self.rate_slope * after**2)  # fmt: skip
         return r, np.minimum(s, self.give_way)
 
     def decide(self, others: list[MovingVehicle], step: float,
@@ -703,13 +718,14 @@ class Autopilot:
 
 
 def _krauss_follower(distance: float, speed: float, to_merge: np.ndarray, v_l: np.ndarray, inside: np.ndarray,
-                     length: float, step: float) -> float:  # fmt: skip
+                     length: float, step: float, leader_decel: float = LEADER_DECEL) -> float:  # fmt: skip
     """The largest deceleration of a Krauss follower ``distance`` before the merge point behind the truck.
 
     At each step where the truck is ``inside`` (its front past the give-way line) and its front is
     nearer to the merge point than the follower's (else the follower is ahead), the follower's gap
     is its distance to the merge point minus the truck front's (``to_merge``) minus ``length`` and
-    ``FOLLOW_MIN_GAP``; it slows to SUMO's safe follow speed for the truck's speed ``v_l`` (never below
+    ``FOLLOW_MIN_GAP``; it slows to SUMO's safe follow speed for the truck's speed ``v_l`` and its SUMO
+    deceleration ``leader_decel`` (never below
     ``speed`` - ``EMERGENCY_DECEL`` step per step, never faster than ``speed``).
     """
     x, v, worst = 0.0, speed, 0.0
@@ -717,7 +733,7 @@ def _krauss_follower(distance: float, speed: float, to_merge: np.ndarray, v_l: n
     for k in range(len(to_merge)):
         if inside[k] and to_merge[k] <= distance - x:  # the truck's front is the nearer to the merge point
             g = distance - x - to_merge[k] - length - FOLLOW_MIN_GAP
-            safe = _safe_stop_speed(max(g, 0.0) + v_l[k] ** 2 / (2.0 * LEADER_DECEL), b, tau, step)
+            safe = _safe_stop_speed(max(g, 0.0) + v_l[k] ** 2 / (2.0 * leader_decel), b, tau, step)
             new = min(v, max(safe, v - EMERGENCY_DECEL * step, 0.0))
             worst = max(worst, (v - new) / step)
             v = new

@@ -159,8 +159,12 @@ def apply_commands(traci, speeds: dict[str, float]) -> None:
 
 
 def commands_text(commands: dict[float, dict[str, float]]) -> str:
-    """``commands.csv`` of a cooperative run: t, id, speed (m/s; -1 hands the vehicle back to SUMO)."""
-    lines = ["t,id,speed"] + [f"{t:g},{vid},{v:.6f}" for t in sorted(commands) for vid, v in commands[t].items()]
+    """``commands.csv`` of a cooperative run: t, id, speed (m/s; -1 hands the vehicle back to SUMO).
+
+    The speeds in repr precision: the replay must set the very speeds the run set (rounded to 1e-6 m/s
+    they moved a car 1e-6 m off its recorded row within 7 s).
+    """
+    lines = ["t,id,speed"] + [f"{t:g},{vid},{float(v)!r}" for t in sorted(commands) for vid, v in commands[t].items()]
     return "\n".join(lines) + "\n"
 
 

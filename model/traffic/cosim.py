@@ -20,6 +20,7 @@ import contextlib
 import io
 import math
 import subprocess
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,7 +28,7 @@ import numpy as np
 
 from model.nlp.imports import settled_heap
 from model.problem.scenario import Scenario
-from model.traffic.autopilot import LINE_SLACK, YAW_WINDOW, Autopilot, predict
+from model.traffic.autopilot import LEADER_DECEL, LINE_SLACK, YAW_WINDOW, Autopilot, predict
 from model.traffic.cooperative import Cooperator, apply_commands, committed
 from model.traffic.network import (
     config_xml,
@@ -36,13 +37,16 @@ from model.traffic.network import (
     route_edges,
     routes_xml,
     truck_geometry,
+    truck_limits,
     via_lane_shape,
     write_network,
 )
 from model.traffic.sumo import Sumo
+from model.traffic.tracking import Tracker, reference_of
 
 BRAKING_RADIUS = 50.0  # m: other vehicles this close to a truck body count for max_braking_caused
 STILL_SPEED = 0.1  # m/s: below this the truck stands still (entry_wait)
+ARRIVE_GAP = 0.1  # m: the truck has arrived when its reference point is this near its plan path's end
 TIME_DIGITS = 6
 
 
@@ -61,6 +65,8 @@ class Pass:
     decision_seconds: list[float] = field(default_factory=list)
     decision_cpu_seconds: list[float] = field(default_factory=list)
     commands: dict[float, dict[str, float]] = field(default_factory=dict)  # cooperative: t -> id -> setSpeed value
+    vtype: dict[str, object] = field(default_factory=dict)  # the truck's vType as SUMO used it (``vtype_of``)
+    tracking: list[float] = field(default_factory=list)  # autopilot: per step, the reference point's miss of the plan's
 
 
 def write_sumo_files(scenario: Scenario, folder: Path, sumo: Sumo, seed: int) -> None:
@@ -68,6 +74,7 @@ def write_sumo_files(scenario: Scenario, folder: Path, sumo: Sumo, seed: int) ->
     road, traffic = scenario.ocp.road, scenario.traffic
     write_network(road.roundabout, folder, sumo.netconvert)
     truck = truck_geometry(scenario) | {"enter": road.route.enter, "exit": road.route.exit}
+    truck["limits"] = truck_limits(scenario)
     leg = road.roundabout.legs[road.route.enter]
     truck["depart_pos"] = max(truck["length"], leg.length - road.route.start_distance + truck["front"])
     files = {
@@ -118,6 +125,7 @@ def drive(scenario: Scenario, sumo: Sumo, folder: Path, routes: str = "routes.ro
                 continue
             if t < traffic.warmup - 1e-9:
                 continue
+            out.vtype = out.vtype or vtype_of(traci)
             (x, y), a = traci.vehicle.getPosition("truck"), traci.vehicle.getAngle("truck")
             out.truck[t] = (x, y, a, traci.vehicle.getSpeed("truck"))
             if passed_goal(scenario, (x, y, a)):
@@ -181,8 +189,10 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
         junctions = None
     merge = tuple(via_lane_shape(net, edges[0], edges[1])[-1])  # where the entry's internal lane joins the ring
     pilot = Autopilot(scenario, plan, geo["front"], line_radius=line, junctions=junctions, exit_lanes=lanes,
-                      entry_rule=entry_rule, follow_rule=follow_rule, merge_point=merge)  # fmt: skip
+                      entry_rule=entry_rule, follow_rule=follow_rule, merge_point=merge,
+                      leader_decel=(truck_limits(scenario) or {"decel": LEADER_DECEL})["decel"])  # fmt: skip
     coop = Cooperator(scenario.ocp, plan.at, plan.duration, traffic.step) if cooperate else None
+    tracker = Tracker(scenario.ocp, reference_of(scenario.ocp, plan.t, plan.columns))
     # the plan's solve leaves large object graphs: collect them now and keep the survivors out of the
     # collector's scans while driving, so that no decision pays for a full collection (measured: 1.7 CPU s)
     with settled_heap():
@@ -191,25 +201,23 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
         seen: dict[str, list[tuple[float, float]]] = {}  # id -> (t, heading) over the last YAW_WINDOW seconds
         last: list[tuple] = []
         ra, exiting = road.roundabout, frozenset()
+        held = np.zeros(len(v.controls))
         try:
             while traci.simulation.getTime() < t_end - 1e-9:
                 t_next = round(traci.simulation.getTime() + traffic.step, TIME_DIGITS)
-                if t_next >= traffic.warmup - 1e-9 and "truck" in traci.vehicle.getIDList():
-                    if out.states:
-                        others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
-                        name, _ = pilot.decide(others, traffic.step, exiting)
-                        out.decisions.append(name)
+                now = round(traci.simulation.getTime(), TIME_DIGITS)
+                if now >= traffic.warmup - 1e-9 and "truck" in traci.vehicle.getIDList():
+                    out.vtype = out.vtype or vtype_of(traci)
+                    others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
+                    name, _ = pilot.decide(others, traffic.step, exiting)
+                    out.decisions.append(name)
                     if coop is not None:
                         announce = committed(pilot.s, pilot.rate, pilot.give_way)
                         if sent := coop.step_traffic(traci, traci.simulation.getTime(), pilot.s, announce=announce):
                             out.commands[t_next] = sent
-                    row = pilot.state()
-                    th = row[v.roles.heading]
-                    x, y = row[v.roles.x] + geo["front"] * math.cos(th), row[v.roles.y] + geo["front"] * math.sin(th)
-                    a = 90.0 - math.degrees(th)
+                    held = _track(pilot, tracker, out, now, geo["front"])
+                    x, y, a = front_pose(v, tracker.state(), geo["front"])
                     traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)
-                    out.truck[t_next] = (x, y, a, row[v.roles.speed])
-                    out.states[t_next] = row
                 traci.simulationStep()
                 t = round(traci.simulation.getTime(), TIME_DIGITS)
                 n = len(out.rows)
@@ -217,15 +225,69 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
                 last = out.rows[n:]
                 exiting = _exiting(traci, last, ra, follow_rule and t >= traffic.warmup - 1e-9)
                 seen = _headings(seen, last, t)
-                if out.states and pilot.s >= plan.duration - 1e-12:
+                if out.states and arrived(pilot, tracker):
                     out.arrived = True
                     break
+            if out.states:  # the state after the last step: the last row (its controls those held into it)
+                _row(out, tracker, held, round(traci.simulation.getTime(), TIME_DIGITS), geo["front"])
         finally:
             traci.close()
     out.end = max(out.truck) if out.truck else t_end
     out.decision_seconds = pilot.decision_seconds
     out.decision_cpu_seconds = pilot.decision_cpu_seconds
     return out
+
+
+def vtype_of(traci) -> dict[str, object]:
+    """The truck's vType (``ego``) as SUMO runs it: vClass, accel, decel, emergencyDecel, maxSpeed, length, width."""
+    vt = traci.vehicletype
+    return {"vClass": vt.getVehicleClass("ego"), "accel": vt.getAccel("ego"), "decel": vt.getDecel("ego"),
+            "emergencyDecel": vt.getEmergencyDecel("ego"), "maxSpeed": vt.getMaxSpeed("ego"),
+            "length": vt.getLength("ego"), "width": vt.getWidth("ego")}  # fmt: skip
+
+
+def front_pose(vehicle, state: dict[str, float], front: float) -> tuple[float, float, float]:
+    """SUMO's pose of the truck at ``state``: its front bumper's centre (X, Y) and heading A in SUMO's degrees."""
+    r = vehicle.roles
+    th = state[r.heading]
+    return state[r.x] + front * math.cos(th), state[r.y] + front * math.sin(th), 90.0 - math.degrees(th)
+
+
+def _track(pilot: Autopilot, tracker: Tracker, out: Pass, now: float, front: float) -> np.ndarray:
+    """The row at ``now`` (the truck's states, the controls held until the next row) and the step integrated.
+
+    The controls bring the truck to the plan time the autopilot chose (``pilot.s``); their
+    computation and the integration count into the decision's time.
+    """
+    t0, c0, step = time.perf_counter(), time.process_time(), pilot.scenario.traffic.step
+    held = tracker.controls(pilot.s, pilot.rate, step)
+    _row(out, tracker, held, now, front)
+    tracker.advance(held, step)
+    r, aim = tracker.ocp.vehicle.roles, tracker.reference.at(pilot.s)
+    out.tracking.append(math.hypot(tracker.x[tracker.ocp.vehicle.states.index(r.x)] - aim[r.x],
+                                   tracker.x[tracker.ocp.vehicle.states.index(r.y)] - aim[r.y]))  # fmt: skip
+    pilot.decision_seconds[-1] += time.perf_counter() - t0
+    pilot.decision_cpu_seconds[-1] += time.process_time() - c0
+    return held
+
+
+def _row(out: Pass, tracker: Tracker, held: np.ndarray, t: float, front: float) -> None:
+    """``trajectory.csv``'s row at ``t``: the truck's states and ``held``; its SUMO pose and speed."""
+    v = tracker.ocp.vehicle
+    state = tracker.state()
+    out.states[t] = state | dict(zip(v.controls, held.tolist(), strict=True))
+    out.truck[t] = (*front_pose(v, state, front), tracker.speed(held))
+
+
+def arrived(pilot: Autopilot, tracker: Tracker) -> bool:
+    """Whether the autopilot has reached its plan's end and the truck is within ``ARRIVE_GAP`` of the path's end."""
+    ref = tracker.reference
+    if pilot.s < pilot.plan.duration - 1e-12:
+        return False
+    s = tracker.state()
+    r = tracker.ocp.vehicle.roles
+    where = ref.project(s[r.x], s[r.y], ref.t[-1])
+    return ref.arc[-1] - ref.arc_at(where) <= ARRIVE_GAP
 
 
 def _headings(seen: dict[str, list[tuple[float, float]]], rows: list[tuple], t: float) -> dict:
@@ -371,6 +433,6 @@ def _trailers(vehicle, cols: dict[str, np.ndarray]) -> None:
 
 
 __all__ = [
-    "BRAKING_RADIUS", "Pass", "autopilot_drive", "drive", "passed_goal", "reconstruct", "replay", "start_sumo",
-    "states_of", "write_sumo_files",
+    "ARRIVE_GAP", "BRAKING_RADIUS", "Pass", "arrived", "autopilot_drive", "drive", "front_pose", "passed_goal",
+    "reconstruct", "replay", "start_sumo", "states_of", "vtype_of", "write_sumo_files",
 ]  # fmt: skip

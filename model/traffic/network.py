@@ -218,9 +218,29 @@ def via_lane_shape(net: Path, from_edge: str, to_edge: str) -> np.ndarray:
     return np.array([tuple(map(float, p.split(","))) for p in lane.get("shape").split()])
 
 
-def truck_vtype(vclass: str, length: float, width: float) -> str:
-    """The ``<vType>`` of the truck (id ``ego``): its class, overall length and widest body."""
-    return f'    <vType id="ego" vClass="{vclass}" length="{length:.4f}" width="{width:.4f}" minGap="2.0"/>'
+def truck_vtype(vclass: str, length: float, width: float, limits: dict[str, float] | None = None) -> str:
+    """The ``<vType>`` of the truck (id ``ego``): its class, overall length and widest body.
+
+    ``limits`` (``truck_limits``): its ``accel``, ``decel`` (m/s^2) and ``maxSpeed`` (m/s) too; without
+    them SUMO's defaults of the vClass hold.
+    """
+    extra = "".join(f' {k}="{limits[k]:.6g}"' for k in ("accel", "decel", "maxSpeed")) if limits else ""
+    return f'    <vType id="ego" vClass="{vclass}" length="{length:.4f}" width="{width:.4f}" minGap="2.0"{extra}/>'
+
+
+def truck_limits(scenario: Scenario) -> dict[str, float] | None:
+    """SUMO's ``accel``, ``decel`` and ``maxSpeed`` of the truck from the scenario's longitudinal limits.
+
+    With ``[vehicle.longitudinal]`` (the vehicle's ``roles.acceleration`` set): accel = the upper bound
+    of the acceleration, decel = minus its lower bound, maxSpeed = the speed's upper bound
+    (docs/dynamics-format.md, "like with like"); None without them (SUMO's vClass defaults).
+    """
+    ocp = scenario.ocp
+    r = ocp.vehicle.roles
+    if r.acceleration is None or r.acceleration not in ocp.bounds or r.speed not in ocp.bounds:
+        return None
+    lo, hi = ocp.bounds[r.acceleration]
+    return {"accel": float(hi), "decel": float(-lo), "maxSpeed": float(ocp.bounds[r.speed][1])}
 
 
 def routes_xml(roundabout: Roundabout, traffic: TrafficSettings, truck: dict | None, with_others: bool = True) -> str:
@@ -233,14 +253,15 @@ def routes_xml(roundabout: Roundabout, traffic: TrafficSettings, truck: dict | N
     Parameters
     ----------
     truck : dict or None
-        ``vclass``, ``length``, ``width``, ``enter``, ``exit`` of the truck, or None for no truck.
+        ``vclass``, ``length``, ``width``, ``enter``, ``exit`` of the truck (and ``limits``, ``truck_vtype``), or
+        None for no truck.
     with_others : bool
         False writes no flows (the free-flow run).
     """
     end = traffic.warmup + traffic.time_limit
     rows = [f'    <vType id="{kind}" vClass="{kind}"/>' for kind in sorted({f.type for f in traffic.flows})]
     if truck is not None:
-        rows.append(truck_vtype(truck["vclass"], truck["length"], truck["width"]))
+        rows.append(truck_vtype(truck["vclass"], truck["length"], truck["width"], truck.get("limits")))
     body = []
     for k, flow in enumerate(traffic.flows if with_others else ()):
         for n, share in enumerate(flow.exits, start=1):
@@ -297,6 +318,6 @@ def truck_geometry(scenario: Scenario) -> dict:
 __all__ = [
     "NET_FILES", "config_xml", "connections_xml", "edges_xml", "junction_shape", "lane_line", "next_leg", "nodes_xml",
     "ring_lane_width", "ring_order", "ring_radius", "ring_shape", "route_edges", "routes_xml", "truck_geometry",
-    "truck_vtype",
+    "truck_limits", "truck_vtype",
     "via_lane_shape", "write_network",
 ]  # fmt: skip

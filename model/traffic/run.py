@@ -30,11 +30,12 @@ from model.traffic.cosim import (
     states_of,
     write_sumo_files,
 )
-from model.traffic.network import truck_geometry
+from model.traffic.network import truck_geometry, truck_limits
 from model.traffic.sumo import Sumo
 from model.vehicles.body import centred_rectangle
 
 TRAFFIC_COLUMNS = ("t", "id", "type", "x", "y", "heading", "speed", "length", "width")  # names: contract columns
+SAME_FOR_ALL = ("longitudinal_limits", "sumo_vtype")  # summary keys equal in every run: summary.json only
 DRIVERS = ("autopilot", "sumo", "cooperative")  # cooperative: the autopilot among connected vehicles
 
 
@@ -144,9 +145,26 @@ def summarise(scenario, driver, seed, sumo, driven, free, cols, scored, alone) -
     out["others_time_loss_without_truck"] = float(sum(alone.time_loss.values()))
     out |= {"solve_seconds_max": 0.0, "realtime_factor": 0.0, "sumo_version": sumo.version, "seed": seed}
     out["other_vehicles"] = len(scored.time_loss)
+    out |= limits_summary(scenario, driven.vtype)
+    if driven.tracking:  # the autopilot: how far the truck's reference point was from where the plan wanted it
+        out["tracking_error_max"] = float(max(driven.tracking))
     out["road_violation"] = out["min_clearance"] is not None and out["min_clearance"] < 0
     out["ok"] = bool(arrived and out["collisions"] == 0 and not out["road_violation"])
     return out
+
+
+def limits_summary(scenario: Scenario, vtype: dict) -> dict:
+    """``longitudinal_limits`` (the scenario's acceleration and speed bounds, or None without
+    ``[vehicle.longitudinal]``) and ``sumo_vtype`` (SUMO's vType of the truck as it ran, and where its
+    accel, decel and maxSpeed came from)."""
+    ocp = scenario.ocp
+    r = ocp.vehicle.roles
+    limits = truck_limits(scenario)
+    scenario_limits = None
+    if limits is not None:
+        scenario_limits = {"acceleration": list(ocp.bounds[r.acceleration]), "speed": list(ocp.bounds[r.speed])}
+    source = "the scenario's limits" if limits is not None else "SUMO's defaults of the vClass"
+    return {"longitudinal_limits": scenario_limits, "sumo_vtype": {**vtype, "source": source} if vtype else None}
 
 
 def entry_wait(scenario: Scenario, cols: dict[str, np.ndarray]) -> float:
@@ -198,10 +216,10 @@ def aggregate(runs: list[dict]) -> dict:
     for key in ("min_distance", "min_clearance"):
         out[key] = min(vals(key)) if vals(key) else None
     for key in ("max_braking_caused", "solve_seconds_max", "realtime_factor", "solve_cpu_seconds_max",
-                "realtime_factor_cpu"):  # fmt: skip
+                "realtime_factor_cpu", "tracking_error_max"):  # fmt: skip
         out[key] = max(vals(key)) if vals(key) else None
     out["ok"] = all(r["ok"] for r in runs)
-    for key in ("plan_status", "plan_seconds", "plan_final_time", "plan_valid"):
+    for key in ("plan_status", "plan_seconds", "plan_final_time", "plan_valid", *SAME_FOR_ALL):
         if key in runs[0]:
             out[key] = runs[0][key]
     return out
@@ -229,7 +247,7 @@ def run_traffic(scenario: Scenario, sumo: Sumo, stage: Path, driver: str, runs: 
         (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         results.append(summary)
     if runs > 1:
-        keys = list(results[0])
+        keys = [k for k in results[0] if k not in SAME_FOR_ALL]  # those are the summary's, once
         (stage / "runs.csv").write_text(csv_text(keys, [[r.get(k) for k in keys] for r in results]))
         summary = aggregate(results)
         (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
@@ -237,5 +255,5 @@ def run_traffic(scenario: Scenario, sumo: Sumo, stage: Path, driver: str, runs: 
     return results[0]
 
 
-__all__ = ["DRIVERS", "TRAFFIC_COLUMNS", "aggregate", "encounter", "entry_wait", "one_run", "other_corners",
-           "run_traffic", "trajectory_text"]  # fmt: skip
+__all__ = ["DRIVERS", "TRAFFIC_COLUMNS", "aggregate", "encounter", "entry_wait", "limits_summary", "one_run",
+           "other_corners", "run_traffic", "trajectory_text"]  # fmt: skip

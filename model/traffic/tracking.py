@@ -1,0 +1,217 @@
+"""What the autopilot commands is what the truck does: held controls per step, the vehicle's own dynamics integrated.
+
+The autopilot (``model.traffic.autopilot``) chooses, each step, how far along its plan the truck
+should be at the step's end (plan time ``s``). ``Tracker`` turns that into the controls held over
+the step and integrates the vehicle's dynamics (``vehicle.rhs_function()``, scipy's DOP853) under
+them: the integrated state is where the truck is (SUMO's ``moveToXY``) and the next row of
+``trajectory.csv``; each row holds the states at t and the controls that act until the next row.
+
+The controls (each clipped to the scenario's bounds):
+
+- progress: with the speed as a control, the mean speed that covers the reference point's path
+  length from where the truck is (its projection on the plan's path) to where the plan is at
+  the step's end; with the speed as a state (``[vehicle.longitudinal]``) the acceleration that
+  brings the speed to the plan's speed there times the progress rate, plus the progress error
+  over ``PROGRESS_TIME`` (with a jerk limit: the jerk that brings the acceleration to that
+  acceleration over the step);
+- steering: the plan's steering angle at the step's end, corrected for the reference point's
+  lateral and heading error from the plan's path (a critically damped decay over the path length
+  ``TRACK_LENGTH``, the curvature change turned into a steering change by the model's own
+  d(curvature)/d(steering) at the current state), reached over the step by the steering rate; a
+  model without a steering angle turns at the plan's heading change plus that correction.
+
+The plan's path is its nodes integrated each interval from its node under the plan's controls
+(``model.analysis.validation.one_step_columns``, ``REFERENCE_STEPS`` samples per interval): the
+straight chords between the nodes are not a path the truck can drive.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from model.analysis.validation import one_step_columns
+from model.problem.ocp import OCP
+
+TRACK_LENGTH = 6.0  # m: the lateral error's critically damped decay length along the path
+PROGRESS_TIME = 0.5  # s: with the speed as a state, the progress error's time constant
+REFERENCE_STEPS = 20  # samples of the plan's integrated path per interval
+PROJECT_WINDOW = 2.0  # s of plan time either side of the last projection searched for the nearest point
+RTOL, ATOL = 1e-10, 1e-12  # the step's integration tolerances (DOP853)
+
+
+@dataclass
+class Reference:
+    """The plan's integrated motion: dense plan times, states, controls, and the reference point's path length."""
+
+    t: np.ndarray
+    columns: dict[str, np.ndarray]
+    arc: np.ndarray = field(init=False)
+    position: tuple[str, str] = ("x", "y")
+
+    def __post_init__(self) -> None:
+        x, y = (self.columns[n] for n in self.position)
+        self.arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
+
+    def at(self, s: float) -> dict[str, float]:
+        """Every column linearly interpolated at plan time ``s`` (clipped to the plan)."""
+        s = min(max(float(s), 0.0), float(self.t[-1]))
+        return {k: float(np.interp(s, self.t, v)) for k, v in self.columns.items()}
+
+    def arc_at(self, s: float) -> float:
+        """The reference point's path length (m) at plan time ``s``."""
+        return float(np.interp(min(max(float(s), 0.0), float(self.t[-1])), self.t, self.arc))
+
+    def project(self, x: float, y: float, near: float) -> float:
+        """The plan time of the point of the path nearest (x, y), searched within ``PROJECT_WINDOW`` of ``near``."""
+        k0, k1 = np.searchsorted(self.t, [near - PROJECT_WINDOW, near + PROJECT_WINDOW])
+        k0, k1 = max(int(k0) - 1, 0), min(int(k1) + 1, len(self.t))
+        px, py = (self.columns[n][k0:k1] for n in self.position)
+        if k1 - k0 < 2:
+            return float(self.t[k0])
+        ax, ay, dx, dy = px[:-1], py[:-1], np.diff(px), np.diff(py)
+        seg = np.maximum(dx * dx + dy * dy, 1e-18)
+        w = np.clip(((x - ax) * dx + (y - ay) * dy) / seg, 0.0, 1.0)
+        d = np.hypot(ax + w * dx - x, ay + w * dy - y)
+        k = int(np.argmin(d))
+        return float(self.t[k0 + k] + w[k] * (self.t[k0 + k + 1] - self.t[k0 + k]))
+
+
+def reference_of(ocp: OCP, t: np.ndarray, columns: dict[str, np.ndarray]) -> Reference:
+    """The plan (node times ``t``, its state and control ``columns``) integrated between its nodes."""
+    v = ocp.vehicle
+    paths = one_step_columns(ocp, {"t": t, **columns}, REFERENCE_STEPS)
+    t = np.asarray(t, float)
+    if paths is None:  # the integration failed: the nodes themselves
+        return Reference(t, {n: np.asarray(columns[n], float) for n in [*v.states, *v.controls]}, v.position)
+    fraction = np.linspace(0.0, 1.0, REFERENCE_STEPS + 1)[:-1]
+    dense_t = np.concatenate([(t[:-1, None] + np.diff(t)[:, None] * fraction).ravel(), t[-1:]])
+    cols = {n: np.concatenate([paths[i, :, :-1].ravel(), [columns[n][-1]]]) for i, n in enumerate(v.states)}
+    for c in v.controls:
+        cols[c] = np.interp(dense_t, t, np.asarray(columns[c], float))
+    return Reference(dense_t, cols, v.position)
+
+
+@dataclass
+class Tracker:
+    """The truck's true state, moved one step at a time under held controls (``controls``, ``advance``)."""
+
+    ocp: OCP
+    reference: Reference
+    x: np.ndarray = field(init=False)
+    where: float = 0.0  # the plan time of the truck's projection on the path
+    f: object = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.f = self.ocp.vehicle.rhs_function()
+        self.appear()
+
+    def appear(self) -> None:
+        """The truck at the plan's start."""
+        start = self.reference.at(0.0)
+        self.x = np.array([start[n] for n in self.ocp.vehicle.states])
+        self.where = 0.0
+
+    def state(self) -> dict[str, float]:
+        """The truck's states by name."""
+        return dict(zip(self.ocp.vehicle.states, self.x.tolist(), strict=True))
+
+    def speed(self, u: np.ndarray) -> float:
+        """The speed (the speed role's value: a state or a held control), m/s."""
+        v = self.ocp.vehicle
+        name = v.roles.speed
+        return float(self.x[v.states.index(name)] if name in v.states else u[v.controls.index(name)])
+
+    def _bound(self, name: str, value: float) -> float:
+        lo, hi = self.ocp.bounds.get(name, (-math.inf, math.inf))
+        return float(min(max(value, lo), hi))
+
+    def controls(self, target: float, rate: float, step: float) -> np.ndarray:
+        """The controls to hold over the next ``step`` seconds so that the truck reaches plan time ``target``.
+
+        Parameters
+        ----------
+        target : float
+            The plan time the autopilot wants the truck at by the step's end.
+        rate : float
+            The progress rate (plan seconds per second) it wants there.
+        step : float
+            The step, s.
+
+        Returns
+        -------
+        numpy.ndarray
+            The controls in the model's order, within their bounds.
+        """
+        v, ref = self.ocp.vehicle, self.reference
+        r, names = v.roles, v.states
+        state = self.state()
+        self.where = ref.project(state[r.x], state[r.y], self.where)
+        here, there = ref.at(self.where), ref.at(target)
+        direction = 1.0 if there[r.speed] >= 0.0 else -1.0
+        u = np.array([there[c] for c in v.controls], float)  # the plan's controls: the default of any other control
+        distance = direction * (ref.arc_at(target) - ref.arc_at(self.where))
+        self._progress(u, state, there, distance, rate, step)
+        h = state[r.heading]
+        ex, ey = state[r.x] - here[r.x], state[r.y] - here[r.y]
+        lateral = -math.sin(here[r.heading]) * ex + math.cos(here[r.heading]) * ey  # left of the path: > 0
+        heading = math.remainder(h - here[r.heading], 2.0 * math.pi)
+        bend = -(lateral / TRACK_LENGTH**2 + 2.0 * direction * math.sin(heading) / TRACK_LENGTH)  # 1/m
+        if r.steering is not None and r.steering_rate is not None:
+            phi = state[r.steering]
+            goal = self._bound(r.steering, there[r.steering] + bend / self._curvature_slope(names.index(r.steering)))
+            u[v.controls.index(r.steering_rate)] = self._bound(r.steering_rate, (goal - phi) / step)
+        elif r.turn_rate is not None:
+            turn = math.remainder(there[r.heading] - h, 2.0 * math.pi) / step + self.speed(u) * bend
+            u[v.controls.index(r.turn_rate)] = self._bound(r.turn_rate, turn)
+        return u
+
+    def _progress(self, u: np.ndarray, state: dict[str, float], there: dict[str, float], distance: float,
+                  rate: float, step: float) -> None:  # fmt: skip
+        """The longitudinal control in ``u``: the speed, or the acceleration, or the jerk (module docstring)."""
+        v = self.ocp.vehicle
+        r = v.roles
+        if r.speed in v.controls:
+            u[v.controls.index(r.speed)] = self._bound(r.speed, distance / step)
+            return
+        speed = state[r.speed]
+        wanted = there[r.speed] * rate
+        goal = self._bound(r.speed, wanted + (distance - 0.5 * (speed + wanted) * step) / PROGRESS_TIME)
+        accel = (goal - speed) / step
+        if r.acceleration in v.controls:
+            u[v.controls.index(r.acceleration)] = self._bound(r.acceleration, accel)
+        elif r.jerk is not None and r.acceleration in v.states:
+            accel = self._bound(r.acceleration, accel)
+            u[v.controls.index(r.jerk)] = self._bound(r.jerk, (accel - state[r.acceleration]) / step)
+
+    def _curvature_slope(self, i_steer: int) -> float:
+        """d(curvature)/d(steering) of the heading at the current state (the model's own), at least 1e-3 1/m/rad."""
+        v = self.ocp.vehicle
+        r = v.roles
+        u = np.zeros(len(v.controls))
+        x = self.x.copy()
+        if r.speed in v.controls:
+            u[v.controls.index(r.speed)] = 1.0
+        else:
+            x[v.states.index(r.speed)] = 1.0
+            if r.acceleration in v.states:
+                x[v.states.index(r.acceleration)] = 0.0
+        i_h, eps = v.states.index(r.heading), 1e-5
+        hi, lo = x.copy(), x.copy()
+        hi[i_steer] += eps
+        lo[i_steer] -= eps
+        slope = (self.f(hi, u)[i_h] - self.f(lo, u)[i_h]) / (2.0 * eps)
+        return float(slope) if abs(slope) > 1e-3 else math.copysign(1e-3, slope if slope else 1.0)
+
+    def advance(self, u: np.ndarray, step: float) -> np.ndarray:
+        """Integrate the vehicle's dynamics over ``step`` under the held ``u`` from the current state; the new state."""
+        from scipy.integrate import solve_ivp  # here, not at import: see model/nlp/imports.py
+
+        sol = solve_ivp(lambda _, y: self.f(y, u), (0.0, step), self.x, method="DOP853", rtol=RTOL, atol=ATOL)
+        self.x = sol.y[:, -1].copy()
+        return self.x
+
+
+__all__ = ["PROGRESS_TIME", "REFERENCE_STEPS", "TRACK_LENGTH", "Reference", "Tracker", "reference_of"]
