@@ -23,7 +23,10 @@ PLANT_NUMBERS = {  # [plant] key -> the model's name for it (model.simulation.si
     "mass": "mass", "yaw_inertia": "yaw_inertia", "cg_to_front_axle": "lf", "cg_to_rear_axle": "lr",
     "cornering_coefficient_front": "cf", "cornering_coefficient_rear": "cr", "cg_height": "h_cg",
     "friction_coefficient": "mu", "speed_tracking_gain": "speed_gain",
+    "trailer_mass": "trailer_mass", "trailer_yaw_inertia": "trailer_yaw_inertia", "hitch_to_trailer_cg": "trailer_cg",
+    "cornering_coefficient_trailer": "ct",
 }  # fmt: skip
+TRAILER_NUMBERS = {"trailer_mass", "trailer_yaw_inertia", "trailer_cg", "ct"}  # the tractor-semitrailer's only
 PLANT_KEYS = {"model", "acceleration_limits", *PLANT_NUMBERS}
 LENGTH_TOL = 1e-6  # m: cg_to_front_axle + cg_to_rear_axle must be the plant's wheelbase within this
 
@@ -275,8 +278,9 @@ def check_plant(settings: PlantSettings, vehicle: Vehicle, disturbance: Disturba
     if settings.model == "kinematic":
         return
     r = vehicle.roles
-    if r.trailers:
-        raise InputError(key, f'"single-track" is not yet for {vehicle.model} (a model with trailers)')
+    lengths = set(vehicle.parameter_keys.values())
+    if len(r.trailers) > 1 or (r.trailers and not {"hitch_offset", "trailer_wheelbase"} <= lengths):
+        raise InputError(key, f'"single-track" is not yet for {vehicle.model} (one semitrailer on a hitch only)')
     if r.steering is None or r.steering_rate is None or r.steering_rate not in vehicle.controls:
         raise InputError(key, f'"single-track" needs a steering angle and its rate; the {vehicle.model} model has none')
     if "wheelbase" not in vehicle.parameter_keys.values():
@@ -285,6 +289,22 @@ def check_plant(settings: PlantSettings, vehicle: Vehicle, disturbance: Disturba
         if getattr(disturbance, name) != getattr(Disturbance(), name):
             raise InputError(f"disturbance.{name}", 'for the kinematic plant only (not with "single-track")')
     _axle_distances(settings.values, vehicle, disturbance)
+    _trailer_numbers(settings.values, vehicle, disturbance)
+
+
+def _trailer_numbers(values: dict[str, Any], vehicle: Vehicle, disturbance: Disturbance) -> None:
+    """The trailer's numbers only with a trailer; no load transfer (cg_height) in the tractor-semitrailer
+    plant; the trailer's centre of gravity between the kingpin and the trailer axle."""
+    keys = {name: key for key, name in PLANT_NUMBERS.items()}
+    if not vehicle.roles.trailers:
+        for name in sorted(TRAILER_NUMBERS & set(values)):
+            raise InputError("plant." + keys[name], f"only for a model with a trailer, not {vehicle.model}")
+        return
+    if "h_cg" in values:
+        raise InputError("plant.cg_height", "the tractor-semitrailer plant has no load transfer; leave it out")
+    length = disturbance.wheelbase.get("trailer_wheelbase", vehicle.parameter_values()["trailer_wheelbase"])
+    if values.get("trailer_cg", 0.0) >= length:
+        raise InputError("plant.hitch_to_trailer_cg", f"must be < the trailer wheelbase {length:g} m")
 
 
 def _axle_distances(values: dict[str, Any], vehicle: Vehicle, disturbance: Disturbance) -> None:

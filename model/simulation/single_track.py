@@ -331,7 +331,12 @@ class SingleTrackPlant:
 
 
 def make_plant(vehicle: Vehicle, disturbance: Disturbance, sample_time: float, settings: PlantSettings):
-    """The plant ``settings.model`` names: ``Plant`` (kinematic) or ``SingleTrackPlant``."""
+    """The plant ``settings.model`` names: ``Plant`` (kinematic), ``SingleTrackPlant``, or for a model with a
+    trailer ``TractorSemitrailerPlant`` (``model.simulation.tractor_semitrailer``)."""
+    if settings.model == "single-track" and vehicle.roles.trailers:
+        from model.simulation.tractor_semitrailer import TractorSemitrailerPlant
+
+        return TractorSemitrailerPlant(vehicle, disturbance, sample_time, settings.values)
     if settings.model == "single-track":
         return SingleTrackPlant(vehicle, disturbance, sample_time, settings.values)
     if settings.model != "kinematic":
