@@ -97,17 +97,7 @@ class Plant:
 
     def step(self, x: np.ndarray, u: np.ndarray, duration: float | None = None) -> np.ndarray:
         """The state after one sample (``duration``, default the sample time) with ``u`` held."""
-        from scipy.integrate import solve_ivp
-
-        h = self.sample_time if duration is None else float(duration)
-        x = np.asarray(x, dtype=float)
-        u = np.asarray(u, dtype=float)
-        if h <= 0:
-            return x.copy()
-        sol = solve_ivp(lambda _t, z: self.rhs(z, u), (0.0, h), x, method=METHOD, rtol=RTOL, atol=ATOL)
-        if not sol.success:
-            raise RuntimeError(f"plant integration failed: {sol.message}")
-        return sol.y[:, -1]
+        return held_step(self.rhs, x, u, self.sample_time if duration is None else float(duration))
 
     def start(self, x: np.ndarray) -> np.ndarray:
         """The plant's state at the model's state ``x``: the same (a plant of another model converts it)."""
@@ -140,3 +130,16 @@ def _noise_scale(vehicle: Vehicle, state: str) -> float:
 
 
 __all__ = ["Plant", "plant_parameters", "plant_rhs"]
+
+
+def held_step(rhs, x: np.ndarray, u: np.ndarray, h: float, tol: float = RTOL) -> np.ndarray:
+    """The state ``x`` after ``h`` seconds of ``rhs(x, u)`` with ``u`` held (DOP853, rtol = atol = ``tol``)."""
+    from scipy.integrate import solve_ivp
+
+    x, u = np.asarray(x, dtype=float), np.asarray(u, dtype=float)
+    if h <= 0:
+        return x.copy()
+    sol = solve_ivp(lambda _t, z: rhs(z, u), (0.0, h), x, method=METHOD, rtol=tol, atol=tol)
+    if not sol.success:
+        raise RuntimeError(f"plant integration failed: {sol.message}")
+    return sol.y[:, -1]

@@ -42,7 +42,7 @@ import numpy as np
 import sympy as sp
 
 from model.problem.closed_loop import Disturbance, PlantSettings
-from model.simulation.plant import Plant
+from model.simulation.plant import Plant, held_step
 from model.vehicles import Vehicle, expression, sym
 
 GRAVITY = 9.81  # m/s^2, CommonRoad's value in vehicle_dynamics_st
@@ -307,16 +307,7 @@ class SingleTrackPlant:
 
     def step(self, z: np.ndarray, u: np.ndarray, duration: float | None = None) -> np.ndarray:
         """The plant's state after one sample (``duration``, default the sample time) with ``u`` held."""
-        from scipy.integrate import solve_ivp
-
-        h = self.sample_time if duration is None else float(duration)
-        z, u = np.asarray(z, dtype=float), np.asarray(u, dtype=float)
-        if h <= 0:
-            return z.copy()
-        sol = solve_ivp(lambda _t, s: self.rhs(s, u), (0.0, h), z, method=METHOD, rtol=RTOL, atol=ATOL)
-        if not sol.success:
-            raise RuntimeError(f"single-track plant integration failed: {sol.message}")
-        return sol.y[:, -1]
+        return held_step(self.rhs, z, u, self.sample_time if duration is None else float(duration), RTOL)
 
     def measure(self, x: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """The measured kinematic state, with the noise of the kinematic plant (``Plant.measure``)."""
