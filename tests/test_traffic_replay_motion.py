@@ -40,6 +40,25 @@ def short_scenario(folder: Path) -> Path:
     return path
 
 
+def limited_scenario(folder: Path) -> Path:
+    """``short_scenario`` at longitudinal limits (docs/dynamics-format.md): a in [-2.5, 1.3], v <= 8, at 5 m/s."""
+    text = short_scenario(folder).read_text()
+    text = text.replace("[bounds]\nu1 = [0.0, 8.0]\n", "[vehicle.longitudinal]\nacceleration = [-2.5, 1.3]\n\n"
+                        "[bounds]\nv = [0.0, 8.0]\n").replace("[traffic]", "[initial]\nv = 5.0\n\n[traffic]")
+    assert "[vehicle.longitudinal]" in text
+    path = folder / "limited.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def limited_short(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("limited")
+    scenario = limited_scenario(folder)
+    code = main(["traffic", str(scenario), "--out", str(folder / "out"), "--driver", "autopilot"])
+    return code, scenario, folder / "out"
+
+
 @pytest.fixture(scope="module")
 def autopilot_short(tmp_path_factory):
     folder = tmp_path_factory.mktemp("motion")
@@ -118,7 +137,7 @@ def track(vehicle, bounds: dict, rates: np.ndarray, step: float = 0.1):
 
     ref = wavy_reference(vehicle)
     tracker = Tracker(SimpleNamespace(vehicle=vehicle, bounds=bounds), ref)
-    s, worst, controls = 0.0, 0.0, []
+    s, worst, controls, speeds = 0.0, 0.0, [], []
     for rate in rates:
         s = min(s + rate * step, float(ref.t[-1]))
         u = tracker.controls(s, rate, step)
@@ -126,7 +145,10 @@ def track(vehicle, bounds: dict, rates: np.ndarray, step: float = 0.1):
         aim, got = ref.at(s), tracker.state()
         worst = max(worst, math.hypot(got["x"] - aim["x"], got["y"] - aim["y"]))
         controls.append(u)
-    return worst, np.array(controls)
+        if "v" in vehicle.states:  # the speed a state: the autopilot goes on from where the truck is
+            s = tracker.locate()
+            speeds.append((got["v"], rate * aim["v"]))
+    return worst, np.array(controls), np.array(speeds)
 
 
 RATES = np.concatenate([np.ones(20), np.linspace(1.0, 0.0, 20), np.zeros(5), np.linspace(0.0, 1.0, 20), np.ones(40)])
@@ -135,7 +157,7 @@ RATES = np.concatenate([np.ones(20), np.linspace(1.0, 0.0, 20), np.zeros(5), np.
 def test_the_tracker_holds_the_plan_at_any_pace():
     vehicle = Truck(wheelbase=5.0)
     bounds = {"u1": (0.0, 8.0), "u2": (-0.5, 0.5), "phi": (-0.6, 0.6)}
-    worst, controls = track(vehicle, bounds, RATES)
+    worst, controls, _ = track(vehicle, bounds, RATES)
     assert worst < 0.01
     assert controls[:, 0].min() >= 0.0 and controls[:, 0].max() <= 8.0
     assert np.abs(controls[:, 1]).max() <= 0.5
@@ -161,9 +183,13 @@ def test_with_the_speed_a_state_the_tracker_commands_the_acceleration_within_its
 
     bounds = {"a": (-3.0, 2.0), "v": (0.0, 8.0), "u2": (-0.5, 0.5), "phi": (-0.6, 0.6)}
     slow = np.concatenate([np.ones(20), np.linspace(1.0, 0.5, 20), np.full(20, 0.5), np.linspace(0.5, 1.0, 20)])
-    worst, controls = track(Accelerating(), bounds, slow)
+    worst, controls, speeds = track(Accelerating(), bounds, slow)
     assert controls[:, 0].min() >= -3.0 and controls[:, 0].max() <= 2.0
-    assert worst < 0.25  # m: the pace changes at 0.15 m/s^2 of plan speed per step, within the bounds
+    assert np.abs(speeds[:, 0] - speeds[:, 1]).max() < 1e-6  # the speed asked for, reached within the bounds
+    assert worst < 0.05  # m: where the truck is after a step, against where it was asked to be
+    worst, controls, speeds = track(Accelerating(), bounds, RATES)  # 6 m/s to rest in 2 s: 3 m/s^2 asked
+    assert controls[:, 0].min() >= -3.0 and controls[:, 0].max() <= 2.0 and speeds[:, 0].min() >= 0.0
+    assert np.abs(speeds[:, 0] - speeds[:, 1]).max() > 0.1  # the bound binds: the truck lags the ask
 
 
 @pytest.mark.skipif(not hasattr(Roles(), "acceleration"), reason="Roles.acceleration not in this tree yet")
@@ -197,3 +223,21 @@ def test_sumos_driver_drives_the_vtype_it_is_given(tmp_path, monkeypatch):
     speeds = np.array([driven.truck[t][3] for t in times])
     assert speeds.max() <= 7.0 + 1e-9 and speeds.max() > 5.0
     assert np.diff(speeds).max() / 0.1 <= 0.8 + 1e-6
+
+
+def test_at_longitudinal_limits_the_rows_follow_from_the_acceleration_within_the_bounds(limited_short):
+    code, scenario, out = limited_short
+    assert re_integration_misses(scenario, out).max() <= 1e-3
+    rows = list(csv.DictReader((out / "trajectory.csv").open()))
+    assert list(rows[0]) == ["t", "x", "y", "theta", "phi", "v", "a", "u2"]
+    assert float(rows[0]["t"]) == pytest.approx(WARMUP, abs=1e-9) and float(rows[0]["v"]) == pytest.approx(5.0)
+    v, a = (np.array([float(r[k]) for r in rows]) for k in ("v", "a"))
+    assert v.min() >= -1e-9 and v.max() <= 8.0 + 1e-9
+    assert a.min() >= -2.5 - 1e-9 and a.max() <= 1.3 + 1e-9
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["arrived"] and summary["collisions"] == 0 and summary["min_distance"] >= 1.0 and code == 0
+    assert summary["min_clearance"] >= 0.0
+    assert summary["longitudinal_limits"] == {"acceleration": [-2.5, 1.3], "speed": [0.0, 8.0]}
+    vtype = summary["sumo_vtype"]
+    assert (vtype["accel"], vtype["decel"], vtype["maxSpeed"], vtype["source"]) == (1.3, 2.5, 8.0,
+                                                                                   "the scenario's limits")

@@ -75,6 +75,9 @@ def write_sumo_files(scenario: Scenario, folder: Path, sumo: Sumo, seed: int) ->
     write_network(road.roundabout, folder, sumo.netconvert)
     truck = truck_geometry(scenario) | {"enter": road.route.enter, "exit": road.route.exit}
     truck["limits"] = truck_limits(scenario)
+    speed = scenario.ocp.vehicle.roles.speed
+    if speed in scenario.ocp.vehicle.states:  # SUMO's driver appears at [initial] v, as the autopilot does
+        truck["depart_speed"] = float(scenario.ocp.initial.get(speed, 0.0))
     leg = road.roundabout.legs[road.route.enter]
     truck["depart_pos"] = max(truck["length"], leg.length - road.route.start_distance + truck["front"])
     files = {
@@ -257,15 +260,19 @@ def _track(pilot: Autopilot, tracker: Tracker, out: Pass, now: float, front: flo
     """The row at ``now`` (the truck's states, the controls held until the next row) and the step integrated.
 
     The controls bring the truck to the plan time the autopilot chose (``pilot.s``); their
-    computation and the integration count into the decision's time.
+    computation and the integration count into the decision's time. With the speed a state (the
+    truck cannot jump to the pace asked for) the autopilot's plan time is then where the truck is.
     """
     t0, c0, step = time.perf_counter(), time.process_time(), pilot.scenario.traffic.step
     held = tracker.controls(pilot.s, pilot.rate, step)
     _row(out, tracker, held, now, front)
     tracker.advance(held, step)
-    r, aim = tracker.ocp.vehicle.roles, tracker.reference.at(pilot.s)
-    out.tracking.append(math.hypot(tracker.x[tracker.ocp.vehicle.states.index(r.x)] - aim[r.x],
-                                   tracker.x[tracker.ocp.vehicle.states.index(r.y)] - aim[r.y]))  # fmt: skip
+    v = tracker.ocp.vehicle
+    r, aim = v.roles, tracker.reference.at(pilot.s)
+    here = tracker.state()
+    out.tracking.append(math.hypot(here[r.x] - aim[r.x], here[r.y] - aim[r.y]))
+    if r.speed in v.states:  # the speed a state: the truck's progress is where it is, the autopilot goes on from there
+        pilot.s = min(tracker.locate(), pilot.plan.duration)
     pilot.decision_seconds[-1] += time.perf_counter() - t0
     pilot.decision_cpu_seconds[-1] += time.process_time() - c0
     return held
@@ -280,9 +287,9 @@ def _row(out: Pass, tracker: Tracker, held: np.ndarray, t: float, front: float) 
 
 
 def arrived(pilot: Autopilot, tracker: Tracker) -> bool:
-    """Whether the autopilot has reached its plan's end and the truck is within ``ARRIVE_GAP`` of the path's end."""
+    """Whether the autopilot has asked for its plan's end and the truck is within ``ARRIVE_GAP`` of the path's end."""
     ref = tracker.reference
-    if pilot.s < pilot.plan.duration - 1e-12:
+    if max(pilot.s, tracker.aim) < pilot.plan.duration - 1e-12:
         return False
     s = tracker.state()
     r = tracker.ocp.vehicle.roles
@@ -351,7 +358,8 @@ def reconstruct(scenario: Scenario, drive_pass: Pass) -> dict[str, np.ndarray]:
     """The model's states and controls from SUMO's front-bumper poses, as honestly as the poses allow.
 
     Position and heading of the first body: exact (rear axle = front bumper - front offset along
-    the heading). Speed control: SUMO's speed. Steering angle: from the heading rate and the speed
+    the heading). Speed (the control, or the state v): SUMO's speed; with the speed a state its
+    acceleration (and jerk) by finite differences. Steering angle: from the heading rate and the speed
     by the model's own kinematics at phi (phi = atan(d * dtheta/dt / v) for the car-like truck),
     by finite differences; its rate by finite differences. Each trailer's heading: the model's own
     dynamics integrated along the reconstructed tractor (the trailer SUMO's path would drag).
@@ -371,6 +379,9 @@ def reconstruct(scenario: Scenario, drive_pass: Pass) -> dict[str, np.ndarray]:
     speed = poses[:, 3]
     cols[r.speed] = speed
     rate = np.gradient(theta, times) if len(times) > 1 else np.zeros(1)
+    for name, of in ((r.acceleration, r.speed), (r.jerk, r.acceleration)):  # the speed a state: its rates
+        if name is not None and r.speed in v.states:
+            cols[name] = np.gradient(cols[of], times) if len(times) > 1 else np.zeros(1)
     if r.steering is not None:
         cols[r.steering] = _steering(v, rate, speed)
         cols[r.steering_rate] = np.gradient(cols[r.steering], times) if len(times) > 1 else np.zeros(1)
@@ -387,7 +398,8 @@ def _steering(vehicle, rate: np.ndarray, speed: np.ndarray) -> np.ndarray:
     r = vehicle.roles
     f = vehicle.rhs_function()
     i_h, i_s = vehicle.states.index(r.heading), vehicle.states.index(r.steering)
-    i_u = vehicle.controls.index(r.speed)
+    in_states = r.speed in vehicle.states  # with longitudinal dynamics the speed is the state v
+    i_u = (vehicle.states if in_states else vehicle.controls).index(r.speed)
     grid = np.linspace(-1.2, 1.2, 2401)
     out = np.zeros(len(rate))
     for k, (w, u) in enumerate(zip(rate, speed, strict=True)):
@@ -395,7 +407,7 @@ def _steering(vehicle, rate: np.ndarray, speed: np.ndarray) -> np.ndarray:
             out[k] = out[k - 1] if k else 0.0
             continue
         x, c = np.zeros(len(vehicle.states)), np.zeros(len(vehicle.controls))
-        c[i_u] = u
+        (x if in_states else c)[i_u] = u
         rates = []
         for phi in grid:
             x[i_s] = phi

@@ -253,8 +253,8 @@ def routes_xml(roundabout: Roundabout, traffic: TrafficSettings, truck: dict | N
     Parameters
     ----------
     truck : dict or None
-        ``vclass``, ``length``, ``width``, ``enter``, ``exit`` of the truck (and ``limits``, ``truck_vtype``), or
-        None for no truck.
+        ``vclass``, ``length``, ``width``, ``enter``, ``exit`` of the truck (and ``limits``, ``truck_vtype``;
+        ``depart_speed``, m/s, default 0), or None for no truck.
     with_others : bool
         False writes no flows (the free-flow run).
     """
@@ -275,7 +275,8 @@ def routes_xml(roundabout: Roundabout, traffic: TrafficSettings, truck: dict | N
     if truck is not None:
         edges = " ".join(route_edges(roundabout, truck["enter"], truck["exit"]))
         body.append((traffic.depart, f'    <vehicle id="truck" type="ego" depart="{traffic.depart:.2f}" '
-                                     f'departSpeed="0" departPos="{truck["depart_pos"]:.4f}">\n'
+                                     f'departSpeed="{truck.get("depart_speed", 0.0):g}" '
+                                     f'departPos="{truck["depart_pos"]:.4f}">\n'
                                      f'        <route edges="{edges}"/>\n    </vehicle>'))  # fmt: skip
     rows += [text for _, text in sorted(body, key=lambda b: b[0])]
     return "<routes>\n" + "\n".join(rows) + "\n</routes>\n"

@@ -10,10 +10,16 @@ The controls (each clipped to the scenario's bounds):
 
 - progress: with the speed as a control, the mean speed that covers the reference point's path
   length from where the truck is (its projection on the plan's path) to where the plan is at
-  the step's end; with the speed as a state (``[vehicle.longitudinal]``) the acceleration that
-  brings the speed to the plan's speed there times the progress rate, plus the progress error
-  over ``PROGRESS_TIME`` (with a jerk limit: the jerk that brings the acceleration to that
-  acceleration over the step);
+  the step's end. With the speed as a state (``[vehicle.longitudinal]``) the truck cannot jump to
+  the pace asked for, so its progress is where it is (the autopilot re-anchors its plan time at the
+  truck's projection each step, ``locate``) and what is tracked is the speed asked for, the plan's
+  speed there times the progress rate: the acceleration that reaches it by the step's end (within
+  the acceleration bounds and the speed's); with a jerk limit, the jerk that drives the speed and
+  acceleration errors down with both poles at -1 / ``SPEED_TIME`` from the acceleration that speed
+  needs, the acceleration kept where the jerk bound can still stop it before the speed leaves its
+  bounds. A jerk-limited truck follows a plan that is itself at its jerk bound only approximately
+  (the speed lags where the plan switches its jerk): the speed planner of issue 45 is to give
+  profiles the truck can follow;
 - steering: the plan's steering angle at the step's end, corrected for the reference point's
   lateral and heading error from the plan's path (a critically damped decay over the path length
   ``TRACK_LENGTH``, the curvature change turned into a steering change by the model's own
@@ -36,7 +42,7 @@ from model.analysis.validation import one_step_columns
 from model.problem.ocp import OCP
 
 TRACK_LENGTH = 6.0  # m: the lateral error's critically damped decay length along the path
-PROGRESS_TIME = 0.5  # s: with the speed as a state, the progress error's time constant
+SPEED_TIME = 1.0  # s: with a jerk limit, the speed error's time constant
 REFERENCE_STEPS = 20  # samples of the plan's integrated path per interval
 PROJECT_WINDOW = 2.0  # s of plan time either side of the last projection searched for the nearest point
 RTOL, ATOL = 1e-10, 1e-12  # the step's integration tolerances (DOP853)
@@ -63,6 +69,17 @@ class Reference:
     def arc_at(self, s: float) -> float:
         """The reference point's path length (m) at plan time ``s``."""
         return float(np.interp(min(max(float(s), 0.0), float(self.t[-1])), self.t, self.arc))
+
+    def time_at(self, arc: float) -> float:
+        """The first plan time at which the reference point's path length reaches ``arc`` (clipped to the plan)."""
+        k = int(np.searchsorted(self.arc, arc, side="left"))
+        if k <= 0:
+            return float(self.t[0])
+        if k >= len(self.t):
+            return float(self.t[-1])
+        a0, a1 = self.arc[k - 1], self.arc[k]
+        w = (arc - a0) / (a1 - a0) if a1 > a0 else 1.0
+        return float(self.t[k - 1] + w * (self.t[k] - self.t[k - 1]))
 
     def project(self, x: float, y: float, near: float) -> float:
         """The plan time of the point of the path nearest (x, y), searched within ``PROJECT_WINDOW`` of ``near``."""
@@ -102,6 +119,9 @@ class Tracker:
     reference: Reference
     x: np.ndarray = field(init=False)
     where: float = 0.0  # the plan time of the truck's projection on the path
+    aim: float = 0.0  # the plan time asked for at the end of the last step: the reference now
+    rate: float = 1.0  # the progress rate asked for then
+    direction: float = 1.0  # 1 forward along the plan, -1 backward
     f: object = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -112,7 +132,13 @@ class Tracker:
         """The truck at the plan's start."""
         start = self.reference.at(0.0)
         self.x = np.array([start[n] for n in self.ocp.vehicle.states])
-        self.where = 0.0
+        self.where = self.aim = 0.0
+
+    def locate(self) -> float:
+        """The plan time of the point of the plan's path nearest the truck's reference point now."""
+        r = self.ocp.vehicle.roles
+        state = self.state()
+        return self.reference.project(state[r.x], state[r.y], self.where)
 
     def state(self) -> dict[str, float]:
         """The truck's states by name."""
@@ -150,10 +176,12 @@ class Tracker:
         state = self.state()
         self.where = ref.project(state[r.x], state[r.y], self.where)
         here, there = ref.at(self.where), ref.at(target)
-        direction = 1.0 if there[r.speed] >= 0.0 else -1.0
+        self.direction = direction = 1.0 if there[r.speed] >= 0.0 else -1.0
         u = np.array([there[c] for c in v.controls], float)  # the plan's controls: the default of any other control
-        distance = direction * (ref.arc_at(target) - ref.arc_at(self.where))
-        self._progress(u, state, there, distance, rate, step)
+        self._progress(u, state, target, rate, step)
+        self.aim, self.rate = target, rate
+        if r.speed in names:  # steer for where the truck gets to under these controls, not where it was asked to
+            there = ref.at(ref.time_at(ref.arc_at(self.where) + direction * self._travel(u, state, step)))
         h = state[r.heading]
         ex, ey = state[r.x] - here[r.x], state[r.y] - here[r.y]
         lateral = -math.sin(here[r.heading]) * ex + math.cos(here[r.heading]) * ey  # left of the path: > 0
@@ -168,23 +196,64 @@ class Tracker:
             u[v.controls.index(r.turn_rate)] = self._bound(r.turn_rate, turn)
         return u
 
-    def _progress(self, u: np.ndarray, state: dict[str, float], there: dict[str, float], distance: float,
-                  rate: float, step: float) -> None:  # fmt: skip
+    def _progress(self, u: np.ndarray, state: dict[str, float], target: float, rate: float, step: float) -> None:
         """The longitudinal control in ``u``: the speed, or the acceleration, or the jerk (module docstring)."""
+        v, ref = self.ocp.vehicle, self.reference
+        r = v.roles
+        if r.speed in v.controls:  # the speed control: the mean speed that reaches the plan time asked for
+            distance = ref.arc_at(target) - ref.arc_at(self.where)
+            u[v.controls.index(r.speed)] = self._bound(r.speed, self.direction * distance / step)
+            return
+        # with the speed a state the truck's progress is where it is (``locate``: the autopilot re-anchors its
+        # plan time there each step), and what is tracked is the speed the autopilot asks for along the plan
+        then = ref.at(target)
+        speed, accel = state[r.speed], state.get(r.acceleration, 0.0)
+        wanted = rate * then[r.speed]
+        if r.acceleration in v.controls:  # the speed asked for at the step's end, reached over the step
+            lo, hi = self._speed_window(speed, step)
+            u[v.controls.index(r.acceleration)] = self._bound(r.acceleration, min(max((wanted - speed) / step, lo), hi))
+            return
+        if r.jerk is None or r.jerk not in v.controls:
+            return
+        # the acceleration the speed asked for along the path needs at the truck's speed (d(wanted)/dt = rate
+        # a_plan v / v_plan), and the speed and acceleration errors decaying with both poles at -1 / SPEED_TIME
+        slope = (rate - self.rate) / step
+        pace = speed / then[r.speed] if abs(then[r.speed]) > 0.5 else rate
+        feed = rate * pace * then[r.acceleration] + slope * then[r.speed]
+        lam = 1.0 / SPEED_TIME
+        jerk = 2.0 * lam * (feed - accel) + lam * lam * (wanted - speed)
+        next_a = self._bound(r.acceleration, self._within_speed(accel + jerk * step, speed, accel, step))
+        u[v.controls.index(r.jerk)] = self._bound(r.jerk, (next_a - accel) / step)
+
+    def _travel(self, u: np.ndarray, state: dict[str, float], step: float) -> float:
+        """The path length the speed state covers over the step under ``u`` (constant acceleration or jerk)."""
         v = self.ocp.vehicle
         r = v.roles
-        if r.speed in v.controls:
-            u[v.controls.index(r.speed)] = self._bound(r.speed, distance / step)
-            return
         speed = state[r.speed]
-        wanted = there[r.speed] * rate
-        goal = self._bound(r.speed, wanted + (distance - 0.5 * (speed + wanted) * step) / PROGRESS_TIME)
-        accel = (goal - speed) / step
         if r.acceleration in v.controls:
-            u[v.controls.index(r.acceleration)] = self._bound(r.acceleration, accel)
-        elif r.jerk is not None and r.acceleration in v.states:
-            accel = self._bound(r.acceleration, accel)
-            u[v.controls.index(r.jerk)] = self._bound(r.jerk, (accel - state[r.acceleration]) / step)
+            return speed * step + 0.5 * u[v.controls.index(r.acceleration)] * step**2
+        jerk = u[v.controls.index(r.jerk)] if r.jerk in v.controls else 0.0
+        return speed * step + 0.5 * state.get(r.acceleration, 0.0) * step**2 + jerk * step**3 / 6.0
+
+    def _within_speed(self, goal: float, speed: float, accel: float, step: float) -> float:
+        """``goal`` (the acceleration at the step's end) limited so that the jerk bound can still bring the
+        acceleration to 0 before the speed leaves its bounds (from the speed at the step's end)."""
+        r = self.ocp.vehicle.roles
+        j_lo, j_hi = self.ocp.bounds.get(r.jerk, (-math.inf, math.inf))
+        v_lo, v_hi = self.ocp.bounds.get(r.speed, (-math.inf, math.inf))
+        a = goal
+        for _ in range(3):  # a fixed point: the limit depends on the speed at the step's end, which depends on a
+            ahead = speed + 0.5 * (accel + a) * step
+            if math.isfinite(v_lo) and j_hi > 0:
+                a = max(a, -math.sqrt(2.0 * j_hi * max(ahead - v_lo, 0.0)))
+            if math.isfinite(v_hi) and j_lo < 0:
+                a = min(a, math.sqrt(2.0 * -j_lo * max(v_hi - ahead, 0.0)))
+        return a
+
+    def _speed_window(self, speed: float, step: float) -> tuple[float, float]:
+        """The accelerations that keep the speed within its bounds over the step."""
+        lo, hi = self.ocp.bounds.get(self.ocp.vehicle.roles.speed, (-math.inf, math.inf))
+        return (lo - speed) / step, (hi - speed) / step
 
     def _curvature_slope(self, i_steer: int) -> float:
         """d(curvature)/d(steering) of the heading at the current state (the model's own), at least 1e-3 1/m/rad."""
@@ -214,4 +283,4 @@ class Tracker:
         return self.x
 
 
-__all__ = ["PROGRESS_TIME", "REFERENCE_STEPS", "TRACK_LENGTH", "Reference", "Tracker", "reference_of"]
+__all__ = ["REFERENCE_STEPS", "SPEED_TIME", "TRACK_LENGTH", "Reference", "Tracker", "reference_of"]
