@@ -21,7 +21,7 @@ import paper_pdf  # noqa: E402
 BIB = ROOT / "paper" / "references.bib"
 PAPER = r"""# Roundabout trajectories, a test paper
 
-Some text with inline math $u_1^2 + u_2^2 \le 1$ and `code`.
+Some text with inline math $u_1^2 + u_2^2 \le 1$ and `code`, solved by Ipopt [@ipopt].
 
 [TOC]
 
@@ -35,12 +35,18 @@ and the dynamics are
 
 $$\begin{aligned} \dot x &= u_1\cos\theta \\ \dot y &= u_1\sin\theta \end{aligned}$$
 
+Table: Two scenarios.
+
 | scenario | arcs | E |
 | --- | --- | ---: |
 | `s1` | - + | 0.2584 |
 | `s2` | + | 0.4782 |
 
 ![A wobbly line drawn by the test](fig/line.png)
+
+## References {.unnumbered}
+
+[REFERENCES]
 """
 
 
@@ -79,10 +85,13 @@ def test_synthetic_paper_builds_a_readable_pdf(tmp_path):
     text = pdf_text(out)
     assert "Roundabout trajectories" in text  # the title
     assert "(1)" in text and "(2)" in text  # numbered display equations
-    assert re.search(r"Figure\s1: A wobbly line drawn by the test", text)  # the alt text became the caption
+    assert re.search(r"Figure\s1\. A wobbly line drawn by the test", text)  # the alt text became the caption
+    assert re.search(r"Table\s1\. Two scenarios", text)
+    assert "Ipopt [1]" in text
     assert "0.4782" in text  # the table
     assert "•" not in text, "a table cell '- +' was typeset as a bullet list"
-    assert "References" in text and "Interior-Point".lower() in text.lower()  # Ipopt's paper
+    assert "References" in text and "Interior-Point".lower() in text.lower()  # Ipopt's paper, the one cited
+    assert "CasADi" not in text  # an entry nobody cites is not listed
     assert not list(out.parent.glob(".*.tmp"))
 
 

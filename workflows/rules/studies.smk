@@ -10,8 +10,8 @@ PAPER_SECTIONS += [
     "results/sections/60-time-optimal.md",
     "results/sections/61-pareto.md",
     "results/sections/62-wheelbase.md",
-    "results/sections/63-convergence.md",
-    "results/sections/64-indirect.md",
+    "results/sections/S2-convergence.md",
+    "results/sections/S3-indirect.md",
 ]
 PAPER_FIGURES += [
     "results/studies/time/controls.png",
@@ -76,7 +76,8 @@ rule study_convergence:
         scenarios=[SCENARIO_FILES[c.split(":")[0]] for c in CONVERGENCE],
     output:
         csv="results/studies/convergence/convergence.csv",
-        section="results/sections/63-convergence.md",
+        json="results/studies/convergence/convergence.json",
+        section="results/sections/S2-convergence.md",
     log:
         "results/logs/studies/convergence.log",
     shell:
@@ -90,7 +91,7 @@ rule study_indirect:
         code=STUDY_CODE,
     output:
         json="results/studies/indirect/indirect.json",
-        section="results/sections/64-indirect.md",
+        section="results/sections/S3-indirect.md",
     log:
         "results/logs/studies/indirect.log",
     shell:

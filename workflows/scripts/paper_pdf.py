@@ -4,7 +4,20 @@ with its embedded fonts, and pypdfium2 renders the first pages to PNG for a look
 
 The first `# ` heading becomes the title, `[TOC]` a table of contents, display equations are numbered, an
 image alone in its paragraph becomes a figure captioned by its alt text, kept where the text puts it (no
-floating into later sections or into a table), and the references of paper/references.bib are appended.
+floating into later sections or into a table).
+
+Conventions the fragments share with workflows/scripts/paper_html.py (so HTML and PDF agree):
+
+- Citations: ``[@key]``, ``[@a; @b]`` or ``[@key, p. 5]`` (pandoc's syntax) with keys of paper/references.bib;
+  Typst numbers them in the order of first citation (IEEE style). A key the bibliography lacks is an error.
+- ``[REFERENCES]``, a paragraph of its own, is where the bibliography goes (under the heading the Markdown
+  gives it); without it the bibliography is appended with its own heading.
+- Tables: a paragraph ``Table: caption`` right before a pipe table (a blank line between) captions it;
+  it is numbered "Table N." above the table. A table without one gets no number. A ``Table:`` paragraph
+  that no table follows is an error.
+- Headings: ``{.unnumbered}`` after a heading's text leaves it unnumbered; ``{.unnumbered .supplementary}``
+  starts the supplementary material: the sections after it are numbered S1, S2, ...
+
 Math that pandoc cannot convert, or that Typst rejects, stops the build with one line naming the TeX
 expression; the PDF is written to a temporary file and renamed, so a failed build leaves no PDF behind.
 """
@@ -30,9 +43,11 @@ from PIL import Image
 # ^superscript^ and ~subscript~ (u1max^2+u2max^2 in a table header), @citations, YAML blocks; and no
 # heading labels (nothing refers to them, and pandoc < 3.7 writes labels Typst rejects, e.g. with "²").
 READER = (
-    "markdown+tex_math_dollars-raw_tex-superscript-subscript-citations-example_lists-yaml_metadata_block"
-    "-auto_identifiers"
-)
+    "markdown+tex_math_dollars-raw_tex-superscript-subscript-example_lists-yaml_metadata_block"
+    "-auto_identifiers-implicit_header_references-table_captions"
+)  # table_captions off: a caption after a table would be taken by it; prepare() attaches captions itself
+BIB_KEY = re.compile(r"^\s*@\w+\s*\{\s*([^,\s]+)\s*,", re.M)  # the key of each BibTeX entry
+CAPTION = "Table:"  # a paragraph starting with this, right before a table, is its caption
 MARK_OPEN, MARK_CLOSE = "/*m{}<*/", "/*>m{}*/"  # Typst comments around each formula, to name it on errors
 MARK = re.compile(r"/\*m(\d+)<\*/")
 # a Str that Typst would read as a list, enum, term or heading marker at the start of a table cell
@@ -73,6 +88,12 @@ PREAMBLE = r"""#set document(title: {meta})
 #show figure.where(kind: table): set text(size: 8pt)
 #show figure.where(kind: table): set par(justify: false)
 #show figure.where(kind: table): set block(breakable: true)
+#show figure.where(kind: table): set figure.caption(position: top)
+#show figure.where(kind: table): set align(left)
+#show figure.where(kind: table): set figure(supplement: [Table])
+// a table without a caption takes no number (else the captioned ones would skip numbers)
+#show figure.where(kind: table, caption: none): set figure(numbering: none)
+#set figure.caption(separator: [. ])
 #set table(stroke: (x, y) => if y == 0 {{ (top: 0.8pt) }}, inset: (x: 3.5pt, y: 3pt))
 #set table.hline(stroke: 0.5pt)
 #show table: set align(left)
@@ -80,7 +101,14 @@ PREAMBLE = r"""#set document(title: {meta})
 """
 TITLE = '#align(center, block(below: 1.5em, text(size: 17pt, weight: "bold")[{title}]))\n'
 
-BIBLIOGRAPHY = '\n#bibliography(bytes({source}), title: "References", full: true, style: "ieee")\n'
+BIBLIOGRAPHY = '\n#bibliography(bytes({source}), title: {title}, style: "ieee")\n'
+REFERENCES = "[REFERENCES]"  # a paragraph of its own: the bibliography goes here
+REFERENCES_MARK = "/*references here*/"
+# after the supplementary heading: the numbering starts again, as S1, S2, ...
+SUPPLEMENT = (
+    "#counter(heading).update(0)\n"
+    '#set heading(numbering: (..n) => if n.pos().len() <= 2 { "S" + numbering("1.1", ..n) })'
+)
 TOC = '#outline(title: "Contents", depth: 2, indent: auto)'
 
 
@@ -175,10 +203,13 @@ def prepare(ast: dict, root: Path) -> list[str]:
     """Rewrite the document for Typst in place and return its formulas (TeX) in order.
 
     Each formula is wrapped in Typst comment marks (to name it if Typst rejects it); ``[TOC]`` becomes
-    an outline; image paths become root-relative and must exist; raw HTML other than comments stops the
-    build, since the Typst writer would drop it.
+    an outline and ``[REFERENCES]`` the place of the bibliography; ``Table:`` paragraphs become the
+    captions of the tables after them; the supplementary heading restarts the numbering as S1, S2, ...;
+    image paths become root-relative and must exist; raw HTML other than comments stops the build, since
+    the Typst writer would drop it.
     """
     formulas: list[str] = []
+    attach_captions(ast["blocks"])
 
     def change(el: dict) -> list[dict] | None:
         kind = el["t"]
@@ -188,6 +219,10 @@ def prepare(ast: dict, root: Path) -> list[str]:
             return [raw(MARK_OPEN.format(n)), el, raw(MARK_CLOSE.format(n))]
         if kind == "Para" and [c.get("c") for c in el["c"]] == ["[TOC]"]:
             return [raw(TOC, block=True)]
+        if kind == "Para" and [c.get("c") for c in el["c"]] == [REFERENCES]:
+            return [raw(REFERENCES_MARK, block=True)]
+        if kind == "Header" and "supplementary" in el["c"][1][1]:
+            return [raw("#pagebreak(weak: true)", block=True), el, raw(SUPPLEMENT, block=True)]
         if kind == "Image":
             el["c"][2][0] = image_path(el["c"][2][0], root)
             size_image(el, root)
@@ -202,6 +237,57 @@ def prepare(ast: dict, root: Path) -> list[str]:
 
     walk(ast["blocks"], change)
     return formulas
+
+
+def is_caption(block: dict) -> bool:
+    """Whether a block is a ``Table: ...`` paragraph."""
+    inlines = block["c"] if block.get("t") == "Para" else []
+    return bool(inlines) and inlines[0].get("t") == "Str" and inlines[0]["c"] == CAPTION
+
+
+def attach_captions(blocks: list) -> None:
+    """Make each ``Table: caption`` paragraph the caption of the table right after it (in place, at every
+    depth); a caption paragraph with no table after it is an error."""
+    out: list = []
+    for i, block in enumerate(blocks):
+        if isinstance(block, list):
+            attach_captions(block)
+        elif isinstance(block, dict):
+            for value in block.values():
+                if isinstance(value, list):
+                    attach_captions(value)
+        if isinstance(block, dict) and is_caption(block):
+            after = blocks[i + 1] if i + 1 < len(blocks) else None
+            if not (isinstance(after, dict) and after.get("t") == "Table"):
+                raise PaperError(f"a '{CAPTION}' caption with no table after it: {plain_text(block['c'])[:80]!r}")
+            inlines = block["c"][1:]
+            while inlines and inlines[0]["t"] in ("Space", "SoftBreak"):
+                inlines = inlines[1:]
+            after["c"][1] = [None, [{"t": "Plain", "c": inlines}]]
+            continue
+        out.append(block)
+    blocks[:] = out
+
+
+def cited_keys(ast: dict) -> list[str]:
+    """The citation keys of a pandoc document, in order of first use."""
+    keys: list[str] = []
+
+    def collect(el: dict) -> None:
+        if el["t"] == "Cite":
+            keys.extend(c["citationId"] for c in el["c"][0] if c["citationId"] not in keys)
+
+    walk(ast["blocks"], collect)
+    return keys
+
+
+def check_citations(keys: list[str], bibliography: str | None) -> None:
+    """Every cited key must be an entry of the bibliography (Typst would stop on it less clearly)."""
+    defined = set(BIB_KEY.findall(bibliography or ""))
+    missing = [k for k in keys if k not in defined]
+    if missing:
+        where = "paper/references.bib" if bibliography else "the bibliography (none given)"
+        raise PaperError(f"citation key(s) not in {where}: {', '.join(missing)}")
 
 
 def image_path(src: str, root: Path) -> str:
@@ -251,7 +337,7 @@ def to_typst(markdown: str, root: Path, bibliography: str | None = None) -> tupl
     root : Path
         Folder that the image paths are relative to (it becomes the Typst root).
     bibliography : str, optional
-        BibTeX source whose entries are all listed as References at the end.
+        BibTeX source of the cited entries, listed at the `[REFERENCES]` mark (else at the end).
 
     Returns
     -------
@@ -269,11 +355,22 @@ def to_typst(markdown: str, root: Path, bibliography: str | None = None) -> tupl
     formulas = prepare(ast, root)
     body, messages = run_pandoc(json.dumps(ast), "json", "typst")
     check_math_log(messages)
+    check_citations(cited_keys(ast), bibliography)
     body = TABLE_END.sub(r"\n    table.hline(stroke: 0.8pt),\g<0>", body)  # a bottom rule under each table
     head = PREAMBLE.format(meta=typst_string(plain_text(title)) if title else "none")
     head += TITLE.format(title=inline_typst(ast, title)) if title else ""
-    tail = BIBLIOGRAPHY.format(source=typst_string(bibliography)) if bibliography else ""
-    return head + "\n" + body + tail, formulas
+    return head + "\n" + place_bibliography(body, bibliography), formulas
+
+
+def place_bibliography(body: str, bibliography: str | None) -> str:
+    """The body with the bibliography at its ``[REFERENCES]`` mark (untitled: the Markdown has the
+    heading), else appended under its own heading "References"; without a bibliography the mark is dropped."""
+    if not bibliography:
+        return body.replace(REFERENCES_MARK, "")
+    source = typst_string(bibliography)
+    if REFERENCES_MARK in body:
+        return body.replace(REFERENCES_MARK, BIBLIOGRAPHY.format(source=source, title="none"), 1)
+    return body + BIBLIOGRAPHY.format(source=source, title='"References"')
 
 
 def inline_typst(ast: dict, inlines: list[dict]) -> str:

@@ -6,6 +6,8 @@ results file through one of them (an unknown placeholder is an error):
 - ``{{ value SCENARIO KEY [FORMAT] }}``: a key of results/scenarios/SCENARIO/summary.json
 - ``{{ count SCENARIOS|SOLVED|CLAIMS|HOLDS|FAILS|CORRECTED }}``: counts over the results
 - ``{{ claim ID }}``: a derivation claim's id and verdict
+- ``{{ json PATH KEY [FORMAT] }}``: a value of the JSON file results/PATH, KEY a dotted path of keys and
+  list indices (``scenarios.0.final_time``); workflows/rules/paper.smk makes each such file an input
 - ``{{ scenario_table }}``, ``{{ reproduction_notes }}``, ``{{ scenario_sections }}``,
   ``{{ comparison_figures }}``, ``{{ derivation_report }}``: generated blocks
 """
@@ -13,6 +15,7 @@ results file through one of them (an unknown placeholder is an error):
 from __future__ import annotations
 
 import argparse
+import json
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -35,6 +38,7 @@ class Context:
     table_md: str
     report_md: str
     figures: Path
+    results_dir: Path = Path("results")
 
     def figure(self, path: str, caption: str) -> str:
         return f"![{caption}]({self.figures / path})"
@@ -45,6 +49,21 @@ def value(ctx: Context, scenario: str, key: str, spec: str = ".4g") -> str:
     if key not in summary:
         raise KeyError(f"{scenario}/summary.json has no key {key!r}")
     return format(summary[key], spec) if isinstance(summary[key], int | float) else str(summary[key])
+
+
+def json_value(ctx: Context, path: str, key: str, spec: str = ".4g") -> str:
+    """A value of a results JSON file, by a dotted path of keys and list indices."""
+    node = json.loads((ctx.results_dir / path).read_text())
+    for part in key.split("."):
+        if isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        elif isinstance(node, dict) and part in node:
+            node = node[part]
+        else:
+            raise KeyError(f"{path} has no key {key!r} (at {part!r})")
+    if isinstance(node, bool) or not isinstance(node, int | float):
+        return str(node)
+    return format(node, spec)
 
 
 def count(ctx: Context, what: str) -> str:
@@ -163,6 +182,8 @@ def render(template: str, ctx: Context) -> str:
             return count(ctx, *args)
         if name == "claim":
             return claim(ctx, *args)
+        if name == "json":
+            return json_value(ctx, *args)
         if name in BLOCKS and not args:
             return BLOCKS[name](ctx)
         raise KeyError(f"unknown placeholder {match.group(0)!r}")
@@ -187,6 +208,7 @@ def main(argv: list[str] | None = None) -> None:
         table_md=(res / "tables" / "scenarios.md").read_text(),
         report_md=(res / "derivations" / "report.md").read_text(),
         figures=res / "figures",
+        results_dir=res,
     )
     args.out.mkdir(parents=True, exist_ok=True)
     for template in args.templates:
