@@ -164,23 +164,48 @@ def test_the_tracker_holds_the_plan_at_any_pace():
     assert np.abs(controls[40:45, 0]).max() < 1e-3  # standing while the rate is 0
 
 
+class Accelerating(Vehicle):  # the truck with v' = a (docs/dynamics-format.md's extended model)
+    model = "accelerating-truck"
+    states = ("x", "y", "theta", "phi", "v")
+    controls = ("a", "u2")
+    roles = Roles(speed="v", acceleration="a") if hasattr(Roles(), "acceleration") else Roles()
+
+    def parameters(self) -> dict[str, float]:
+        return {"d": 5.0}
+
+    def dynamics(self) -> dict[str, sp.Expr]:
+        x, y, theta, phi, v = self.state_symbols()
+        a, u2 = self.control_symbols()
+        return {"x": v * sp.cos(theta), "y": v * sp.sin(theta), "theta": v * sp.tan(phi) / sym("d"), "phi": u2,
+                "v": a}  # fmt: skip
+
+    @property
+    def lateral_acceleration(self) -> sp.Expr:
+        return sym("v") ** 2 * sp.tan(sym("phi")) / sym("d")
+
+
+@pytest.mark.skipif(not hasattr(Roles(), "acceleration"), reason="Roles.acceleration not in this tree yet")
+def test_the_speed_asked_for_keeps_the_lateral_acceleration_bound_along_the_path_ahead():
+    """At 6 m/s the wavy plan's steering (up to 0.6 rad) would corner at 4.9 m/s^2: the bound 1.5 holds instead."""
+    bounds = {"a": (-3.0, 2.0), "v": (0.0, 8.0), "u2": (-0.5, 0.5), "phi": (-0.6, 0.6),
+              "lateral_acceleration": (-1.5, 1.5)}  # fmt: skip
+    vehicle = Accelerating()
+    from model.traffic.tracking import Tracker
+
+    tracker = Tracker(SimpleNamespace(vehicle=vehicle, bounds=bounds), wavy_reference(vehicle))
+    s, lateral = 0.0, []
+    for _ in range(80):
+        u = tracker.controls(s + 0.1, 1.0, 0.1)
+        tracker.advance(u, 0.1)
+        x = tracker.state()
+        lateral.append(x["v"] ** 2 * math.tan(x["phi"]) / 5.0)
+        s = tracker.locate()
+    assert max(np.abs(lateral)) <= 1.5
+    assert s > 2.0  # it drove on
+
+
 @pytest.mark.skipif(not hasattr(Roles(), "acceleration"), reason="Roles.acceleration not in this tree yet")
 def test_with_the_speed_a_state_the_tracker_commands_the_acceleration_within_its_bounds():
-    class Accelerating(Vehicle):  # the truck with v' = a (docs/dynamics-format.md's extended model)
-        model = "accelerating-truck"
-        states = ("x", "y", "theta", "phi", "v")
-        controls = ("a", "u2")
-        roles = Roles(speed="v", acceleration="a")
-
-        def parameters(self) -> dict[str, float]:
-            return {"d": 5.0}
-
-        def dynamics(self) -> dict[str, sp.Expr]:
-            x, y, theta, phi, v = self.state_symbols()
-            a, u2 = self.control_symbols()
-            return {"x": v * sp.cos(theta), "y": v * sp.sin(theta), "theta": v * sp.tan(phi) / sym("d"), "phi": u2,
-                    "v": a}  # fmt: skip
-
     bounds = {"a": (-3.0, 2.0), "v": (0.0, 8.0), "u2": (-0.5, 0.5), "phi": (-0.6, 0.6)}
     slow = np.concatenate([np.ones(20), np.linspace(1.0, 0.5, 20), np.full(20, 0.5), np.linspace(0.5, 1.0, 20)])
     worst, controls, speeds = track(Accelerating(), bounds, slow)

@@ -18,8 +18,10 @@ The controls (each clipped to the scenario's bounds):
   acceleration errors down with both poles at -1 / ``SPEED_TIME`` from the acceleration that speed
   needs, the acceleration kept where the jerk bound can still stop it before the speed leaves its
   bounds. A jerk-limited truck follows a plan that is itself at its jerk bound only approximately
-  (the speed lags where the plan switches its jerk): the speed planner of issue 45 is to give
-  profiles the truck can follow;
+  (the speed lags where the plan switches its jerk), so with a lateral acceleration bound the speed
+  asked for is also at most the one that keeps ``CORNER_SHARE`` of it along the path
+  ``CORNER_LOOKAHEAD`` plan seconds ahead (the speed planner of issue 45 is to give profiles the
+  truck can follow);
 - steering: the plan's steering angle at the step's end, corrected for the reference point's
   lateral and heading error from the plan's path (a critically damped decay over the path length
   ``TRACK_LENGTH``, the curvature change turned into a steering change by the model's own
@@ -39,10 +41,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from model.analysis.validation import one_step_columns
-from model.problem.ocp import OCP
+from model.problem.ocp import LATERAL, OCP
 
 TRACK_LENGTH = 6.0  # m: the lateral error's critically damped decay length along the path
 SPEED_TIME = 1.0  # s: with a jerk limit, the speed error's time constant
+CORNER_LOOKAHEAD = 3.0  # plan s: the speed asked for keeps the lateral acceleration bound this far along the path
+CORNER_SHARE = 0.9  # of the lateral bound the speed asked for may use (the rest: the steering's corrections)
 REFERENCE_STEPS = 20  # samples of the plan's integrated path per interval
 PROJECT_WINDOW = 2.0  # s of plan time either side of the last projection searched for the nearest point
 RTOL, ATOL = 1e-10, 1e-12  # the step's integration tolerances (DOP853)
@@ -123,9 +127,18 @@ class Tracker:
     rate: float = 1.0  # the progress rate asked for then
     direction: float = 1.0  # 1 forward along the plan, -1 backward
     f: object = field(init=False, repr=False)
+    lateral: np.ndarray | None = field(init=False, repr=False)  # |lateral acceleration| per (m/s)^2 along the path
+    lateral_bound: float = field(init=False)  # m/s^2: the smaller magnitude of [bounds] lateral_acceleration
 
     def __post_init__(self) -> None:
         self.f = self.ocp.vehicle.rhs_function()
+        self.lateral, self.lateral_bound = None, math.inf
+        v = self.ocp.vehicle
+        bound = self.ocp.bounds.get(LATERAL)
+        if bound is not None and v.roles.speed in v.states and v.lateral_acceleration is not None:
+            unit = dict(self.reference.columns) | {v.roles.speed: np.ones_like(self.reference.t)}
+            self.lateral = np.abs(v.state_function([v.lateral_acceleration])(unit)[0])
+            self.lateral_bound = min(-bound[0], bound[1])
         self.appear()
 
     def appear(self) -> None:
@@ -208,7 +221,7 @@ class Tracker:
         # plan time there each step), and what is tracked is the speed the autopilot asks for along the plan
         then = ref.at(target)
         speed, accel = state[r.speed], state.get(r.acceleration, 0.0)
-        wanted = rate * then[r.speed]
+        wanted = min(rate * then[r.speed], self._corner_speed(target))
         if r.acceleration in v.controls:  # the speed asked for at the step's end, reached over the step
             lo, hi = self._speed_window(speed, step)
             u[v.controls.index(r.acceleration)] = self._bound(r.acceleration, min(max((wanted - speed) / step, lo), hi))
@@ -224,6 +237,16 @@ class Tracker:
         jerk = 2.0 * lam * (feed - accel) + lam * lam * (wanted - speed)
         next_a = self._bound(r.acceleration, self._within_speed(accel + jerk * step, speed, accel, step))
         u[v.controls.index(r.jerk)] = self._bound(r.jerk, (next_a - accel) / step)
+
+    def _corner_speed(self, target: float) -> float:
+        """The highest speed (m/s) whose lateral acceleration stays within its bound along the plan's path from
+        ``target`` to ``CORNER_LOOKAHEAD`` plan seconds ahead (the path's own steering angles); inf without one."""
+        if self.lateral is None:
+            return math.inf
+        ref = self.reference
+        ahead = (ref.t >= target) & (ref.t <= target + CORNER_LOOKAHEAD)
+        per_speed = float(self.lateral[ahead].max(initial=0.0))  # |a_lat| at unit speed
+        return math.sqrt(CORNER_SHARE * self.lateral_bound / per_speed) if per_speed > 1e-9 else math.inf
 
     def _travel(self, u: np.ndarray, state: dict[str, float], step: float) -> float:
         """The path length the speed state covers over the step under ``u`` (constant acceleration or jerk)."""
@@ -283,4 +306,5 @@ class Tracker:
         return self.x
 
 
-__all__ = ["REFERENCE_STEPS", "SPEED_TIME", "TRACK_LENGTH", "Reference", "Tracker", "reference_of"]
+__all__ = ["CORNER_LOOKAHEAD", "CORNER_SHARE", "REFERENCE_STEPS", "SPEED_TIME", "TRACK_LENGTH", "Reference", "Tracker",
+           "reference_of"]
