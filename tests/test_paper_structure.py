@@ -159,3 +159,14 @@ def test_pdf_unknown_key_and_stray_caption_are_errors(tmp_path):
         paper_pdf.to_typst("# T\n\nText [@nosuchkey].\n", tmp_path, BIB.read_text())
     with pytest.raises(paper_pdf.PaperError, match="no table after it: 'Table: lost caption'"):
         paper_pdf.to_typst("# T\n\nTable: lost caption\n\nText.\n", tmp_path, BIB.read_text())
+
+
+def test_pdf_sets_a_wide_table_smaller_so_its_words_fit(tmp_path):
+    narrow = "| a | b |\n| --- | --- |\n| 1 | 2 |\n"
+    wide = "| " + " | ".join(f"conflicting{i}" for i in range(14)) + " |\n" + "| --- " * 14 + "|\n"
+    wide += "| " + " | ".join("cooperative" for _ in range(14)) + " |\n"
+    source, _ = paper_pdf.to_typst(f"# T\n\n{narrow}\n\n{wide}", tmp_path)
+    sizes = [float(m) for m in re.findall(r"kind: table\): set text\(size: ([\d.]+)pt\)", source)]
+    assert len(sizes) == 2 and sizes[0] == paper_pdf.TABLE_PT  # the preamble's size, then the wide table's
+    assert paper_pdf.TABLE_MIN_PT <= sizes[1] < paper_pdf.TABLE_PT
+    paper_pdf.compile_pdf(source, tmp_path, [])  # the shrunk table still compiles

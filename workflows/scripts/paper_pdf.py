@@ -14,7 +14,8 @@ Conventions the fragments share with workflows/scripts/paper_html.py (so HTML an
   gives it); without it the bibliography is appended with its own heading.
 - Tables: a paragraph ``Table: caption`` right before a pipe table (a blank line between) captions it;
   it is numbered "Table N." above the table. A table without one gets no number. A ``Table:`` paragraph
-  that no table follows is an error.
+  that no table follows is an error. A table whose longest words would not fit the text width at 8 pt
+  is set smaller (down to 6 pt); one still wider needs fewer columns or shorter words.
 - Headings: ``{.unnumbered}`` after a heading's text leaves it unnumbered; ``{.unnumbered .supplementary}``
   starts the supplementary material: the sections after it are numbered S1, S2, ...
 
@@ -55,6 +56,8 @@ MARK = re.compile(r"/\*m(\d+)<\*/")
 MARKER = re.compile(r"[-+=/]|\d+\.")
 FIGURE_WIDTH = 0.88  # of the text width (A4, 2.3 cm margins: 16.4 cm)
 TEXT_WIDTH_CM, MAX_FIGURE_HEIGHT_CM = 16.4, 16.0
+TABLE_PT, TABLE_MIN_PT = 8.0, 6.0  # table text size, and the least a wide table is shrunk to
+TEXT_WIDTH_PT, CELL_PAD_PT, CHAR_EM = 465.0, 7.5, 0.52  # 16.4 cm; a cell's insets; a character's mean width
 TABLE_END = re.compile(r"\n  \)\]\n  , kind: table")  # how pandoc's Typst writer closes a table
 LOCATION = re.compile(r"─ (?P<file>[^\s:]+):(?P<line>\d+):(?P<col>\d+)")
 
@@ -85,7 +88,7 @@ PREAMBLE = r"""#set document(title: {meta})
 #show figure.where(kind: image): set figure(placement: none)
 #show heading: it => {{ place.flush(); it }}
 #show figure.caption: set text(size: 9pt)
-#show figure.where(kind: table): set text(size: 8pt)
+#show figure.where(kind: table): set text(size: 8pt)  // TABLE_PT; a wide table gets less (table_size)
 #show figure.where(kind: table): set par(justify: false)
 #show figure.where(kind: table): set block(breakable: true)
 #show figure.where(kind: table): set figure.caption(position: top)
@@ -221,6 +224,9 @@ def prepare(ast: dict, root: Path) -> list[str]:
             return [raw(TOC, block=True)]
         if kind == "Para" and [c.get("c") for c in el["c"]] == [REFERENCES]:
             return [raw(REFERENCES_MARK, block=True)]
+        if kind == "Table" and (size := table_size(el)) < TABLE_PT:
+            shrink = f"#show figure.where(kind: table): set text(size: {size:.2f}pt)"
+            return [raw("#[", block=True), raw(shrink, block=True), el, raw("]", block=True)]
         if kind == "Header" and "supplementary" in el["c"][1][1]:
             return [raw("#pagebreak(weak: true)", block=True), el, raw(SUPPLEMENT, block=True)]
         if kind == "Image":
@@ -237,6 +243,22 @@ def prepare(ast: dict, root: Path) -> list[str]:
 
     walk(ast["blocks"], change)
     return formulas
+
+
+def table_size(table: dict) -> float:
+    """The text size (pt) at which a table's columns fit the text width: each column as wide as its longest
+    word (a word does not break, and one wider than its column overprints the next), plus the insets;
+    ``TABLE_PT`` where that fits, never below ``TABLE_MIN_PT``."""
+    _, _, colspecs, head, bodies, foot = table["c"]
+    longest = [1] * len(colspecs)
+    rows = head[1] + [r for body in bodies for r in body[2] + body[3]] + foot[1]
+    for row in rows:
+        for col, cell in enumerate(row[1][: len(colspecs)]):
+            words = plain_text(cell[4]).split() or [""]
+            longest[col] = max(longest[col], *(len(w) for w in words))
+    room = TEXT_WIDTH_PT - CELL_PAD_PT * len(colspecs)
+    natural = CHAR_EM * sum(longest)  # in units of the text size
+    return max(TABLE_MIN_PT, min(TABLE_PT, room / natural)) if natural > 0 and room > 0 else TABLE_MIN_PT
 
 
 def is_caption(block: dict) -> bool:
