@@ -170,3 +170,15 @@ def test_pdf_sets_a_wide_table_smaller_so_its_words_fit(tmp_path):
     assert len(sizes) == 2 and sizes[0] == paper_pdf.TABLE_PT  # the preamble's size, then the wide table's
     assert paper_pdf.TABLE_MIN_PT <= sizes[1] < paper_pdf.TABLE_PT
     paper_pdf.compile_pdf(source, tmp_path, [])  # the shrunk table still compiles
+
+
+def test_claims_table_of_the_derivation_report_is_captioned():
+    import paper_sections  # noqa: PLC0415 - imports the model package, only this test needs it
+
+    report = "# Checks\n\nText.\n\n| claim | section | verdict |\n| --- | --- | --- |\n| `a` | 2 | holds |\n\n## Part\n"
+    ctx = paper_sections.Context({}, {}, [], {}, "", report, Path("f"))
+    out = paper_sections.derivation_report(ctx)
+    assert out.index("Table: Every claim") < out.index("| claim | section | verdict |")
+    assert "### Part" in out and "# Checks" not in out
+    page = paper_html.to_html(out, "", Path("."))
+    assert "<strong>Table 1.</strong> Every claim" in page

@@ -156,12 +156,24 @@ def comparison_figures(ctx: Context) -> str:
     ])
 
 
+CLAIMS_TABLE = "| claim | section | verdict |"
+CLAIMS_CAPTION = ("Table: Every claim of the seed paper's Sections 2-6 checked symbolically: its id, the paper's "
+                  "section and the verdict (holds, holds after the correction given, or fails); the evidence "
+                  "for each follows below.")
+
+
 def derivation_report(ctx: Context) -> str:
-    """report.md with its title dropped and every heading one level deeper (it sits under a section)."""
+    """report.md with its title dropped, every heading one level deeper (it sits under a section) and its
+    claims table captioned."""
     lines = ctx.report_md.splitlines()
     if lines and lines[0].startswith("# "):
         lines = lines[1:]
-    return "\n".join("#" + ln if re.match(r"#{1,5} ", ln) else ln for ln in lines)
+    out: list[str] = []
+    for ln in lines:
+        if ln.strip() == CLAIMS_TABLE and not any(o.startswith("Table: ") for o in out):
+            out += [CLAIMS_CAPTION, ""]
+        out.append("#" + ln if re.match(r"#{1,5} ", ln) else ln)
+    return "\n".join(out)
 
 
 BLOCKS: dict[str, Callable[[Context], str]] = {
