@@ -375,3 +375,33 @@ def test_the_stagewise_qp_needs_the_controls(road):
     mpc = MPC(road, ControlSettings(0.1, 40), settings=MPCSettings(realtime=True, budget=100.0))
     with pytest.raises(ValueError, match="control names"):
         RealTimeIteration(mpc.horizon.model, mpc.horizon.nlp, mpc.horizon.states, "hpipm")
+
+
+def test_without_the_realtime_key_a_receding_horizon_gets_the_real_time_iteration(road):
+    """``realtime=None`` (a ``[control]`` without ``realtime``): a receding horizon's steps are real-time
+    iterations; ``False`` keeps warm-started Ipopt; an iteration that cannot be built (no such QP
+    solver) falls back to Ipopt with the reason, unless it was asked for by name."""
+    control = ControlSettings(0.1, 40, 2)
+    default = MPC(road, control, settings=MPCSettings(realtime=None, budget=100.0))
+    assert default.rti is not None and default.mpc_step == "real-time iteration"
+    assert "(real-time iteration, 20 intervals of 2 samples" in default.name
+    u = default.make_step(0.0, np.array([road.columns[k][0] for k in road.ocp.vehicle.states]), np.zeros((0, 2)))
+    assert np.all(np.isfinite(u)) and default.steps[-1]["realtime"]
+    off = MPC(road, control, settings=MPCSettings(realtime=False, budget=100.0))
+    assert off.rti is None and off.mpc_step == "warm-started Ipopt (realtime = false)"
+    assert MPCSettings().realtime is False  # the class's own default is unchanged
+    unbuilt = MPC(road, control, settings=MPCSettings(realtime=None, qp_solver="nosuch", budget=100.0))
+    assert unbuilt.rti is None and "(warm-started Ipopt" in unbuilt.name
+    assert unbuilt.mpc_step.startswith("warm-started Ipopt (the real-time iteration cannot be built")
+    assert "nosuch" in unbuilt.mpc_step
+    with pytest.raises(ValueError, match="nosuch"):
+        MPC(road, control, settings=MPCSettings(realtime=True, qp_solver="nosuch"))
+
+
+def test_without_the_realtime_key_a_shrinking_horizon_keeps_warm_started_ipopt(paper):
+    """The whole remaining manoeuvre as the horizon: warm-started Ipopt, and the summary's reason says so."""
+    mpc = MPC(paper, ControlSettings(0.05, "shrinking"), settings=MPCSettings(realtime=None, budget=100.0))
+    assert mpc.rti is None
+    assert mpc.mpc_step.startswith('warm-started Ipopt (horizon = "shrinking": the horizon is the whole remaining')
+    asked = MPC(paper, ControlSettings(0.05, "shrinking"), settings=MPCSettings(realtime=True, budget=100.0))
+    assert asked.rti is not None and asked.mpc_step == "real-time iteration"

@@ -129,3 +129,22 @@ def test_the_scenario_s_own_control_table_drives_a_real_time_mpc_past_the_car(cr
     labels = {p.get_label() for p in fig.axes[0].patches}
     assert {"other vehicle", "truck"} <= labels and "least distance to another vehicle" in fig._suptitle.get_text()
     plt.close(fig)
+
+
+def test_the_same_file_without_the_realtime_key_runs_the_real_time_iteration(crossing, tmp_path):
+    """examples/crossing-car.toml with its ``realtime = true`` line removed: the key absent, the MPC of
+    ``roundabout simulate`` is still the real-time iteration (summary.json ``mpc_step`` says so), every
+    step one, the car cleared by its safety and the goal reached."""
+    sc, sol = crossing
+    text = CROSSING.read_text()
+    assert "\nrealtime = true\n" in text
+    path = tmp_path / "no-key.toml"
+    path.write_text(text.replace("\nrealtime = true\n", "\n"))
+    plain = load_scenario(path)
+    assert plain.control.realtime is None and plain.control.intervals == 20
+    mpc = make_controller("mpc", sol, plain.control, plain.disturbance)()
+    run = simulate(plain, sol, mpc, plain.disturbance, plain.control)
+    s = run.summary
+    assert s["mpc_step"] == "real-time iteration" and all(step["realtime"] for step in mpc.steps)
+    assert s["failed_steps"] == 0 and not s["collided"] and s["reached_goal"]
+    assert s["min_distance_moving"] >= plain.ocp.moving_obstacles[0].safety

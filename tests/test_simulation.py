@@ -103,6 +103,8 @@ def test_summary_has_every_contract_key_and_the_exit_code_follows_it(tracked):
     assert summary["controller"].startswith("tracking")
     assert summary["steps"] == 70 and summary["final_time"] == pytest.approx(7.0)
     assert summary["realtime_factor"] == pytest.approx(summary["solve_seconds_max"] / 0.1)
+    assert 0.0 < summary["step_cpu_seconds_mean"] <= summary["step_cpu_seconds_max"]
+    assert "mpc_step" not in summary  # the MPC's only
     assert res.returncode == (0 if summary["reached_goal"] else 1)
     assert (out / "optimum" / "trajectory.csv").exists()
 
@@ -139,7 +141,7 @@ BAD = {
     "interval_not_dividing": (("horizon = 40", "horizon = 40\ninterval_samples = 3"), "control.interval_samples"),
     "interval_zero": (("horizon = 40", "horizon = 40\ninterval_samples = 0"), "control.interval_samples"),
     "one_interval": (("horizon = 40", "horizon = 40\ninterval_samples = 40"), "control.interval_samples"),
-    "realtime_not_bool": (("horizon = 40", 'horizon = 40\nrealtime = "yes"'), "control.realtime"),
+    "realtime_not_bool": (("realtime = false", 'realtime = "yes"'), "control.realtime"),
 }
 
 
@@ -258,3 +260,40 @@ def test_model_specific_disturbance_keys():
     doc["disturbance"] = {"steering_bias": 0.01}
     with pytest.raises(InputError, match="disturbance.steering_bias"):
         parse_scenario(doc)
+
+
+def test_without_the_realtime_key_the_mpc_step_is_left_to_the_controller():
+    """``[control]`` without ``realtime`` is None (the real-time iteration wherever it applies,
+    ``MPCSettings.realtime``); ``true`` and ``false`` stay what they say."""
+    assert parse_closed_loop({})[1].realtime is None
+    assert parse_closed_loop({"control": {"horizon": 40}})[1].realtime is None
+    assert parse_closed_loop({"control": {"realtime": False}})[1].realtime is False
+    assert parse_closed_loop({"control": {"realtime": True}})[1].realtime is True
+
+
+ROAD = ROOT / "examples" / "roundabout-truck.toml"
+
+
+def test_simulate_takes_the_time_limit_of_solve_with_its_default(tmp_path):
+    """``--time-limit`` is solve's option with solve's default; a bad value is one line, exit 2."""
+    text = run("simulate", "--help").stdout.replace("\n", " ")
+    assert "--time-limit SECONDS" in text and "default 300" in " ".join(text.split())
+    res = run("simulate", TRUCK, "--out", tmp_path / "out", "--controller", "tracking", "--time-limit", "0")
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1 and "--time-limit" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_plan_solve_beyond_the_time_limit_is_refused_and_nothing_is_simulated(tmp_path):
+    """A budget no road search can meet (50 ms): the plan solve stops with solve's diagnosis, the
+    command exits 1 as solve does for a failed solve, and no closed loop is run or written."""
+    out = tmp_path / "out"
+    res = run("simulate", ROAD, "--out", out, "--controller", "mpc", "--intervals", 30, "--time-limit", 0.05)
+    assert res.returncode == 1, res.stderr
+    assert "roundabout: FAILED (" in res.stderr and "within the time limit of 0.05 s" in res.stderr
+    assert res.stderr.count("reached: the search stops") == 1  # solve's progress line
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reached_goal"] is False and "the open-loop solve failed" in summary["status"]
+    optimum = json.loads((out / "optimum" / "summary.json").read_text())
+    assert optimum["diagnosis"]["kind"] == "time limit" and optimum["search"]["time_limit"] == 0.05
+    assert not (out / "closed_loop.csv").exists()

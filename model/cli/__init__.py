@@ -7,7 +7,8 @@ validated answer when the budget stopped the search); 1 the solver ran and faile
 validated within the time limit (DIR/summary.json says how); 2 invalid input (one line on stderr, nothing
 written); 130 interrupted (Ctrl-C; one line, nothing written). ``roundabout simulate``
 (docs/closed-loop-format.md): 0 the closed loop reached the goal (every run, with --runs);
-1 it did not, a step failed or the open-loop solve failed (the files are still written);
+1 it did not, a step failed or the open-loop solve failed, e.g. found nothing valid within
+``--time-limit`` (the same budget, default and progress as ``solve``; the files are still written);
 2 invalid input. A run's files appear in DIR together when it ends, with the umask's
 permissions, replacing an earlier run's (``model.outputs``).
 """
@@ -99,6 +100,11 @@ def parser() -> argparse.ArgumentParser:
     m.add_argument("--intervals", type=int, metavar="N", help="override problem.intervals of the open-loop solve")
     m.add_argument("--plant", metavar="MODEL",
                    help="kinematic|single-track: override plant.model (docs/closed-loop-format.md)")  # fmt: skip
+    m.add_argument(
+        "--time-limit", metavar="SECONDS", default=None,
+        help=f"the open-loop solve's budget, as solve's (default {DEFAULT_TIME_LIMIT:g}; 'inf': none). After it the "
+             "best validated answer so far is simulated, or exit 1 with a diagnosis and no simulation",
+    )  # fmt: skip
     m.add_argument("--verbose", action="store_true", help="show Ipopt's iteration log of the open-loop solve")
     m.add_argument("--quiet", action="store_true", help="print no progress on stderr (results and errors only)")
     f = sub.add_parser("traffic", help="drive the truck through SUMO traffic; DIR/summary.json, traffic.csv")
@@ -150,7 +156,7 @@ def _main(argv: list[str] | None) -> int:
 
     batch = args.command == "solve" and len(args.scenario) > 1
     try:
-        if args.command == "solve":
+        if args.command in ("solve", "simulate"):
             args.time_limit = checked_time_limit(args.time_limit)
         if batch:
             from model.search.batch import load_batch
@@ -553,7 +559,7 @@ def _simulate(scenario, args) -> int:
                   file=sys.stderr)  # fmt: skip
             return 1
         if not args.quiet:
-            print(solve_line(scenario, sol), file=sys.stderr)
+            print(solve_line(scenario, sol) + time_limit_note(sol), file=sys.stderr)
         from model.simulation.loop import make_controller, simulate_runs
 
         progress.activity = f"simulating the closed loop ({args.controller})"

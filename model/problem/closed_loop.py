@@ -58,13 +58,15 @@ class Disturbance:
 @dataclass(frozen=True)
 class ControlSettings:
     """Sample time (s) of the zero-order hold, the MPC horizon (samples, or "shrinking") and the
-    samples per interval of the MPC's prediction grid (``interval_samples``); ``realtime``: each MPC
-    step one real-time iteration (warm-started Ipopt its fallback) instead of a warm-started Ipopt solve."""
+    samples per interval of the MPC's prediction grid (``interval_samples``); ``realtime``: True, each MPC
+    step one real-time iteration (warm-started Ipopt its fallback when a step's point is not usable);
+    False, a warm-started Ipopt solve; None (the key absent), the real-time iteration wherever it
+    applies (``model.simulation.mpc.MPCSettings.realtime``), warm-started Ipopt with the reason elsewhere."""
 
     sample_time: float = 0.1
     horizon: int | str = 40
     interval_samples: int = 1
-    realtime: bool = False
+    realtime: bool | None = None
 
     @property
     def intervals(self) -> int | None:
@@ -128,7 +130,7 @@ def _control(table: dict[str, Any]) -> ControlSettings:
         raise InputError("control.horizon", f'must be a whole number >= 2 or "shrinking", got {horizon!r}')
     samples = _interval_samples(table, horizon)
     realtime = table.get("realtime", ControlSettings.realtime)
-    if not isinstance(realtime, bool):
+    if realtime is not None and not isinstance(realtime, bool):
         raise InputError("control.realtime", f"must be true or false, got {realtime!r}")
     return ControlSettings(sample_time=sample_time, horizon=horizon, interval_samples=samples, realtime=realtime)
 

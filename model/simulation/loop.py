@@ -75,8 +75,10 @@ def make_controller(
 ) -> Callable[[], Controller]:
     """A factory of fresh controllers named as on the command line: open-loop, tracking or mpc.
 
-    ``mpc`` imports ``model.simulation.mpc`` on first use (an ImportError if it is absent); with
-    ``control.realtime`` each of its steps is a real-time iteration.
+    ``mpc`` imports ``model.simulation.mpc`` on first use (an ImportError if it is absent); its steps
+    are real-time iterations with ``control.realtime`` true, warm-started Ipopt with false, and without
+    the key (None) the real-time iteration wherever it applies (``MPCSettings.realtime``; the summary's
+    ``mpc_step`` says which, and why not).
     """
     from model.simulation.controllers import OpenLoop, Tracking
 
@@ -128,15 +130,16 @@ def simulate(
     queue = deque([zero] * control.delay_samples(disturbance))
     start = [ocp.initial.get(s, solution.columns[s][0]) for s in v.states]  # a free start: the optimum's
     z = plant.start(np.array(start, dtype=float))
-    rows: dict[str, list] = {k: [] for k in ("state", "applied", "measured", "sent", "seconds", "plant")}
+    rows: dict[str, list] = {k: [] for k in ("state", "applied", "measured", "sent", "seconds", "cpu", "plant")}
     failed, grid = 0, [0.0]
     while grid[-1] < _end(controller, tf) - 1e-9:
         t, x = grid[-1], plant.state(z)
         y = plant.measure(x, rng)
         pending = np.array(queue, dtype=float).reshape(len(queue), len(v.controls))
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         sent = np.asarray(controller.make_step(float(t), y, pending), dtype=float).reshape(len(v.controls))
         rows["seconds"].append(time.perf_counter() - t0)
+        rows["cpu"].append(time.process_time() - c0)
         if controller.failed or not np.all(np.isfinite(sent)):
             failed += 1
             sent = np.where(np.isfinite(sent), sent, 0.0)
@@ -150,7 +153,7 @@ def simulate(
     rows["state"].append(plant.state(z))
     rows["plant"].append(plant.extras(z, rows["applied"][-1]))
     columns = _columns(v, solution, np.array(grid), rows)
-    summary = _summary(scenario, solution, controller, columns, rows["seconds"], failed, h)
+    summary = _summary(scenario, solution, controller, columns, (rows["seconds"], rows["cpu"]), failed, h)
     if scenario.plant.model != "kinematic":  # the summary of the kinematic plant is as before
         summary["plant"] = plan_mismatch(plant, columns, solution.columns) | {"min_clearance": summary["min_clearance"]}
     return ClosedLoop(columns=columns, summary=summary)
@@ -252,14 +255,17 @@ def reached(errors: dict[str, float], tol: dict) -> bool:
     return all(ok)
 
 
-def _summary(scenario, solution, controller, columns, seconds, failed: int, h: float) -> dict:
+def _summary(scenario, solution, controller, columns, clocks: tuple, failed: int, h: float) -> dict:
+    """The run's summary; ``clocks`` the steps' wall and CPU (this process's) seconds."""
     v = scenario.ocp.vehicle
     tol = goal_tolerance(scenario)
     errors = final_errors(scenario, columns)
-    seconds = np.asarray(seconds, dtype=float)
+    seconds, cpu = (np.asarray(c, dtype=float) for c in clocks)
     moving = moving_distances(scenario, columns)
+    step = {"mpc_step": controller.mpc_step} if hasattr(controller, "mpc_step") else {}
     return {
         "controller": controller.name,
+        **step,
         "steps": len(seconds),
         "final_position_error": errors.get("position"),
         "final_heading_error": errors.get(v.roles.heading),
@@ -269,6 +275,8 @@ def _summary(scenario, solution, controller, columns, seconds, failed: int, h: f
         **moving,
         "solve_seconds_mean": float(np.mean(seconds)),
         "solve_seconds_max": float(np.max(seconds)),
+        "step_cpu_seconds_mean": float(np.mean(cpu)),
+        "step_cpu_seconds_max": float(np.max(cpu)),
         "realtime_factor": float(np.max(seconds) / h),
         "failed_steps": int(failed),
         "truncated_steps": sum(bool(step.get("truncated")) for step in getattr(controller, "steps", [])),

@@ -34,8 +34,11 @@ tail beyond the old horizon continued by the prediction model) and from its mult
 same way (duals). With ``MPCSettings(realtime=True)`` a step is one real-time iteration
 (``rti.RealTimeIteration``: one condensed SQP step on the built NLP's CasADi functions, the QP by a
 dense active-set solver, hot-started from the previous step's active set), used when its point
-satisfies the constraints to ``feasible_inf_pr``; otherwise, and by default, the step is
-warm-started Ipopt with an iteration cap and a wall-time budget. A step stopped early (wall time,
+satisfies the constraints to ``feasible_inf_pr``; otherwise, and with ``realtime=False`` (the class's
+default), the step is warm-started Ipopt with an iteration cap and a wall-time budget.
+``realtime=None`` (a scenario's ``[control]`` without ``realtime``: ``roundabout simulate``'s default)
+takes the real-time iteration wherever it applies (``MPC.mpc_step`` says which, and why not).
+A step stopped early (wall time,
 iteration cap, or any other non-converged stop) whose iterate satisfies the constraints to
 ``feasible_inf_pr`` relative to the scene (``MPC._violation``) is used and counted as
 ``truncated``; only a step without such an iterate is ``failed``. The control sent is the plan's
@@ -67,6 +70,12 @@ from model.simulation.mpc.rti import RealTimeIteration
 
 USABLE = ("optimal", "acceptable")
 LIMIT_CODES = (-1, -4, -5)  # Ipopt: iteration limit, CPU time, wall time (-5 reads "solver_error" in ipopt.py)
+# Why a horizon that is the whole remaining manoeuvre gets no real-time iteration by default: its condensed QP is
+# dense in every remaining interval. Measured (examples/closed-loop-truck.toml, N = 50, nominal plant, load 8-9 on
+# 2 cores): shrinking, the real-time iteration 99 ms mean / 184 ms worst per step, warm-started Ipopt 22 / 75 ms;
+# receding over 40 samples, the real-time iteration 36 / 71 ms.
+NOT_RECEDING = ("the horizon is the whole remaining manoeuvre, whose condensed QP is dense in every interval "
+                "(measured slower than warm-started Ipopt)")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -109,10 +118,15 @@ class MPCSettings:
         The filter gain alpha of the disturbance estimate (0 < alpha <= 1).
     disturbance_share : float
         Saturation of each estimated rate, as a share of that state's largest rate on the reference.
-    realtime : bool
-        A step is one real-time iteration (``rti.RealTimeIteration``: one condensed SQP step on the
-        built NLP, the QP by ``qp_solver``), used when its point satisfies the constraints to
-        ``feasible_inf_pr``; warm-started Ipopt is the fallback when it does not.
+    realtime : bool or None
+        True: a step is one real-time iteration (``rti.RealTimeIteration``: one condensed SQP step on
+        the built NLP, the QP by ``qp_solver``), used when its point satisfies the constraints to
+        ``feasible_inf_pr``; warm-started Ipopt is the fallback when it does not. False (the class's
+        default): every step warm-started Ipopt. None (what ``[control]`` without ``realtime`` asks
+        for): the real-time iteration wherever it applies, warm-started Ipopt where it does not, with
+        the reason in ``MPC.mpc_step``: a horizon that is the whole remaining manoeuvre (``horizon =
+        "shrinking"``, or a time problem with ``time_receding = False``), or a horizon problem the
+        real-time iteration cannot build (its ValueError).
     qp_solver : str
         The real-time iteration's QP solver (``rti.QP_SOLVERS``): "qpoases" or "daqp" on the
         condensed dense QP, "hpipm" on the uncondensed QP in the stage layout (``stagewise``;
@@ -158,7 +172,7 @@ class MPCSettings:
     estimator_gain: float = 0.5
     disturbance_share: float = 0.3
     estimator_window: int = 3
-    realtime: bool = False
+    realtime: bool | None = False
     qp_solver: str = "qpoases"
     rti_regularization: float = 0.1
     qp_options: dict = field(default_factory=dict)
@@ -190,6 +204,8 @@ class MPC:
         The current disturbance estimate on the state rates (state order; zero where not estimated).
     final_time : float
         When the current plan arrives (the reference's final time, or later for the time objective).
+    mpc_step : str
+        What a step is: "real-time iteration", or "warm-started Ipopt (<why>)".
     steps : list of dict
         Per step: t, seconds, iterations, status, horizon length, used, truncated, the relative
         constraint violation of the iterate and the disturbance estimate used.
@@ -221,30 +237,52 @@ class MPC:
         s = self.settings
         self.estimator = DisturbanceEstimator(self.ocp.vehicle, self.reference, self.offset_free, s.estimator_gain,
                                               s.disturbance_share, s.estimator_window)  # fmt: skip
-        kind = "offset-free mpc" if self.offset_free else "mpc"
-        samples = control.interval_samples
-        grid = f"{intervals} intervals" + (f" of {samples} samples" if samples > 1 else "")
-        step = "real-time iteration" if self.settings.realtime else "warm-started Ipopt"
-        self.name = f"{kind} ({step}, {grid}, {control.horizon} horizon)"
         self.failed = self.truncated = False
         self.steps: list[dict] = []
         self.plan = self.warm = self._reference_plan()
         self._final_phase = False
         self.plan = self._solve(0.0, self.ocp.initial, record=False) or self.plan  # multipliers for step 1
-        self.rti = None
-        if self.settings.realtime:
-            self.rti = RealTimeIteration(self.horizon.model, self.horizon.nlp, self.ocp.vehicle.states,
-                                         self.settings.qp_solver, self.settings.rti_regularization,
-                                         self.settings.qp_options, self.ocp.vehicle.controls)  # fmt: skip
-            self._rti_key = None
-            if self.settings.rti_compiled:
-                self.horizon.nlp.compile_first_order()
-            self.rti.step(self.plan.x)  # the QP solver's first (cold) active set, before the loop
+        self.rti, why = None, self._not_realtime()
+        if why is None:
+            self.rti, why = self._build_rti()
+        self.mpc_step = "real-time iteration" if self.rti is not None else f"warm-started Ipopt ({why})"
+        kind = "offset-free mpc" if self.offset_free else "mpc"
+        samples = control.interval_samples
+        grid = f"{intervals} intervals" + (f" of {samples} samples" if samples > 1 else "")
+        step = "real-time iteration" if self.rti is not None else "warm-started Ipopt"
+        self.name = f"{kind} ({step}, {grid}, {control.horizon} horizon)"
         # The horizon was built with the collector paused: its ~10^6 objects sit in the youngest
         # generation, and the first collections in the loop would traverse them (measured: 1-6 s
         # pauses inside steps on the semitrailer's road horizon). One full collection now moves
         # them to the oldest generation, which the loop's allocations do not trigger.
         gc.collect()
+
+    def _not_realtime(self) -> str | None:
+        """Why the steps are not real-time iterations (None: they are, if the iteration builds)."""
+        asked = self.settings.realtime
+        if asked is False:
+            return "realtime = false"
+        if asked is None and math.isinf(self.horizon_time):
+            whole = 'horizon = "shrinking"' if self.shrinking else "time_receding = False"
+            return f"{whole}: {NOT_RECEDING}"
+        return None
+
+    def _build_rti(self) -> tuple[RealTimeIteration | None, str | None]:
+        """The real-time iteration on the built horizon, its QP solver's first (cold) active set found
+        before the loop; (None, why) where it cannot be built and was not asked for explicitly."""
+        s = self.settings
+        try:
+            rti = RealTimeIteration(self.horizon.model, self.horizon.nlp, self.ocp.vehicle.states, s.qp_solver,
+                                    s.rti_regularization, s.qp_options, self.ocp.vehicle.controls)  # fmt: skip
+        except ValueError as exc:
+            if s.realtime:  # asked for by name: the error, as before
+                raise
+            return None, f"the real-time iteration cannot be built for this horizon: {exc}"
+        self._rti_key = None
+        if s.rti_compiled:
+            self.horizon.nlp.compile_first_order()
+        rti.step(self.plan.x)
+        return rti, None
 
     # -- the Controller protocol ---------------------------------------------------------
     def make_step(self, t: float, y: np.ndarray, pending: np.ndarray) -> np.ndarray:
