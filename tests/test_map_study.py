@@ -218,3 +218,35 @@ def test_a_cell_is_solved_again_on_2n_only_where_it_fails_between_the_nodes(outc
     solution, tried = solve_cell(ocp, 100)
     assert ocp.asked == asked and [t["intervals"] for t in tried] == asked and solution.ok == ok
     assert tried[-1]["valid"] == ok and tried[0]["failed_checks"] == outcomes[100]
+
+
+@pytest.mark.parametrize("preset", ["SU-30", "EU-semitrailer"])
+def test_an_operational_cell_poses_and_starts_with_the_longitudinal_states(kackertstrasse, template, preset):
+    """At the preset's limits (free a at the start, v the crawl speed) the poses are checked and the map search's
+    centre-line start carries every state (both raised KeyError 'a' before)."""
+    from model.direct.map_corridor import centre_line_start, strips
+    from model.vehicles import operational_limits
+
+    doc = cell_document(template, kackertstrasse, preset, "90-102", True, 40, operational=True)
+    ocp, lim = parse_scenario(doc, path=TEMPLATE).ocp, operational_limits(preset)
+    assert doc["vehicle"] == {"preset": preset, "operational": True} and "u1" not in doc["bounds"]
+    assert ocp.bounds["v"] == tuple(template["bounds"]["u1"]) and ocp.initial["v"] == lim.crawl_speed
+    assert ocp.bounds["a"] == lim.acceleration and "a" not in ocp.initial  # a free at the start
+    start = centre_line_start(ocp, 40, strips(ocp))
+    assert set(ocp.vehicle.states) <= set(start.values) and not start.values["a"].any()
+
+
+@pytest.mark.slow
+def test_an_operational_cell_solves_within_the_presets_limits(kackertstrasse, template):
+    """EU-semitrailer 90-102 with the apron at its limits (measured: Tf 23.09 s, 41 s CPU at N = 100)."""
+    from model.vehicles import operational_limits
+
+    doc = cell_document(template, kackertstrasse, "EU-semitrailer", "90-102", True, 100, operational=True)
+    ocp, lim = parse_scenario(doc, path=TEMPLATE).ocp, operational_limits("EU-semitrailer")
+    sol, _ = solve_cell(ocp, 100)
+    assert sol.ok
+    cols = sol.columns
+    assert cols["v"][0] == pytest.approx(lim.crawl_speed, abs=1e-6) and np.max(cols["v"]) <= ocp.bounds["v"][1] + 1e-6
+    assert lim.acceleration[0] - 1e-6 <= np.min(cols["a"]) and np.max(cols["a"]) <= lim.acceleration[1] + 1e-6
+    lateral = sol.validation["measures"]["lateral_acceleration"]
+    assert lateral["max_abs_nodes"] <= lim.lateral_acceleration + 1e-6

@@ -21,6 +21,8 @@ from model.studies.roads import (
     eu_steering,
     eu_turning_circle,
     integrate,
+    limits_note,
+    operational_text,
     parse_cell,
     preset_vehicle,
     rectangle_distance,
@@ -28,7 +30,7 @@ from model.studies.roads import (
     steady_turn,
     trailer_radius,
 )
-from model.vehicles import Body, TractorTrailer, Truck
+from model.vehicles import Body, TractorTrailer, Truck, operational_limits
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = ROOT / "workflows" / "scripts"
@@ -109,6 +111,34 @@ def test_cell_documents():
     assert parse_scenario(cell_document(template, "P", 25, 2, 20)).ocp.road.roundabout.apron_use == "none"
 
 
+@pytest.mark.parametrize("name", ["SU-30", "EU-semitrailer"])
+def test_an_operational_cell_takes_the_presets_limits_and_the_templates_speed_bound(name):
+    template = tomllib.loads(TEMPLATE.read_text())
+    plain = parse_scenario(cell_document(template, name, 45, 2, 20)).ocp
+    doc = cell_document(template, name, 45, 2, 20, operational=True)
+    ocp, lim = parse_scenario(doc).ocp, operational_limits(name)
+    assert "v" in ocp.vehicle.states and "v" not in plain.vehicle.states  # the speed a state, not a control
+    assert ocp.bounds["v"] == tuple(template["bounds"]["u1"])  # forward only, the template's cap (below 50 km/h)
+    assert ocp.bounds["a"] == lim.acceleration and ocp.bounds["j"] == lim.jerk
+    assert ocp.bounds["u2"] == (-lim.steering_rate, lim.steering_rate) != tuple(template["bounds"]["u2"])
+    assert ocp.bounds["lateral_acceleration"] == (-lim.lateral_acceleration, lim.lateral_acceleration)
+    assert ocp.initial["v"] == lim.crawl_speed and "v" not in ocp.final  # enters at a crawl, leaves at any speed
+    assert ocp.bounds["phi"] == plain.bounds["phi"]  # the steering limit as without the limits
+    assert "operational" not in template.get("vehicle", {}) and "u1" in template["bounds"]  # the template untouched
+
+
+def test_a_limits_note_says_above_or_within_with_the_presets_numbers():
+    lim = operational_limits("SU-30")
+    over = limits_note("SU-30", False, 3.0 * lim.lateral_acceleration)
+    assert over.startswith("kinematic model without operational limits")
+    assert f"above the SU-30's allowed {lim.lateral_acceleration:g} m/s^2" in over
+    assert "within" in limits_note("SU-30", False, 0.5 * lim.lateral_acceleration)
+    held = limits_note("SU-30", True, lim.lateral_acceleration, lim.acceleration)
+    assert held.startswith(f"operational limits of the SU-30: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}]")
+    assert f"|a_lat| <= {lim.lateral_acceleration:g} m/s^2" in held and "reached: max |a_lat|" in held
+    assert f"entering at {lim.crawl_speed:.2f} m/s" in operational_text("SU-30")
+
+
 def run(script: str, *args) -> None:
     subprocess.run([sys.executable, str(SCRIPTS / script), *map(str, args)], check=True, cwd=ROOT,
                    capture_output=True, text=True)  # fmt: skip
@@ -118,8 +148,10 @@ def test_table_scripts_on_one_small_cell(tmp_path):
     cell, larger = tmp_path / "cells" / "P_icd40_apron0.json", tmp_path / "cells" / "P_icd50_apron0.json"
     # a row as the pipeline runs it: two cells in one process, each written to its own file
     run("studies_roads_cell.py", "--template", TEMPLATE, "--cell", "P_icd40_apron0", "P_icd50_apron0", "--intervals",
-        20, "--time-limit", 60, "--clock", "cpu", "--energy-time-limit", 60, "--out", cell, larger)  # fmt: skip
+        20, "--time-limit", 60, "--clock", "cpu", "--energy-time-limit", 60, "--no-operational", "--out", cell,
+        larger)  # fmt: skip
     data, other = json.loads(cell.read_text()), json.loads(larger.read_text())
+    assert not data["operational"] and data["limits"] is None and "v" not in data["trajectory"]
     assert (data["cell"], data["icd"], other["cell"], other["icd"]) == ("P_icd40_apron0", 40, "P_icd50_apron0", 50)
     assert other["time"]["valid"] and other["time"]["final_time"] > data["time"]["final_time"]  # the larger ring
     assert 0.0 < other["cpu_seconds"] < 60.0  # its own clock, not the process's
@@ -130,6 +162,18 @@ def test_table_scripts_on_one_small_cell(tmp_path):
     assert data["energy"]["final_time"] == pytest.approx(1.2 * data["time"]["final_time"])
     assert data["energy"]["energy"] < data["time"]["energy"]
     assert data["measures"]["apron_used_m"] == 0.0 and 2.0 < data["measures"]["swept_width_m"] < 4.5
+    # by default at the preset's operational limits, held at the nodes and said so in the record (N = 20 is too
+    # coarse for them: between the nodes the body cuts the island's edge by 0.2 m; the small grid runs N = 60)
+    limited = tmp_path / "cells" / "SU-30_icd45_apron0.json"
+    run("studies_roads_cell.py", "--template", TEMPLATE, "--cell", "SU-30_icd45_apron0", "--intervals", 40,
+        "--time-limit", 120, "--clock", "cpu", "--energy-time-limit", 60, "--out", limited)  # fmt: skip
+    op, lim = json.loads(limited.read_text()), operational_limits("SU-30")
+    assert op["operational"] and op["limits"]["acceleration"] == list(lim.acceleration) and op["time"]["valid"]
+    assert op["initial_speed"] == pytest.approx(lim.crawl_speed)
+    assert op["trajectory"]["v"][0] == pytest.approx(lim.crawl_speed, abs=1e-6)
+    assert op["time"]["max_abs_lateral_acceleration"] <= lim.lateral_acceleration + 1e-6
+    assert lim.acceleration[0] - 1e-6 <= op["time"]["min_acceleration"] <= op["time"]["max_acceleration"] <= (
+        lim.acceleration[1] + 1e-6)
     # a failed cell (made by hand) is reported with its diagnosis, never as a solution
     failed = {**data, "cell": "WB-67_icd40_apron0", "preset": "WB-67", "energy": None, "measures": None}
     failed["time"] = {**data["time"], "valid": False, "status": "infeasible",
@@ -143,8 +187,8 @@ def test_table_scripts_on_one_small_cell(tmp_path):
     (tmp_path / "cells" / "P_icd35_apron0.json").write_text(json.dumps(slow))
     section = tmp_path / "74.md"
     run("studies_roads_table.py", "--cells", cell, tmp_path / "cells" / "WB-67_icd40_apron0.json",
-        tmp_path / "cells" / "P_icd35_apron0.json", "--template",
-        TEMPLATE, "--mode", "small", "--vehicles", "P", "WB-67", "--icd", 40, "--apron", 0, "--intervals", 20,
+        tmp_path / "cells" / "P_icd35_apron0.json", limited, "--template",
+        TEMPLATE, "--mode", "small", "--vehicles", "P", "WB-67", "SU-30", "--icd", 40, "--apron", 0, "--intervals", 20,
         "--out", tmp_path / "table", "--section", section, "--formats", "png")  # fmt: skip
     text = section.read_text()
     assert "`road_studies: small` run" in text
@@ -152,6 +196,14 @@ def test_table_scripts_on_one_small_cell(tmp_path):
     assert "FAILED" in text and "the trailer crosses the apron by 1.30 m" in text
     assert "minimum time is above twice the same vehicle's at the next larger ICD (with the same apron): none" in text
     assert "P ICD 35 m apron 0 m:" in text and "(refused at its time limit of 60 s" in text
+    assert "1 of the 4 cells run" in text and "at **its preset's operational limits**" in text
+    assert operational_text("SU-30") in text and operational_text("P") not in text
+    assert f"operational limits of the SU-30: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}]" in text
+    allowed = operational_limits("P").lateral_acceleration
+    reached = data["time"]["max_abs_lateral_acceleration"]
+    over = "above" if reached > allowed else "within"
+    assert (f"kinematic model without operational limits: max |a_lat| {reached:.2f}"
+            f" m/s^2 ({over} the P's allowed {allowed:g} m/s^2)") in text
     assert (tmp_path / "table" / "table.png").exists()
 
 

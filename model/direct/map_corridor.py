@@ -387,6 +387,9 @@ def centre_line_start(ocp: OCP, intervals: int, st: Strips, speed_fraction: floa
         values[r.steering_rate] = np.gradient(phi, np.linspace(0, tf, intervals + 1))
     for trailer in r.trailers:
         values[trailer] = theta.copy()
+    for rate in (r.acceleration, r.jerk):  # longitudinal dynamics: the constant speed's rates
+        if rate is not None:
+            values[rate] = np.zeros(intervals + 1)
     values = {k: a for k, a in values.items() if k in v.states + v.controls}
     return Start(values=values, final_time=tf, times=np.linspace(0.0, tf, intervals + 1))
 

@@ -162,6 +162,8 @@ def pose_clearances(route: MapRoute, vehicle: Vehicle, bodies: dict[str, Body],
     columns = {k: np.array([v]) for k, v in state.items() if is_number(v)}
     out = {}
     for name, body in bodies.items():
+        used = {str(s) for e in poses[name] for s in e.free_symbols}  # a free v or a (longitudinal) is not a pose
+        columns |= {k: np.zeros(1) for k in vehicle.states if k not in columns and k not in used}
         x, y, heading = vehicle.state_function(list(poses[name]))(columns)
         out[name] = clearance(route.corridor(name), body.corners(x[0], y[0], heading[0]))
     return out

@@ -34,7 +34,7 @@ from model.errors import InputError
 from model.problem.maps import pose_clearances
 from model.problem.ocp import OCP
 from model.scene.lanelet_map import LaneletMap, MapRoute, shortest_path
-from model.studies.roads import preset_vehicle
+from model.studies.roads import operational_document, preset_vehicle
 from model.vehicles import VEHICLES, preset
 
 MARGIN = 0.5  # m: first try, the start and goal this far clear of the vehicle's reach along the route
@@ -246,7 +246,7 @@ def parse_cell(name: str) -> tuple[str, str, bool]:
 
 
 def cell_document(template: dict, lanelet_map: LaneletMap, preset_name: str, movement: str, apron: bool,
-                  intervals: int) -> dict:  # fmt: skip
+                  intervals: int, operational: bool = False) -> dict:  # fmt: skip
     """One cell's scenario document: the template with the preset, the movement's route and the apron set.
 
     Parameters
@@ -259,6 +259,9 @@ def cell_document(template: dict, lanelet_map: LaneletMap, preset_name: str, mov
     preset_name, movement, apron, intervals
         The preset, the movement's name ``"<entry>-<exit>"``, whether the apron lanelets may be used
         (by the bodies ``apron_use`` allows), N.
+    operational : bool
+        At the preset's operational limits (``model.studies.roads.operational_document``: the template's
+        speed bound that of ``v``, entering at the crawl speed, leaving at any speed).
 
     Raises
     ------
@@ -270,6 +273,8 @@ def cell_document(template: dict, lanelet_map: LaneletMap, preset_name: str, mov
     found = find_movement(lanelet_map, movement)
     doc = copy.deepcopy(template)
     doc["vehicle"] = {"preset": preset_name}
+    if operational:
+        operational_document(doc, preset_name)
     bounds = doc.setdefault("bounds", {})
     if roles.steering in data.get("bounds", {}):
         bounds.pop(roles.steering, None)
@@ -359,6 +364,7 @@ def cell_measures(ocp: OCP, solution) -> dict:
         only if it is valid.
     """
     measures = solution.validation.get("measures", {})
+    lateral, longitudinal = measures.get("lateral_acceleration") or {}, measures.get("longitudinal") or {}
     route = solution.ocp.map_route  # the cell's route, or its loop round the ring (``model.search.maps``)
     out = {
         "status": solution.status,
@@ -373,6 +379,9 @@ def cell_measures(ocp: OCP, solution) -> dict:
         "lanelets_used": measures.get("lanelets_used"),
         "solves": len((solution.search or {}).get("solves", [])),
         "apron_gap_m": apron_gap(route),
+        "max_abs_lateral_acceleration": lateral.get("max_abs_nodes"),
+        "max_acceleration": longitudinal.get("max_acceleration"),
+        "min_acceleration": longitudinal.get("min_acceleration"),
     }
     if solution.ok:
         states = {k: np.asarray(solution.columns[k]) for k in ("t", *ocp.vehicle.states)}

@@ -25,6 +25,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -318,14 +319,154 @@ def eu_turning_circle(vehicle: Vehicle, bodies: Mapping[str, Body], phi_limit: f
 # --------------------------------------------------------------------------- the design-vehicle table
 
 
-def cell_document(template: dict, preset_name: str, icd: float, apron: float, intervals: int) -> dict:
+def operational_document(doc: dict, preset_name: str) -> dict:
+    """``doc`` (a cell's scenario document, changed in place and returned) at the preset's operational limits.
+
+    ``[vehicle] operational = true`` (docs/dynamics-format.md: the preset's acceleration, jerk, steering-rate
+    and lateral-acceleration bounds, the speed the state ``v``); the template's bound of the speed control
+    becomes the bound of ``v`` (so a template's design speed or forward-only rule still holds), its bound of
+    the steering rate gives way to the preset's. The vehicle enters at the preset's crawl speed (``[initial]
+    v``, the speed of AASHTO's design turns) and leaves at any speed: a start speed left free would let the
+    minimum time choose how fast the vehicle arrives, and a start from rest would measure the start, not the turn.
+
+    Parameters
+    ----------
+    doc : dict
+        The cell's document, with ``vehicle.preset`` = ``preset_name`` set.
+    preset_name : str
+        A preset with operational limits (``model.vehicles.operational_limits``).
+
+    Returns
+    -------
+    dict
+        ``doc``.
+    """
+    from model.vehicles import VEHICLES, operational_limits, preset
+
+    roles = VEHICLES[preset(preset_name)["model"]].roles
+    limits = operational_limits(preset_name)
+    doc["vehicle"]["operational"] = True
+    bounds = doc.setdefault("bounds", {})
+    speed = bounds.pop(roles.speed, None)
+    bounds.pop(roles.steering_rate, None)
+    if speed is not None:
+        bounds["v"] = [max(0.0, float(speed[0])), min(float(speed[1]), limits.speed)]
+    doc["initial"] = {**doc.get("initial", {}), "v": limits.crawl_speed}
+    return doc
+
+
+def operational_text(preset_name: str) -> str:
+    """The preset's operational limits in words, every number read from ``operational_limits``."""
+    from model.vehicles import operational_limits
+
+    lim = operational_limits(preset_name)
+    return (f"{preset_name}: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}] m/s^2, jerk in "
+            f"[{lim.jerk[0]:g}, {lim.jerk[1]:g}] m/s^3, |a_lat| <= {lim.lateral_acceleration:g} m/s^2, "
+            f"|steering rate| <= {lim.steering_rate:g} rad/s, v <= {lim.speed:.2f} m/s, entering at "
+            f"{lim.crawl_speed:.2f} m/s")  # fmt: skip
+
+
+def limits_note(preset_name: str, operational: bool, max_lateral: float | None,
+                acceleration: tuple[float | None, float | None] | None = None) -> str:  # fmt: skip
+    """What a run's row says next to it about the vehicle's limits, every number read, none typed.
+
+    Parameters
+    ----------
+    preset_name : str
+        The preset whose operational limits (``model.vehicles.operational_limits``) the run is held to or
+        compared with.
+    operational : bool
+        Whether the run was solved at those limits.
+    max_lateral : float or None
+        The run's largest |lateral acceleration| at the nodes, m/s^2 (its summary's), None if not measured.
+    acceleration : tuple or None
+        The run's (least, largest) acceleration at the nodes, m/s^2, None where the speed is a control.
+
+    Returns
+    -------
+    str
+        "operational limits of the <preset>: ..." with what the run reached, or "kinematic model without
+        operational limits: max |a_lat| X m/s^2, above (or within) the <preset>'s allowed Y m/s^2; ...".
+    """
+    from model.vehicles import operational_limits
+
+    lim = operational_limits(preset_name)
+    allowed = lim.lateral_acceleration
+    lat = "max |a_lat| not measured" if max_lateral is None else f"max |a_lat| {max_lateral:.2f} m/s^2"
+    if operational:
+        reached = f"; reached: {lat}" + (f", a in [{acceleration[0]:.2f}, {acceleration[1]:.2f}] m/s^2"
+                                         if acceleration and None not in acceleration else "")  # fmt: skip
+        return (f"operational limits of the {preset_name}: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}]"
+                f" m/s^2, |jerk| <= {max(map(abs, lim.jerk)):g} m/s^3, |a_lat| <= {allowed:g} m/s^2{reached}")
+    side = "" if max_lateral is None else (" (above" if max_lateral > allowed * (1 + 1e-6) else " (within")
+    side = side and f"{side} the {preset_name}'s allowed {allowed:g} m/s^2)"
+    return (f"kinematic model without operational limits: {lat}{side}; the speed a control, its changes "
+            f"unbounded (the {preset_name} allows a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}] m/s^2)")
+
+
+OPERATIONAL_SUFFIX = "-operational"  # a road <name>-operational.toml: the route <name> at a preset's limits
+DESIGN_SUFFIX = "-design"  # a road <name>-design.toml: the route <name> at a design speed
+
+
+def reference_preset(scenario: Path) -> tuple[str | None, bool, str | None]:
+    """The preset whose limits a road scenario is held to or compared with.
+
+    Parameters
+    ----------
+    scenario : Path
+        A road scenario file ``<name>[-design|-operational].toml``.
+
+    Returns
+    -------
+    tuple
+        (preset, operational, via): the scenario's own ``vehicle.preset`` and ``vehicle.operational``; for
+        a vehicle without a preset the preset of ``<name>-operational.toml`` beside it (``via`` its stem,
+        ``operational`` False); (None, False, None) where neither names one.
+    """
+    import tomllib
+
+    vehicle = tomllib.loads(scenario.read_text()).get("vehicle", {})
+    if vehicle.get("preset"):
+        return str(vehicle["preset"]), bool(vehicle.get("operational", False)), None
+    base = scenario.stem.removesuffix(DESIGN_SUFFIX).removesuffix(OPERATIONAL_SUFFIX)
+    sibling = scenario.parent / f"{base}{OPERATIONAL_SUFFIX}.toml"
+    if sibling.exists():
+        other = tomllib.loads(sibling.read_text()).get("vehicle", {}).get("preset")
+        if other:
+            return str(other), False, sibling.stem
+    return None, False, None
+
+
+def road_limits_note(scenario: Path, summary: Mapping) -> str:
+    """``limits_note`` of a solved road scenario, its numbers read from its ``summary.json`` and the preset.
+
+    A vehicle without a preset is compared with the preset of its ``-operational`` sibling, and the note
+    says so; without either it gives the largest lateral acceleration only.
+    """
+    lateral, longitudinal = summary.get("lateral_acceleration") or {}, summary.get("longitudinal") or {}
+    valid = bool(summary.get("valid"))
+    max_lat = lateral.get("max_abs_nodes") if valid else None
+    accel = (longitudinal.get("min_acceleration"), longitudinal.get("max_acceleration")) if valid else None
+    preset_name, operational, via = reference_preset(scenario)
+    if preset_name is None:
+        lat = "not measured" if max_lat is None else f"{max_lat:.2f} m/s^2"
+        return f"kinematic model without operational limits: max |a_lat| {lat} (no preset's limits to compare with)"
+    note = limits_note(preset_name, operational, max_lat, accel if longitudinal else None)
+    if via:
+        note += f" (compared with the {preset_name} of {via}, the same route; this vehicle is not that preset)"
+    return note
+
+
+def cell_document(template: dict, preset_name: str, icd: float, apron: float, intervals: int,
+                  operational: bool = False) -> dict:  # fmt: skip
     """One cell's scenario document: the template with the preset, ICD, apron and N set.
 
     The legs' curb fillet radii scale with the ICD (the template gives them at its own ICD). The
     template's ``bounds.phi`` stays only for a preset without a steering limit, and
     ``bounds.articulation`` only for an articulated vehicle; ``apron_use`` is "trailer" for an
     articulated vehicle (its tractor stays on the roadway), "none" for the passenger car P and
-    "all" for a single-unit truck.
+    "all" for a single-unit truck. With ``operational`` the vehicle runs at the preset's
+    operational limits (``operational_document``).
     """
     from model.vehicles import VEHICLES, preset
 
@@ -333,6 +474,8 @@ def cell_document(template: dict, preset_name: str, icd: float, apron: float, in
     roles = VEHICLES[data["model"]].roles
     doc = copy.deepcopy(template)
     doc["vehicle"] = {"preset": preset_name}
+    if operational:
+        operational_document(doc, preset_name)
     bounds = doc.setdefault("bounds", {})
     if roles.steering in data.get("bounds", {}):
         bounds.pop(roles.steering, None)

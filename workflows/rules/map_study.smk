@@ -4,6 +4,7 @@ MAP_STUDY = config.get("map_study", "small")
 MAP_GRID = config["map_studies"][MAP_STUDY]
 MAP_TEMPLATE = repo_path(config.get("map_study_template", "workflows/scenarios/maps/kackertstrasse.toml"))
 MAP_STUDY_DIR = "results/studies/map"
+MAP_OPERATIONAL = "--operational" if config.get("map_study_operational", True) else "--no-operational"
 
 
 def map_movements(grid: dict) -> list[str]:
@@ -46,7 +47,7 @@ rule map_study_cell:
         "results/logs/studies/map-{map_grid}/{map_cell}.log",
     shell:
         "{PYTHON} {input.script} --template {input.template} --cell {wildcards.map_cell}"
-        " --intervals {params.intervals} --out {output} 2> {log}"
+        " --intervals {params.intervals} {MAP_OPERATIONAL} --out {output} 2> {log}"
 
 
 rule map_study_table:

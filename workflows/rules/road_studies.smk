@@ -9,6 +9,7 @@ ROAD_TRADEOFF = config.get("road_tradeoff", {})
 ROAD_TRADEOFF_SCENARIO = repo_path(ROAD_TRADEOFF.get("scenario", "workflows/scenarios/roads/su30-left-turn.toml"))
 ROAD_ENERGY_RATIO = config.get("road_studies_energy_ratio", 1.2)
 ROAD_STUDY_DIR = "results/studies/roads"
+ROAD_OPERATIONAL = "--operational" if config.get("road_studies_operational", True) else "--no-operational"
 
 PAPER_SECTIONS += [
     "results/sections/72-turning-circle.md",
@@ -70,7 +71,8 @@ rule road_study_row:
         f"results/logs/studies/roads-{ROAD_STUDY}/{{road_vehicle}}_apron{{road_apron}}.log",
     shell:
         "{PYTHON} {input.script} --template {input.template} --cell {params.cells}"
-        " --intervals {params.intervals} {params.time_limit} --energy-ratio {ROAD_ENERGY_RATIO} --out {output}"
+        " --intervals {params.intervals} {params.time_limit} --energy-ratio {ROAD_ENERGY_RATIO} {ROAD_OPERATIONAL}"
+        " --out {output}"
         " 2> {log}"
 
 

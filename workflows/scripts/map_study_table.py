@@ -21,6 +21,7 @@ from model.plotting.maps import draw_lanelets, draw_swept, map_limits
 from model.plotting.roads import draw_scale_bar
 from model.problem.maps import map_of
 from model.studies.maps import movements
+from model.studies.roads import limits_note, operational_text
 
 COLUMNS = {
     "preset": "vehicle",
@@ -35,6 +36,7 @@ COLUMNS = {
     "apron_used_m": "apron depth (m)",
     "apron_area_m2": "apron area (m^2)",
     "lanelets_used": "lanelets used",
+    "limits": "limits",
     "diagnosis": "diagnosis",
 }
 
@@ -71,7 +73,43 @@ def flat(c: dict) -> dict:
         "lanelets_used": " ".join(map(str, c.get("lanelets_used") or [])) if valid else None,  # of a solution only
         "diagnosis": note(c) if valid else (c.get("diagnosis") or {}).get("message"),
         "seconds": c.get("seconds"),
+        "operational": bool(c.get("operational", False)),
+        "speed_bound": c.get("speed_bound"),
+        "initial_speed": c.get("initial_speed"),
+        "limits": limits_of(c),
     }
+
+
+def limits_of(c: dict) -> str:
+    """The cell's limits note (model.studies.roads.limits_note): what it was held to and what it reached."""
+    operational, valid = bool(c.get("operational")), bool(c.get("valid"))
+    if not valid and not operational:
+        return "kinematic model without operational limits"
+    return limits_note(c["preset"], operational, c.get("max_abs_lateral_acceleration") if valid else None,
+                       (c.get("min_acceleration"), c.get("max_acceleration")) if valid else None)  # fmt: skip
+
+
+def limits_paragraph(df: pd.DataFrame) -> str:
+    """How the vehicles were driven: at their presets' operational limits (with those limits), or not."""
+    on = df[df.operational]
+    if on.empty:
+        return ("Every cell is solved with the kinematic model **without operational limits** (the speed a control: "
+                "it may jump; no acceleration or lateral-acceleration bound; `map_study_operational: true` in "
+                "workflows/config.yaml applies them): each row's *limits* column sets what it reached beside what "
+                "its preset allows.")
+    speeds = {fmt(v, 3) for v in on.initial_speed.dropna()}
+    bound = next((b for b in on.speed_bound if isinstance(b, list) and b), None)
+    some = "Every vehicle runs" if len(on) == len(df) else (
+        f"{len(on)} of the {len(df)} cells run (the others without them: the kinematic model, the speed a control)")
+    return (f"{some} at **its preset's operational limits** (`[vehicle] operational = true`, "
+            "docs/dynamics-format.md; `map_study_operational: false` in workflows/config.yaml runs the kinematic "
+            "model without them): the speed is the state v, the jerk the control; "
+            + "; ".join(operational_text(p) for p in dict.fromkeys(on.preset))
+            + (f". It enters at the crawl speed ({', '.join(sorted(speeds))} m/s)" if speeds else
+               ". It enters at its crawl speed")
+            + " and leaves at any speed"
+            + (f"; v in [{bound[0]:g}, {bound[1]:g}] m/s (the template's bound of the speed)" if bound else "")
+            + ". Each row's *limits* column says what it reached.")
 
 
 def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: list[str]) -> str:
@@ -161,6 +199,8 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         " failure is that of the map search (model/search/maps.py: the centre-line strip sequence, a finer grid, a"
         " minimal-violation start; docs/map-corridor.md): evidence, not a proof, that the vehicle cannot make the"
         " movement.",
+        "",
+        limits_paragraph(df),
         "",
         "The turning-path table: minimum time Tf in seconds, " + " / ".join(
             "with the apron" if a else "without it" for a in sorted(set(df.apron), reverse=True))

@@ -6,7 +6,9 @@ imports (Pyomo, SymPy, CasADi, cyipopt with SciPy; about 2 s of CPU) are paid on
 Each cell's budgets count from its own start.
 
 The cell's scenario is the template (workflows/scenarios/roads/left-turn.toml) with the preset,
-the inscribed diameter and the apron set (model.studies.roads.cell_document). Solves the minimum
+the inscribed diameter and the apron set (model.studies.roads.cell_document), at the preset's operational
+limits unless ``--no-operational`` (model.studies.roads.operational_document: the acceleration, jerk, steering
+rate and lateral acceleration bounds, entering at the crawl speed). Solves the minimum
 time; if that is valid, the apron used and the swept width of its exact rectangles, and the
 energy-optimal solve at ``--energy-ratio`` x the minimum time (started from the time solution).
 A failed solve is written as failed, with its diagnosis; it is never a solution.
@@ -32,8 +34,20 @@ from model.nlp.imports import settled_heap  # noqa: E402
 from model.problem.scenario import parse_scenario  # noqa: E402
 from model.studies.roads import cell_document, cell_measures, parse_cell  # noqa: E402
 from model.studies.sweeps import as_energy  # noqa: E402
+from model.vehicles import operational_limits  # noqa: E402
 
-KEEP = ("t", "x", "y", "theta", "phi", "theta1", "u1", "u2")
+KEEP = ("t", "x", "y", "theta", "phi", "theta1", "u1", "u2", "v", "a", "j")
+
+
+def limits_measured(measures: dict) -> dict:
+    """The largest |lateral acceleration| (nodes, between them) and the acceleration's range of a solve."""
+    lateral, longitudinal = measures.get("lateral_acceleration") or {}, measures.get("longitudinal") or {}
+    return {
+        "max_abs_lateral_acceleration": lateral.get("max_abs_nodes"),
+        "max_abs_lateral_acceleration_dense": lateral.get("max_abs_dense"),
+        "max_acceleration": longitudinal.get("max_acceleration"),
+        "min_acceleration": longitudinal.get("min_acceleration"),
+    }
 
 
 def outcome(sol) -> dict:
@@ -51,6 +65,7 @@ def outcome(sol) -> dict:
         "min_clearance": measures.get("min_clearance"),
         "min_clearance_dense": measures.get("min_clearance_dense"),
         "exit_taken": measures.get("exit_taken"),
+        **limits_measured(measures),
     }
     if not sol.ok:
         out["diagnosis"] = sol.diagnosis or {"message": f"solver status {sol.status}, validation failed"}
@@ -58,12 +73,14 @@ def outcome(sol) -> dict:
 
 
 def solve_cell(template: Path, cell: str, intervals: int, energy_ratio: float, time_limit: float | None = None,
-               clock: str = "wall", energy_time_limit: float | None = None) -> dict:  # fmt: skip
+               clock: str = "wall", energy_time_limit: float | None = None,
+               operational: bool = True) -> dict:  # fmt: skip
     """The cell's record: its minimum-time solve (``time_limit`` seconds of ``clock``, "wall" or "cpu"),
     measures and energy-optimal solve (``energy_time_limit`` seconds of the same clock) where it is valid,
-    and its wall and CPU seconds."""
+    and its wall and CPU seconds; with ``operational`` at the preset's operational limits (``limits``: the
+    preset's, as ``model.vehicles.operational_limits`` gives them; None without)."""
     preset_name, icd, apron = parse_cell(cell)
-    doc = cell_document(tomllib.loads(template.read_text()), preset_name, icd, apron, intervals)
+    doc = cell_document(tomllib.loads(template.read_text()), preset_name, icd, apron, intervals, operational)
     ocp = parse_scenario(doc).ocp
     start, cpu = time.perf_counter(), time.process_time()
     sol = ocp.solve(intervals=intervals, time_limit=time_limit, clock=clock)
@@ -78,6 +95,10 @@ def solve_cell(template: Path, cell: str, intervals: int, energy_ratio: float, t
         "time_limit_clock": clock,
         "energy_time_limit": energy_time_limit,
         "template": str(template),
+        "operational": operational,
+        "limits": limits_record(preset_name) if operational else None,
+        "speed_bound": list(ocp.bounds.get(ocp.vehicle.roles.speed, ())),
+        "initial_speed": ocp.initial.get(ocp.vehicle.roles.speed),
         "time": outcome(sol),
         "energy_ratio": energy_ratio,
         "energy": None,
@@ -96,6 +117,14 @@ def solve_cell(template: Path, cell: str, intervals: int, energy_ratio: float, t
     record["seconds"] = time.perf_counter() - start
     record["cpu_seconds"] = time.process_time() - cpu
     return record
+
+
+def limits_record(preset_name: str) -> dict:
+    """The preset's operational limits as a JSON record (``model.vehicles.operational_limits``)."""
+    lim = operational_limits(preset_name)
+    return {"acceleration": list(lim.acceleration), "jerk": list(lim.jerk), "speed": lim.speed,
+            "steering_rate": lim.steering_rate, "lateral_acceleration": lim.lateral_acceleration,
+            "rollover_threshold": lim.rollover_threshold, "crawl_speed": lim.crawl_speed}  # fmt: skip
 
 
 def budget(flag: str, text: str | None) -> float | None:
@@ -139,6 +168,9 @@ def main() -> None:
         default="wall",
         help="what --time-limit and --energy-time-limit count: wall seconds or the process's CPU seconds",
     )
+    ap.add_argument("--operational", action=argparse.BooleanOptionalAction, default=True,
+                    help="the preset's operational limits (default; --no-operational: the kinematic model, the "
+                         "speed a control)")  # fmt: skip
     ap.add_argument("--out", type=Path, required=True, nargs="+", help="each cell's JSON file, in --cell's order")
     args = ap.parse_args()
     try:  # the CLI's own check of --time-limit (a number > 0 or 'inf'), for both budgets
@@ -155,7 +187,8 @@ def main() -> None:
         sys.exit(2)
     for cell, out in zip(args.cell, args.out, strict=True):
         with settled_heap():  # the last cell's garbage collected, the survivors frozen (model/nlp/imports.py)
-            record = solve_cell(args.template, cell, args.intervals, args.energy_ratio, limit, args.clock, energy_limit)
+            record = solve_cell(args.template, cell, args.intervals, args.energy_ratio, limit, args.clock, energy_limit,
+                                args.operational)
         write_json(out, record)
 
 

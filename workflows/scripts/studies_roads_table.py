@@ -14,6 +14,7 @@ import pandas as pd
 from studies_common import fmt, parser, plt, table, write_text
 
 from model.plotting.figures import ENERGY_UNIT, save
+from model.studies.roads import limits_note, operational_text
 
 
 def load(cells: list[Path]) -> list[dict]:
@@ -62,7 +63,44 @@ def flat(c: dict) -> dict:
         "time_limit": c.get("time_limit"),
         "energy_seconds": e.get("solve_seconds"),
         "energy_time_limit": c.get("energy_time_limit"),
+        "operational": bool(c.get("operational", False)),
+        "speed_bound": c.get("speed_bound"),
+        "initial_speed": c.get("initial_speed"),
+        "max_abs_lateral_acceleration": t.get("max_abs_lateral_acceleration") if t["valid"] else None,
+        "limits": limits_of(c),
     }
+
+
+def limits_of(c: dict) -> str:
+    """The cell's limits note (model.studies.roads.limits_note): what it was held to and what it reached."""
+    t = c["time"]
+    if not t["valid"]:
+        return limits_note(c["preset"], bool(c.get("operational")), None) if c.get("operational") else (
+            "kinematic model without operational limits")
+    return limits_note(c["preset"], bool(c.get("operational")), t.get("max_abs_lateral_acceleration"),
+                       (t.get("min_acceleration"), t.get("max_acceleration")))  # fmt: skip
+
+
+def limits_paragraph(df: pd.DataFrame) -> str:
+    """How the vehicles were driven: at their presets' operational limits (with those limits), or not."""
+    on = df[df.operational]
+    if on.empty:
+        return ("Every cell is solved with the kinematic model **without operational limits** (the speed a control: "
+                "it may jump; no acceleration or lateral-acceleration bound; `road_studies_operational: true` in "
+                "workflows/config.yaml applies them): each row's *limits* column sets what it reached beside what "
+                "its preset allows.")
+    speeds = {fmt(v, 3) for v in on.initial_speed.dropna()}
+    bound = on.speed_bound.dropna().iloc[0] if on.speed_bound.notna().any() else None
+    some = "Every vehicle runs" if len(on) == len(df) else (
+        f"{len(on)} of the {len(df)} cells run (the others without them: the kinematic model, the speed a control)")
+    return (f"{some} at **its preset's operational limits** (`[vehicle] operational = true`, "
+            "docs/dynamics-format.md; `road_studies_operational: false` in workflows/config.yaml runs the kinematic "
+            "model without them): the speed is the state v, the jerk the control; "
+            + "; ".join(operational_text(p) for p in dict.fromkeys(on.preset))
+            + f". It enters at the crawl speed ({', '.join(sorted(speeds))} m/s: a start speed left free would let "
+            "the minimum time choose how fast the vehicle arrives) and leaves at any speed"
+            + (f"; v in [{bound[0]:g}, {bound[1]:g}] m/s (the template's bound of the speed)" if bound else "")
+            + ". Each row's *limits* column says what it reached.")
 
 
 def outliers(df: pd.DataFrame, column: str, unit: str) -> list[str]:
@@ -239,7 +277,7 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
         f" lanes {leg['lane_width']:g} m wide, curb fillets {leg['entry_radius']:g} m (entry) and"
         f" {leg['exit_radius']:g} m (exit) at ICD {rb['inscribed_diameter']:g} m, scaled with the ICD; start and"
         f" goal {template['route']['start_distance']:g} m beyond the outer curb; forward driving only"
-        f" (u1 in [{template['bounds']['u1'][0]:g}, {template['bounds']['u1'][1]:g}] m/s), the preset's steering"
+        f" (speed in [{template['bounds']['u1'][0]:g}, {template['bounds']['u1'][1]:g}] m/s), the preset's steering"
         f" limit. The apron may be mounted by the trailer of an articulated vehicle, by the whole of a"
         f" single-unit truck, and not by the passenger car P. Per cell: the minimum time (the default multi-start);"
         f" the energy-optimal J at {ratio:g} x that time; *apron used*: how far the exact rectangles of the"
@@ -248,6 +286,8 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
         " largest radial extent of the swept area on rays through the ring 45 degrees clear of the entry and exit"
         " legs. Where no start gives a valid trajectory the diagnosis of a minimal-violation solve names the body,"
         " the edge that must give way and by how much (a local solve: an upper bound on what must give way).",
+        "",
+        limits_paragraph(df),
         "",
         "Minimum time in seconds, " + " / ".join(f"apron {a:g} m" for a in aprons) + " (no: no valid trajectory):",
         "",
@@ -264,6 +304,7 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
                 "energy": f"J at {ratio:g} T_min ({ENERGY_UNIT})",
                 "apron_used_m": "apron used (m)",
                 "swept_width_m": "swept width (m)",
+                "limits": "limits",
                 "diagnosis": "diagnosis",
             },  # fmt: skip
         ),
