@@ -3,15 +3,16 @@
 A cell is a template scenario (a [traffic] scenario, workflows/scenarios/traffic/<vehicle>.toml) with
 ``rate`` vehicles per hour entering from every other leg (exit shares equal over the exits, no U-turns),
 driven by ``driver`` for K seeded runs (``model.traffic.run.run_traffic``). Per run the files give
-the contract's metrics (summary.json) and the truck's gap acceptance (``model.traffic.gaps``).
+the contract's metrics (summary.json), the truck's gap acceptance at its entry and SUMO's cars' at
+theirs (``model.traffic.gaps``; ``run_record``).
 
-Per vehicle and driver, over all its cells' runs: the effective critical gap t_c (Raff's method on
-the accepted and rejected gaps), the follow-up time t_f (the mean entry occupancy: front bumper in to
-the last body's rear in), the conflicting flow q of each cell (passages of the conflict line per second
-from half the warm-up, when the streams have reached it, to the run's end, pooled over the runs),
-and the comparisons: the mean wait at the line against
-Adams' delay E[W](q, t_c), Siegloch's entry capacity c(q, t_c, t_f) in pc/h (the truck 2 pc) against the
-HCM 6th edition's 1380 exp(-1.02e-3 v_c).
+Per vehicle and driver, over all its cells' runs (``group_measures``): the truck's critical gap
+(Raff's and the maximum-likelihood one, ``gap_estimates``), its entry occupancy, the conflicting flow
+q of each cell (passages of the conflict line per second from half the warm-up, when the streams have
+reached it, to the run's end, pooled over the runs) and its mean wait at the line against Adams'
+delay E[W](q, t_c) and the HCM 6th edition's capacity 1380 exp(-1.02e-3 v_c). Over all cells
+(``others_measures``): SUMO's cars' critical gap and follow-up time, and per rate and entry leg their
+mean wait against Adams' delay and Siegloch's capacity c(q, t_c, t_f) against the HCM's.
 """
 
 from __future__ import annotations
@@ -25,19 +26,26 @@ from pathlib import Path
 
 import numpy as np
 
+from model.analysis.bodies import body_corners
 from model.problem.scenario import Scenario
 from model.scene.roundabout import exit_order
 from model.traffic.gaps import (
+    CENTRE_COLUMNS,
     PCE_HEAVY,
     adams_delay,
     entry_times,
+    follow_up_headways,
     gap_capacity,
     hcm_capacity,
-    offered_gaps,
+    mle_critical_gap,
+    offer,
+    other_entries,
     passages,
     raff_critical_gap,
+    raff_spread,
 )
 
+MLE_MIN_DRIVERS = 10  # fewer drivers give no maximum-likelihood estimate (Raff's only)
 RUN_KEYS = ("arrived", "ok", "delay", "travel_time", "free_flow_time", "entry_wait", "collisions", "min_distance",
             "min_clearance", "max_braking_caused", "max_braking_without_truck", "others_time_loss",
             "others_time_loss_without_truck", "realtime_factor", "road_violation")  # fmt: skip
@@ -97,27 +105,131 @@ def read_columns(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
+def truck_centres(scenario: Scenario, trajectory: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The truck's bodies' centres as ``traffic.csv`` columns (``t``, ``id``, ``x``, ``y``): it conflicts too."""
+    corners = body_corners(scenario.ocp, {s: np.asarray(trajectory[s], float) for s in scenario.ocp.vehicle.states})
+    t = np.asarray(trajectory["t"], float)
+    out: dict[str, list] = {"t": [], "id": [], "x": [], "y": []}
+    for name, c in corners.items():
+        centre = c.mean(axis=1)
+        out["t"] += list(t)
+        out["id"] += [f"truck-{name}"] * len(t)
+        out["x"] += list(centre[:, 0])
+        out["y"] += list(centre[:, 1])
+    return {k: np.array(v) for k, v in out.items()}
+
+
+def merged(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarray], keys: Sequence[str]) -> dict[str, np.ndarray]:
+    """Columns ``keys`` of two column sets, one after the other."""
+    return {k: np.concatenate([np.asarray(a[k]), np.asarray(b[k])]) for k in keys}
+
+
+def others_record(scenario: Scenario, traffic: Mapping[str, np.ndarray], stream: Mapping[str, np.ndarray],
+                  end: float, settled: float) -> dict:  # fmt: skip
+    """SUMO's vehicles' gap decisions at their entries (``other_entries``), per leg, in one run.
+
+    ``stream``: the columns whose passages make each entry's conflicting stream (the others and the truck).
+    Returns per leg (str keys) ``passages`` (counted from ``settled``), ``seconds``, ``follow_up``
+    (headways, s) and ``offers`` (per driver ``arrival``, ``line_time``, ``accepted``, ``rejected``,
+    ``censored``, ``queued``).
+    """
+    entries = other_entries(scenario, traffic)
+    legs = {}
+    for leg in sorted({e["leg"] for e in entries}):
+        times = passages(scenario, stream, leg)
+        mine = [e for e in entries if e["leg"] == leg]
+        offers = []
+        for e in mine:
+            o = offer(times, e["arrival"], e["entry"], end)
+            offers.append({"arrival": e["arrival"], "line_time": e["entry"] - e["arrival"], "accepted": o.accepted,
+                           "rejected": list(o.rejected), "censored": o.censored, "queued": e["queued"]})  # fmt: skip
+        legs[str(leg)] = {"passages": int(np.sum(times >= settled)), "seconds": max(end - settled, 0.0),
+                          "follow_up": follow_up_headways(mine, times), "offers": offers}  # fmt: skip
+    return legs
+
+
 def run_record(scenario: Scenario, folder: Path) -> dict:
-    """One run's metrics (summary.json) and its gap acceptance, from the run's files in ``folder``."""
+    """One run's metrics (summary.json), the truck's gap acceptance and the others' at their entries."""
     summary = json.loads((folder / "summary.json").read_text())
     record = {k: summary.get(k) for k in RUN_KEYS} | {"seed": summary.get("seed")}
     traffic, trajectory = read_columns(folder / "traffic.csv"), read_columns(folder / "trajectory.csv")
-    times = passages(scenario, traffic) if len(traffic.get("t", [])) else np.array([])
-    end = float(trajectory["t"][-1]) if len(trajectory.get("t", [])) else 0.0
+    has_traffic, has_truck = len(traffic.get("t", [])) > 0, len(trajectory.get("t", [])) > 0
+    times = passages(scenario, traffic) if has_traffic else np.array([])
+    end = max([float(trajectory["t"][-1])] * has_truck + [float(traffic["t"][-1])] * has_traffic + [0.0])
     settled = scenario.traffic.warmup / 2  # the streams have reached the line (they depart at 0, 60 m out)
     counted = int(np.sum(times >= settled))
     record |= {"passages": counted, "recorded_seconds": max(end - settled, 0.0), "passage_times": times.tolist()}
-    entry = entry_times(scenario, trajectory) if len(trajectory.get("t", [])) else None
+    if has_traffic:
+        keys = ("t", "id", *CENTRE_COLUMNS)
+        stream = merged(traffic, truck_centres(scenario, trajectory), keys) if has_truck else traffic
+        record["others"] = others_record(scenario, traffic, stream, end, settled)
+    entry = entry_times(scenario, trajectory) if has_truck else None
     if entry is None:
         return record | {"entry": None}
-    accepted, rejected = offered_gaps(times, entry, end)
+    got = offer(times, entry.arrival, entry.entry, end)
     return record | {"entry": entry.entry, "arrival": entry.arrival, "cleared": entry.cleared,
                      "occupancy": entry.occupancy, "line_time": entry.entry - entry.arrival,
-                     "accepted_gap": accepted, "rejected_gaps": rejected}  # fmt: skip
+                     "accepted_gap": got.accepted, "rejected_gaps": list(got.rejected),
+                     "accepted_censored": got.censored}  # fmt: skip
+
+
+def gap_estimates(offers: Sequence[Mapping]) -> dict:
+    """Raff's and the maximum-likelihood critical gap of drivers' offers, with their spreads.
+
+    Parameters
+    ----------
+    offers : sequence of mapping
+        Per driver ``accepted`` (s), ``rejected`` (list, s) and ``censored``; censored offers are left out.
+
+    Returns
+    -------
+    dict
+        ``drivers``, ``accepted`` and ``rejected`` (counts of gaps), ``raff`` (s; None without a rejected
+        gap), ``raff_se`` (s, bootstrap over the drivers), ``raff_at_most`` (the shortest accepted gap when
+        none was rejected), ``mle`` (s, Troutbeck's log-normal mean), ``mle_se`` (s, its standard error),
+        ``mle_sd`` (s, the spread of the drivers' critical gaps; the MLE with ``MLE_MIN_DRIVERS`` drivers or
+        more), ``critical_gap`` (the MLE, else Raff's).
+    """
+    used = [o for o in offers if not o.get("censored")]
+    accepted = [float(o["accepted"]) for o in used]
+    rejected = [list(o["rejected"]) for o in used]
+    flat = [g for r in rejected for g in r]
+    raff = raff_critical_gap(accepted, flat) if flat else None
+    enough = len(used) >= MLE_MIN_DRIVERS
+    mle = mle_critical_gap(accepted, [max(r, default=0.0) for r in rejected]) if flat and enough else None
+    out = {"drivers": len(used), "accepted": len(accepted), "rejected": len(flat), "raff": raff,
+           "raff_se": raff_spread(accepted, rejected) if flat else None,
+           "raff_at_most": None if flat else (min(accepted) if accepted else None),
+           "mle": mle["mean"] if mle else None, "mle_se": mle["se"] if mle else None,
+           "mle_sd": mle["sd"] if mle else None}  # fmt: skip
+    out["critical_gap"] = out["mle"] if out["mle"] is not None else raff
+    return out
+
+
+def free_line_time(offers: Sequence[Mapping]) -> float | None:
+    """The median line-to-entry time of drivers who took the first gap offered (s): the wait-free passage."""
+    return _median([o["line_time"] for o in offers if not o["rejected"] and o.get("line_time") is not None])
+
+
+def formula_row(q: float, tc: float | None, tf: float | None, pce: float) -> dict:
+    """Adams' delay (s), Siegloch's capacity (pc/h, ``pce`` per vehicle) and the HCM's at ``q`` veh/s."""
+    row = {"q": q, "vc_pcph": 3600 * q, "hcm_capacity_pcph": hcm_capacity(3600 * q)}
+    if tc is not None:
+        row["adams_delay"] = adams_delay(q, tc)
+        if tf:
+            row["capacity_pcph"] = pce * 3600 * gap_capacity(q, tc, tf)
+    return row
+
+
+def truck_offers(runs: Sequence[Mapping]) -> list[dict]:
+    """The truck's offers of runs in which it entered (``run_record``'s keys as ``gap_estimates`` reads them)."""
+    return [{"accepted": r["accepted_gap"], "rejected": r.get("rejected_gaps", []),
+             "censored": r.get("accepted_censored", False), "line_time": r["line_time"]}
+            for r in runs if r.get("entry") is not None and r.get("accepted_gap") is not None]  # fmt: skip
 
 
 def group_measures(cells: Sequence[Mapping]) -> dict:
-    """t_c, t_f and per cell q, the waits and both capacities, for the cells of one vehicle and driver.
+    """The truck's critical gap, t_f and per cell q, its waits, Adams' delay, the HCM capacity: one vehicle, driver.
 
     Parameters
     ----------
@@ -127,42 +239,70 @@ def group_measures(cells: Sequence[Mapping]) -> dict:
     Returns
     -------
     dict
-        ``critical_gap`` (Raff, s; None without an accepted or a rejected gap), ``critical_gap_at_most``
-        (the shortest accepted gap when none was rejected: an upper bound), the counts, ``follow_up`` (s),
-        ``line_time_free`` (s, the mean time from the line to the entry at rate 0) and per cell
-        ``q`` (veh/s), the mean wait at the line beyond the free one, Adams' delay, capacities.
+        ``gap_estimates`` of the truck's offers pooled over the cells, ``follow_up`` (s, the mean entry
+        occupancy), ``line_time_free`` (s, ``free_line_time``) and per cell ``q`` (veh/s at the truck's
+        entry), the mean wait at the line beyond the free one, Adams' delay and the HCM's capacity (pc/h);
+        no gap capacity: a queue of trucks' follow-up time is not measured (t_f is only a lower bound).
     """
-    runs = [r for c in cells for r in c["runs"] if r.get("entry") is not None]
-    accepted = [r["accepted_gap"] for r in runs if r.get("accepted_gap") is not None]
-    rejected = [g for r in runs for g in r.get("rejected_gaps", [])]
-    # Raff's crossing needs rejected gaps: without any it is only an upper bound (the shortest accepted one)
-    bound = raff_critical_gap(accepted, rejected)
-    tc = bound if rejected else None
-    tf = _mean([r["occupancy"] for r in runs if math.isfinite(r.get("occupancy") or math.nan)])
-    free = [r["line_time"] for c in cells if c["rate"] == 0 for r in c["runs"] if r.get("entry") is not None]
-    line_free = _mean(free)
-    out = {"critical_gap": tc, "critical_gap_at_most": bound, "accepted": len(accepted), "rejected": len(rejected),
-           "follow_up": tf,
-           "line_time_free": line_free, "cells": []}  # fmt: skip
+    runs = [r for c in cells for r in c["runs"]]
+    offers = truck_offers(runs)
+    est = gap_estimates(offers)
+    tf = _mean([r["occupancy"] for r in runs if r.get("entry") is not None
+                and math.isfinite(r.get("occupancy") or math.nan)])  # fmt: skip
+    free = free_line_time(offers)
+    out = est | {"follow_up": tf, "line_time_free": free, "cells": []}
     for c in sorted(cells, key=lambda c: c["rate"]):
         seconds = sum(r["recorded_seconds"] for r in c["runs"])
         q = sum(r["passages"] for r in c["runs"]) / seconds if seconds > 0 else 0.0
-        done = [r for r in c["runs"] if r.get("entry") is not None]
-        wait = _mean([r["line_time"] - line_free for r in done]) if line_free is not None else None
-        row = {"rate": c["rate"], "q": q, "vc_pcph": 3600 * q, "line_wait": wait,
-               "entry_wait": _mean([r["entry_wait"] for r in done if r.get("entry_wait") is not None]),
-               "hcm_capacity_pcph": hcm_capacity(3600 * q)}  # fmt: skip
-        if tc is not None:
-            row["adams_delay"] = adams_delay(q, tc)
-            if tf:
-                row["capacity_pcph"] = PCE_HEAVY * 3600 * gap_capacity(q, tc, tf)
+        mine = truck_offers(c["runs"])
+        wait = _mean([o["line_time"] - free for o in mine]) if free is not None else None
+        row = {"rate": c["rate"], "line_wait": wait, "observed": len(mine),
+               **formula_row(q, est["critical_gap"], None, PCE_HEAVY)}  # fmt: skip
         out["cells"].append(row)
     return out
+
+
+def others_measures(cells: Sequence[Mapping]) -> dict:
+    """SUMO's passenger cars at their entries, pooled over ``cells``: critical gap, t_f, per rate and leg waits.
+
+    Returns
+    -------
+    dict
+        ``gap_estimates`` over every car's offer, ``follow_up`` (s, the mean follow-up headway),
+        ``follow_ups`` (their number), ``line_time_free`` (s) and ``cells``: per rate and leg the
+        measured ``q`` (veh/s, the others and the truck), the mean wait at the line beyond the free
+        one over the cars that did not follow one ahead in the same gap, Adams' delay and the
+        capacities (pc/h, 1 pc per car).
+    """
+    legs: dict[tuple[float, str], list] = {}
+    for c in cells:
+        for r in c["runs"]:
+            for leg, v in (r.get("others") or {}).items():
+                legs.setdefault((c["rate"], leg), []).append(v)
+    offers = [o for vs in legs.values() for v in vs for o in v["offers"]]
+    est = gap_estimates(offers)
+    follow = [h for vs in legs.values() for v in vs for h in v["follow_up"]]
+    tf, free = _mean(follow), free_line_time(offers)
+    out = est | {"follow_up": tf, "follow_ups": len(follow), "line_time_free": free, "cells": []}
+    for (rate, leg), vs in sorted(legs.items()):
+        seconds = sum(v["seconds"] for v in vs)
+        q = sum(v["passages"] for v in vs) / seconds if seconds > 0 else 0.0
+        mine = [o for v in vs for o in v["offers"] if not o["queued"]]
+        wait = _mean([o["line_time"] - free for o in mine]) if free is not None else None
+        row = {"rate": rate, "leg": int(leg), "line_wait": wait, "observed": len(mine),
+               **formula_row(q, est["critical_gap"], tf, 1.0)}  # fmt: skip
+        out["cells"].append(row)
+    return out
+
+
+def _median(values: Sequence[float]) -> float | None:
+    return float(np.median(values)) if len(values) else None
 
 
 def _mean(values: Sequence[float]) -> float | None:
     return float(np.mean(values)) if len(values) else None
 
 
-__all__ = ["RUN_KEYS", "cell_document", "cell_name", "conflicting_demand", "group_measures", "parse_cell",
-           "read_columns", "run_record"]  # fmt: skip
+__all__ = ["RUN_KEYS", "cell_document", "cell_name", "conflicting_demand", "free_line_time", "gap_estimates",
+           "group_measures", "merged", "others_measures", "others_record", "parse_cell", "read_columns", "run_record",
+           "truck_centres", "truck_offers"]  # fmt: skip

@@ -1,12 +1,12 @@
-"""The truck in traffic: the table over vehicle x conflicting flow x driver, the two comparisons, the section.
+"""The truck in traffic: the tables over vehicle x conflicting flow x driver, the critical gaps, the comparisons.
 
-From the cells' JSON files (workflows/scripts/traffic_cell.py): per cell the runs' arrival and
-collision rates, least distance (exact rectangles), largest braking caused, median and mean delay,
-entry wait, the others' time loss with and without the truck, and the road violations; per vehicle
-and driver the effective critical gap (Raff), the follow-up time, and per cell the mean wait at the
-line against Adams' delay and the entry capacity against the HCM 6th edition's
-(model.traffic.study.group_measures). Figures: delay and wait against the conflicting flow with
-Adams' curve; capacity against the conflicting flow with the HCM curve.
+From the cells' JSON files (workflows/scripts/traffic_cell.py): per cell the runs arrived and with a
+collision (runs / runs), least distance (exact rectangles), the strongest braking caused beside the same
+runs without the truck, the truck's delay (median, mean ± 95 % CI), everyone's delay (mean ± 95 % CI),
+road violations; the critical gaps (Raff's and the maximum-likelihood one, with their spreads) of SUMO's
+cars at their entries and of the truck at its own; the measured waits against Adams' delay and
+Siegloch's capacity against the HCM 6th edition's (model.traffic.study). The figure: waits against
+the conflicting flow with Adams' curve; capacity against the conflicting flow with the HCM curve.
 """
 
 from __future__ import annotations
@@ -16,11 +16,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 from studies_common import parser, plt, table, write_text
 
 from model.plotting.figures import save
-from model.traffic.gaps import HCM_CRITICAL_GAP, HCM_FOLLOW_UP, PCE_HEAVY, adams_delay, gap_capacity, hcm_capacity
-from model.traffic.study import group_measures
+from model.traffic.gaps import HCM_CRITICAL_GAP, HCM_FOLLOW_UP, adams_delay, gap_capacity, hcm_capacity
+from model.traffic.study import group_measures, others_measures
 
 DRIVER_STYLE = {"autopilot": {"color": "#1f6fb4", "marker": "o"}, "sumo": {"color": "#d2691e", "marker": "s"},
                 "cooperative": {"color": "#2e8b57", "marker": "^"}}  # fmt: skip
@@ -30,56 +31,96 @@ def values(runs: list[dict], key: str) -> list[float]:
     return [r[key] for r in runs if r.get(key) is not None]
 
 
-def flat(c: dict) -> dict:
-    """One cell as a table row."""
-    runs = c["runs"]
-    delay = values(runs, "delay")
-    row = {"vehicle": c["vehicle"], "rate": c["rate"], "driver": c["driver"], "runs": len(runs),
-           "demand_vph": 3600 * c["demand_q"],
-           "arrived": float(np.mean([bool(r["arrived"]) for r in runs])) if runs else None,
-           "collision_rate": float(np.mean([(r.get("collisions") or 0) > 0 for r in runs])) if runs else None,
-           "road_violations": int(sum(bool(r.get("road_violation")) for r in runs)),
-           "min_distance": min(values(runs, "min_distance"), default=None),
-           "min_clearance": min(values(runs, "min_clearance"), default=None),
-           "max_braking": max(values(runs, "max_braking_caused"), default=None),
-           "delay_median": float(np.median(delay)) if delay else None,
-           "delay_mean": float(np.mean(delay)) if delay else None,
-           "entry_wait": float(np.mean(values(runs, "entry_wait"))) if values(runs, "entry_wait") else None,
-           "others_loss": float(np.mean(values(runs, "others_time_loss"))) if runs else None,
-           "others_loss_without": float(np.mean(values(runs, "others_time_loss_without_truck"))) if runs else None,
-           "realtime_factor": max(values(runs, "realtime_factor"), default=None)}  # fmt: skip
-    # everyone's delay per run: the truck's delay and the time the others lost because of it (their summed time loss
-    # beyond the same vehicles' loss without the truck over the same span); None if the truck did not arrive
+def mean_ci(x: list[float]) -> tuple[float | None, float | None]:
+    """The mean and the half-width of its 95 % confidence interval (Student's t; None with fewer than 2 values)."""
+    if not x:
+        return None, None
+    if len(x) < 2:
+        return float(x[0]), None
+    return float(np.mean(x)), float(stats.t.ppf(0.975, len(x) - 1) * np.std(x, ddof=1) / np.sqrt(len(x)))
+
+
+def pm(mean: float | None, half: float | None, n: int | None = None) -> str:
+    """``mean ± half (n)`` for a table cell ('-' without a mean)."""
+    if mean is None:
+        return "-"
+    text = f"{mean:.3g}" + (f" ± {half:.2g}" if half is not None else "")
+    return text + (f" (n={n})" if n is not None else "")
+
+
+def of(k: int, n: int) -> str:
+    return f"{k}/{n}"
+
+
+HARDER = 0.1  # m/s^2: braking caused counted as harder than without the truck beyond this (SUMO's speeds print 1e-2)
+
+
+def everyone(runs: list[dict]) -> list[float]:
+    """Per run the truck's delay plus the time the others lost because of it (their loss less the loss without it)."""
     keys = ("delay", "others_time_loss", "others_time_loss_without_truck")
-    everyone = [r["delay"] + r["others_time_loss"] - r["others_time_loss_without_truck"] for r in runs
-                if all(r.get(k) is not None for k in keys)]  # fmt: skip
-    row["everyone"] = float(np.mean(everyone)) if everyone else None
-    return row
+    return [r["delay"] + r["others_time_loss"] - r["others_time_loss_without_truck"] for r in runs
+            if all(r.get(k) is not None for k in keys)]  # fmt: skip
 
 
-def everyone_rows(rows: list[dict]) -> list[dict]:
-    """Per vehicle and rate: each driver's mean of everyone's delay per run (the truck's delay + the others' loss)."""
-    cells = {}
-    for r in rows:
-        cells.setdefault((r["vehicle"], r["rate"]), {"vehicle": r["vehicle"], "rate": r["rate"]})[r["driver"]] = (
-            r["everyone"])
-    return list(cells.values())
+def flat(c: dict) -> dict:
+    """One cell as a table row (numbers for the CSV, texts for the Markdown)."""
+    runs = c["runs"]
+    n = len(runs)
+    delay, caused = values(runs, "delay"), values(runs, "max_braking_caused")
+    alone = values(runs, "max_braking_without_truck")
+    harder = sum(1 for r in runs if (r.get("max_braking_caused") or 0.0)
+                 > (r.get("max_braking_without_truck") or 0.0) + HARDER)  # fmt: skip
+    arrived = sum(bool(r["arrived"]) for r in runs)
+    collided = sum((r.get("collisions") or 0) > 0 for r in runs)
+    violations = sum(bool(r.get("road_violation")) for r in runs)
+    d_mean, d_half = mean_ci(delay)
+    e_mean, e_half = mean_ci(everyone(runs))
+    return {"vehicle": c["vehicle"], "rate": c["rate"], "driver": c["driver"], "runs": n,
+            "demand_vph": 3600 * c["demand_q"], "arrived": arrived, "arrived_text": of(arrived, n),
+            "collided": collided, "collided_text": of(collided, n), "road_violations": violations,
+            "violations_text": of(violations, n), "min_distance": min(values(runs, "min_distance"), default=None),
+            "min_clearance": min(values(runs, "min_clearance"), default=None),
+            "max_braking": max(caused, default=None), "max_braking_without": max(alone, default=None),
+            "harder": harder, "harder_text": of(harder, n),
+            "delay_median": float(np.median(delay)) if delay else None, "delay_mean": d_mean, "delay_ci": d_half,
+            "delay_text": pm(d_mean, d_half), "entry_wait": mean_ci(values(runs, "entry_wait"))[0],
+            "everyone": e_mean, "everyone_ci": e_half, "everyone_text": pm(e_mean, e_half),
+            "realtime_factor": max(values(runs, "realtime_factor"), default=None)}  # fmt: skip
 
 
-COLUMNS = {"vehicle": "vehicle", "rate": "veh/h per leg", "driver": "driver", "runs": "runs",
-           "demand_vph": "conflicting veh/h", "arrived": "arrived", "collision_rate": "collision rate",
-           "min_distance": "least distance m", "max_braking": "max braking caused m/s²",
-           "delay_median": "median delay s", "entry_wait": "mean entry wait s", "others_loss": "others' loss s",
-           "others_loss_without": "without truck s", "min_clearance": "least road clearance m",
-           "road_violations": "road violations", "everyone": "everyone's delay s"}  # fmt: skip
-EVERYONE_COLUMNS = {"vehicle": "vehicle", "rate": "veh/h per leg",
-                    **{d: f"{d}: everyone's delay s" for d in DRIVER_STYLE}}  # fmt: skip
-GAP_COLUMNS = {"vehicle": "vehicle", "driver": "driver", "critical_gap": "t_c (Raff) s",
-               "critical_gap_at_most": "t_c at most s", "accepted": "accepted",
-               "rejected": "rejected", "follow_up": "t_f s", "line_time_free": "line to entry, free s"}  # fmt: skip
-COMPARE_COLUMNS = {"vehicle": "vehicle", "driver": "driver", "rate": "veh/h per leg", "vc_pcph": "v_c measured pc/h",
-                   "line_wait": "wait at the line s", "adams_delay": "Adams E[W] s",
-                   "capacity_pcph": "gap capacity pc/h", "hcm_capacity_pcph": "HCM capacity pc/h"}  # fmt: skip
+def everyone_rows(cells: list[dict]) -> list[dict]:
+    """Per vehicle and rate: each driver's everyone's delay, mean ± 95 % CI over the same seeds."""
+    out: dict[tuple, dict] = {}
+    for c in cells:
+        got = everyone(c["runs"])
+        out.setdefault((c["vehicle"], c["rate"]), {"vehicle": c["vehicle"], "rate": c["rate"]})[c["driver"]] = pm(
+            *mean_ci(got), len(got))
+    return list(out.values())
+
+
+COLUMNS = {"vehicle": "vehicle", "rate": "flow entering per other leg (veh/h)", "driver": "driver",
+           "demand_vph": "conflicting demand at the truck's entry (veh/h)",
+           "arrived_text": "arrived (runs / runs)", "collided_text": "runs with a collision (runs / runs)",
+           "min_distance": "least distance to another vehicle (m, exact rectangles, over the runs)",
+           "max_braking": "strongest braking caused within 50 m of the truck (m/s², over the runs)",
+           "max_braking_without": "the same runs without the truck (m/s²)",
+           "harder_text": "runs braking harder than without the truck (runs / runs)",
+           "delay_median": "truck's delay, median (s)", "delay_text": "truck's delay, mean ± 95 % CI (s)",
+           "entry_wait": "truck stood before the line, mean (s)",
+           "everyone_text": "everyone's delay, mean ± 95 % CI (s)",
+           "violations_text": "runs leaving the road (runs / runs)"}  # fmt: skip
+GAP_COLUMNS = {"who": "drivers at the line", "drivers": "drivers (offers used)", "rejected": "rejected gaps",
+               "raff_text": "t_c Raff ± bootstrap SE (s)", "mle_text": "t_c max. likelihood ± SE (s)",
+               "mle_sd": "spread of the drivers' t_c (s, log-normal SD)", "follow_up": "t_f (s)",
+               "line_time_free": "line to entry without a rejected gap, median (s)"}  # fmt: skip
+CARS_COLUMNS = {"rate": "flow entering per other leg (veh/h)", "leg": "entry leg",
+                "vc_pcph": "conflicting flow v_c (pc/h, measured)", "observed": "cars at the line",
+                "line_wait": "measured wait at the line (s, mean)", "adams_delay": "Adams E[W] (s)",
+                "capacity_pcph": "gap capacity, Siegloch (pc/h)", "hcm_capacity_pcph": "HCM 6th ed. capacity (pc/h)"}
+TRUCK_COLUMNS = {"vehicle": "vehicle", "driver": "driver", "rate": "flow entering per other leg (veh/h)",
+                 "vc_pcph": "conflicting flow v_c (pc/h, measured)", "observed": "runs entered",
+                 "line_wait": "measured wait at the line (s, mean)", "adams_delay": "Adams E[W] (s)",
+                 "hcm_capacity_pcph": "HCM 6th ed. capacity (pc/h)"}  # fmt: skip
 
 
 def groups(cells: list[dict]) -> dict[tuple[str, str], dict]:
@@ -87,40 +128,45 @@ def groups(cells: list[dict]) -> dict[tuple[str, str], dict]:
     return {k: group_measures([c for c in cells if (c["vehicle"], c["driver"]) == k]) for k in keys}
 
 
-def figure(cells: list[dict], measures: dict, stem: Path) -> None:
-    """Wait against Adams, capacity against the HCM, for each vehicle (columns)."""
-    vehicles = sorted({c["vehicle"] for c in cells})
-    fig, axes = plt.subplots(2, len(vehicles), figsize=(5.2 * len(vehicles), 7.2), squeeze=False)
-    qmax = max([3600 * c["demand_q"] for c in cells] + [100.0])
-    vc = np.linspace(0, 1.1 * qmax, 200)
-    for j, vehicle in enumerate(vehicles):
-        top, bottom = axes[0, j], axes[1, j]
-        bottom.plot(vc, [hcm_capacity(v) for v in vc], color="0.3", lw=1.5, label="HCM 6th ed. 1380 exp(-1.02e-3 v_c)")
-        for driver, style in DRIVER_STYLE.items():
-            g = measures.get((vehicle, driver))
-            if not g:
-                continue
-            rows = g["cells"]
-            x = [r["vc_pcph"] for r in rows]
-            top.plot(x, [r["line_wait"] for r in rows], ls="none", ms=6, label=f"{driver}: measured", **style)
-            tc, tf = g["critical_gap"], g["follow_up"]
-            if tc is not None:
-                top.plot(vc, [adams_delay(v / 3600, tc) for v in vc], color=style["color"], lw=1.2,
-                         label=f"{driver}: Adams, t_c = {tc:.2f} s")  # fmt: skip
-                if tf:
-                    bottom.plot(vc, [PCE_HEAVY * 3600 * gap_capacity(v / 3600, tc, tf) for v in vc],
-                                color=style["color"], lw=1.2, label=f"{driver}: gap capacity, t_f = {tf:.2f} s")
-        top.set(title=vehicle, xlabel="conflicting flow at the entry (veh/h, measured)",
-                ylabel="mean wait at the line beyond free flow (s)")  # fmt: skip
-        bottom.set(xlabel="conflicting flow v_c (pc/h)", ylabel="entry capacity (pc/h, truck = 2 pc)", ylim=(0, None))
-        for ax in (top, bottom):
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=7)
+def gap_row(who: str, g: dict) -> dict:
+    used = f"{g['drivers']}"
+    return g | {"who": who, "drivers": used, "raff_text": pm(g["raff"], g["raff_se"]) if g["raff"] is not None else (
+        f"at most {g['raff_at_most']:.3g}" if g.get("raff_at_most") is not None else "-"),
+        "mle_text": pm(g["mle"], g["mle_se"])}  # fmt: skip
+
+
+def figure(cars: dict, measures: dict, stem: Path) -> None:
+    """Measured waits against Adams' delay; Siegloch's capacity with the measured gaps against the HCM's."""
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10.4, 4.0))
+    rows = cars["cells"]
+    vmax = max([r["vc_pcph"] for r in rows] + [r["vc_pcph"] for g in measures.values() for r in g["cells"]] + [100.0])
+    vc = np.linspace(0, 1.1 * vmax, 200)
+    left.plot([r["vc_pcph"] for r in rows], [r["line_wait"] for r in rows], "o", color="0.2", ms=5,
+              label="cars: measured (per rate and leg)")  # fmt: skip
+    tc = cars["critical_gap"]
+    if tc is not None:
+        left.plot(vc, [adams_delay(v / 3600, tc) for v in vc], color="0.2", lw=1.2,
+                  label=f"cars: Adams, t_c = {tc:.2f} s")  # fmt: skip
+    for (vehicle, driver), g in measures.items():
+        style = DRIVER_STYLE.get(driver, {"color": "0.5", "marker": "x"})
+        left.plot([r["vc_pcph"] for r in g["cells"]], [r["line_wait"] for r in g["cells"]], ls="none", ms=6,
+                  label=f"{vehicle} ({driver}): measured", mfc="none" if vehicle != "truck" else style["color"],
+                  **style)  # fmt: skip
+    left.set(xlabel="conflicting flow v_c at the entry (pc/h, measured)", ylabel="wait at the line (s)")
+    right.plot(vc, [hcm_capacity(v) for v in vc], color="0.3", lw=1.5, label="HCM 6th ed. 1380 exp(-1.02e-3 v_c)")
+    tf = cars["follow_up"]
+    if tc is not None and tf:
+        right.plot(vc, [3600 * gap_capacity(v / 3600, tc, tf) for v in vc], color="#1f6fb4", lw=1.2,
+                   label=f"Siegloch, cars' t_c = {tc:.2f} s, t_f = {tf:.2f} s")  # fmt: skip
+    right.set(xlabel="conflicting flow v_c (pc/h)", ylabel="entry capacity (pc/h)", ylim=(0, None))
+    for ax in (left, right):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
     fig.tight_layout()
     save(fig, stem)
 
 
-def section(rows, gap_rows, compare_rows, mode: str, grid: dict, figure_path: str, extra: str) -> str:
+def section(tables: dict[str, str], mode: str, grid: dict, figure_path: str, extra: str) -> str:
     return f"""## The truck in traffic
 
 The truck drives through the four-leg 40 m roundabout of `workflows/scenarios/traffic/` among SUMO
@@ -129,49 +175,65 @@ the given rate, exits shared equally, no U-turns. The drivers on the same seeds:
 `autopilot` (its plan's path, with a speed profile chosen against the predicted vehicles), SUMO's
 own driver model moving a vehicle of the truck's length (the baseline; SUMO has no trailers, so its
 truck's trailer is reconstructed and off-tracks as it would) and the `cooperative` mode (the autopilot
-among connected vehicles that are held out of the ring's areas while the truck occupies them; an
-experimental first version). Every distance is between exact rectangles; a failed run is counted,
-never dropped.
+among connected vehicles that are held out of the ring's areas while the truck occupies them). Every
+distance is between exact rectangles; a failed run is counted, never dropped.
 
 Grid run: **{mode}** (vehicles {', '.join(grid['vehicles'])}; {', '.join(f'{r:g}' for r in grid['rates'])} veh/h per
-leg; {grid['runs']} seeds from {grid['seed']}); the full grid is `traffic_study: full` in
-workflows/config.yaml.
+leg; drivers {', '.join(grid['drivers'])}; {grid['runs']} seeds from {grid['seed']}). The full grid's results are
+benchmarks/traffic-study.md (its command there).
 
-{table(rows, COLUMNS)}
+Table: The truck in traffic, per vehicle, flow and driver. "Braking caused": the strongest deceleration of
+another vehicle within 50 m of the truck; "the same runs without the truck": the same seeds' traffic
+replayed without it (SUMO's cars brake up to 4.5 m/s² at the entries on their own); a run counts as
+braking harder when the first exceeds the second by more than {HARDER} m/s². Everyone's delay: the truck's
+delay plus the time the others lost because of it (their summed SUMO time loss less the same vehicles'
+loss without the truck over the same span). The 95 % confidence intervals are Student's t over the runs.
 
-**Everyone's delay.** Per run the truck's delay plus the time the other vehicles lost because of the truck:
-their summed time loss (SUMO's `timeLoss`, up to the run's end) less the same vehicles' loss in the run
-without the truck over the same span ("others' loss s" less "without truck s" above); the mean over the
-cell's runs, the same seeds for every driver:
+{tables['main']}
 
-{table(everyone_rows(rows), EVERYONE_COLUMNS)}
+Table: Everyone's delay (s, mean ± 95 % CI over the runs, n runs), the drivers on the same seeds.
 
-**Gap acceptance.** The conflicting stream is measured where the truck enters: the times at which
-circulating vehicles cross the ray along the entry leg's axis across the ring roadway. The gap the
-truck accepted is the headway of that stream containing its entry (its front bumper crossing the outer
-curb); the gaps it rejected are the complete headways between its arrival within 10 m of the curb and
-its entry. The effective critical gap t_c is Raff's: the t at which the number of accepted gaps
-shorter than t equals the number of rejected gaps longer than t. With no rejected gap there is no
-estimate, only an upper bound (the shortest accepted gap, "t_c at most"), and no Adams delay or gap
-capacity is computed from it. The follow-up time t_f is the truck's mean entry occupancy
-(front bumper in to the rear of its last body in), a lower bound of a queued truck's follow-up headway.
+{tables['everyone']}
 
-{table(gap_rows, GAP_COLUMNS)}
+**Gap acceptance.** Every driver at an entry is observed, SUMO's passenger cars at their legs as
+well as the truck at its own: a driver is at the line from when its front comes within 10 m of the
+outer curb (or, in a queue, from when the vehicle ahead entered) until its front crosses the curb. The
+conflicting stream of an entry is the times circulating vehicles (the truck included) cross the ray
+along the leg's axis across the ring roadway. The offered intervals start at the arrival (the lag,
+then the stream's headways); the one containing the entry is accepted, the earlier ones rejected; an
+accepted gap cut by the run's end is left out. Raff's t_c is where the number of accepted gaps shorter
+than t equals the number of rejected gaps longer than t (its standard error by resampling the drivers,
+200 draws); the maximum-likelihood t_c is Troutbeck's (each consistent driver's critical gap between its
+longest rejected and its accepted gap, the drivers' critical gaps log-normal; the mean, its standard
+error from the likelihood's curvature, and the drivers' spread). t_f: the cars' entry headway when a
+queued car took the same gap as the one ahead; the truck's is its entry occupancy (front in to the last
+rear in), a lower bound.
+
+Table: Critical gaps (s) of the drivers at the line.
+
+{tables['gaps']}
 
 **Against traffic engineering.** Adams' delay E[W] = (exp(q t_c) - 1 - q t_c) / q is the mean wait
-of a vehicle arriving at random at a Poisson stream of rate q that needs a gap t_c; the measured wait
-is the mean time from the line (10 m before the curb) to the entry beyond the same time at zero flow.
-The entry capacity of gap-accepting trucks on a Poisson stream is Siegloch's c = exp(-q (t_c - t_f / 2)) / t_f,
-counted as 2 passenger cars per truck, beside the HCM 6th edition's single-lane entry capacity
-c = 1380 exp(-1.02e-3 v_c) (pc/h) at the measured conflicting flow, itself Siegloch's form with
-t_f = {HCM_FOLLOW_UP:.2f} s and t_c = {HCM_CRITICAL_GAP:.2f} s for passenger cars. With t_f the truck's entry
-occupancy (a lower bound of a queued truck's follow-up time) the truck's capacity is an upper bound.
+of a driver arriving at random at a Poisson stream of rate q who needs a gap t_c (the estimate above,
+the maximum-likelihood one where there is one); the measured wait is the mean line-to-entry time beyond
+the median of the drivers who took the first gap offered (queued cars that followed the one ahead left
+out). Siegloch's entry capacity c = exp(-q (t_c - t_f / 2)) / t_f with the cars' measured t_c and t_f
+is set beside the HCM 6th edition's single-lane entry capacity c = 1380 exp(-1.02e-3 v_c) (pc/h, v_c the
+conflicting flow in pc/h; Exhibit 22-12), itself Siegloch's with t_f = {HCM_FOLLOW_UP:.2f} s and
+t_c = {HCM_CRITICAL_GAP:.2f} s. The capacities are formulas at the measured v_c; the runs do not saturate
+the entries, so no capacity is measured.
 
-{table(compare_rows, COMPARE_COLUMNS)}
+Table: SUMO's cars per flow and entry leg: measured waits against Adams, Siegloch's capacity against the HCM's.
+
+{tables['cars']}
+
+Table: The truck's waits at its line against Adams' delay with its own critical gap (where it rejected a gap).
+
+{tables['truck']}
 
 {extra}
 
-![Wait against Adams' delay and capacity against the HCM]({figure_path})
+![Measured waits against Adams' delay; Siegloch's capacity against the HCM 6th edition's]({figure_path})
 """
 
 
@@ -181,6 +243,7 @@ def main() -> None:
     ap.add_argument("--mode", required=True)
     ap.add_argument("--vehicles", nargs="+", required=True)
     ap.add_argument("--rates", type=float, nargs="+", required=True)
+    ap.add_argument("--drivers", nargs="+", default=["autopilot", "sumo", "cooperative"])
     ap.add_argument("--runs", type=int, required=True)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--figure-link", required=True, help="the figure's path as the paper links it")
@@ -190,16 +253,24 @@ def main() -> None:
     cells.sort(key=lambda c: (c["vehicle"], c["rate"], c["driver"]))
     rows = [flat(c) for c in cells]
     args.out.mkdir(parents=True, exist_ok=True)
-    pd.DataFrame(rows).to_csv(args.out / "table.csv", index=False)
-    measures = groups(cells)
-    gap_rows = [{"vehicle": v, "driver": d, **{k: g[k] for k in GAP_COLUMNS if k in g}}
-                for (v, d), g in measures.items()]  # fmt: skip
-    compare_rows = [{"vehicle": v, "driver": d, **r} for (v, d), g in measures.items() for r in g["cells"]]
-    (args.out / "measures.json").write_text(json.dumps({f"{v}/{d}": g for (v, d), g in measures.items()}, indent=2))
-    figure(cells, measures, args.out / "comparison")
-    grid = {"vehicles": args.vehicles, "rates": args.rates, "runs": args.runs, "seed": args.seed}
+    pd.DataFrame(rows).drop(columns=[k for k in rows[0] if k.endswith("_text")] if rows else []).to_csv(
+        args.out / "table.csv", index=False)
+    measures, cars = groups(cells), others_measures(cells)
+    gap_rows = [gap_row("SUMO's passenger cars, every entry", cars)]
+    gap_rows += [gap_row(f"{v} ({d}) at its entry", g) for (v, d), g in measures.items()]
+    truck_rows = [{"vehicle": v, "driver": d, **r} for (v, d), g in measures.items() for r in g["cells"]]
+    (args.out / "measures.json").write_text(json.dumps({"cars": cars} | {f"{v}/{d}": g for (v, d), g in
+                                                                           measures.items()}, indent=2))  # fmt: skip
+    figure(cars, measures, args.out / "comparison")
+    grid = {"vehicles": args.vehicles, "rates": args.rates, "runs": args.runs, "seed": args.seed,
+            "drivers": args.drivers}
     extra = args.extra.read_text() if args.extra else ""
-    write_text(args.section, section(rows, gap_rows, compare_rows, args.mode, grid, args.figure_link, extra))
+    drivers = sorted({c["driver"] for c in cells})
+    tables = {"main": table(rows, COLUMNS), "gaps": table(gap_rows, GAP_COLUMNS),
+              "everyone": table(everyone_rows(cells), {"vehicle": "vehicle", "rate": "flow per other leg (veh/h)",
+                                                       **{d: f"{d} (s)" for d in drivers}}),
+              "cars": table(cars["cells"], CARS_COLUMNS), "truck": table(truck_rows, TRUCK_COLUMNS)}  # fmt: skip
+    write_text(args.section, section(tables, args.mode, grid, args.figure_link, extra))
 
 
 if __name__ == "__main__":
