@@ -135,7 +135,8 @@ def test_a_limits_note_says_above_or_within_with_the_presets_numbers():
     assert "within" in limits_note("SU-30", False, 0.5 * lim.lateral_acceleration)
     held = limits_note("SU-30", True, lim.lateral_acceleration, lim.acceleration)
     assert held.startswith(f"operational limits of the SU-30: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}]")
-    assert f"|a_lat| <= {lim.lateral_acceleration:g} m/s^2" in held and "reached: max |a_lat|" in held
+    assert f"lateral acceleration at most {lim.lateral_acceleration:g} m/s^2" in held
+    assert "reached: max lateral acceleration" in held and "|" not in held + over  # Markdown tables take them
     assert f"entering at {lim.crawl_speed:.2f} m/s" in operational_text("SU-30")
 
 
@@ -202,7 +203,7 @@ def test_table_scripts_on_one_small_cell(tmp_path):
     allowed = operational_limits("P").lateral_acceleration
     reached = data["time"]["max_abs_lateral_acceleration"]
     over = "above" if reached > allowed else "within"
-    assert (f"kinematic model without operational limits: max |a_lat| {reached:.2f}"
+    assert (f"kinematic model without operational limits: max lateral acceleration {reached:.2f}"
             f" m/s^2 ({over} the P's allowed {allowed:g} m/s^2)") in text
     assert (tmp_path / "table" / "table.png").exists()
 

@@ -174,3 +174,52 @@ def test_the_diagnosis_names_an_encroachment_between_the_nodes(doc):
     diagnosis = road_diagnosis(ocp, SimpleNamespace(columns=states, status="relaxed"), 0.1)
     assert diagnosis["where"] == "between nodes" and 0.0 < diagnosis["at_time_s"] < 3.0
     assert diagnosis["encroachment_m"] > 1.0 and f"{diagnosis['encroachment_m']:.2f} m" in diagnosis["message"]
+
+
+def write_result(folder, columns: dict, summary: dict) -> None:
+    """A road's results folder as road_solve leaves it: summary.json and trajectory.csv (node columns)."""
+    folder.mkdir(parents=True)
+    (folder / "summary.json").write_text(json.dumps(summary))
+    names = list(columns)
+    rows = [",".join(f"{columns[n][k]:.6g}" for n in names) for k in range(len(columns[names[0]]))]
+    (folder / "trajectory.csv").write_text(",".join(names) + "\n" + "\n".join(rows) + "\n")
+
+
+def test_the_road_section_labels_every_run_with_its_limits(tmp_path):
+    """Each row and figure caption says what the run was held to, numbers from its summary and the preset: a run
+    without operational limits says by how much its lateral acceleration exceeds what the preset allows."""
+    import os
+    import subprocess
+    import sys
+
+    from model.vehicles import operational_limits
+
+    roads = ROOT / "workflows" / "roads"
+    scenarios = [roads / "truck-straight-on.toml", roads / "truck-straight-on-operational.toml"]
+    t = np.linspace(0.0, 10.0, 5)
+    free = {"valid": True, "final_time": 10.5, "energy": 500.0, "objective": 10.5, "objective_name": "time",
+            "lateral_acceleration": {"max_abs_nodes": 7.25, "max_abs_dense": 7.5}}  # fmt: skip
+    held = {**free, "final_time": 18.5, "objective": 18.5,
+            "lateral_acceleration": {"max_abs_nodes": 1.75, "max_abs_dense": 1.8, "bound": [-2.0, 2.0]},
+            "longitudinal": {"min_acceleration": -2.25, "max_acceleration": 1.25, "min_acceleration_dense": -2.3,
+                             "max_acceleration_dense": 1.3}}  # fmt: skip
+    base = {"t": t, "x": t, "y": 0 * t, "theta": 0 * t, "phi": 0 * t, "u2": np.array([1.0, -1.0, 1.0, 0.0, 0.0])}
+    write_result(tmp_path / "res" / "truck-straight-on", base | {"u1": 0 * t + 10.0}, free)
+    write_result(tmp_path / "res" / "truck-straight-on-operational", base | {"v": t, "a": 0 * t, "j": 0 * t}, held)
+    out = tmp_path / "70.md"
+    subprocess.run([sys.executable, str(ROOT / "workflows" / "scripts" / "roads_section.py"), "--scenarios",
+                    *map(str, scenarios), "--results", str(tmp_path / "res"), "--out", str(out)], check=True,
+                   cwd=ROOT, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})  # fmt: skip
+    text, lim = out.read_text(), operational_limits("SU-30")
+    rows = [line for line in text.splitlines() if line.startswith("| truck-straight-on")]
+    header = next(line for line in text.splitlines() if line.startswith("| scenario"))
+    assert len(rows) == 2 and all(r.count("|") == header.count("|") for r in rows)  # the notes break no column
+    without = (f"kinematic model without operational limits: max lateral acceleration 7.25 m/s^2 (above the SU-30's "
+               f"allowed {lim.lateral_acceleration:g} m/s^2)")  # fmt: skip
+    at = (f"operational limits of the SU-30: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}] m/s^2, jerk in "
+          f"[{lim.jerk[0]:g}, {lim.jerk[1]:g}] m/s^3, lateral acceleration at most {lim.lateral_acceleration:g} m/s^2; "
+          "reached: max lateral acceleration 1.75 m/s^2, a in [-2.25, 1.25] m/s^2")  # fmt: skip
+    assert without in rows[0] and at in rows[1]
+    captions = [line for line in text.splitlines() if line.startswith("![truck-straight-on")]
+    assert without in captions[0] and at in captions[1]
+    assert "$T_f$ = 18.50 s" in text and "truck-straight-on without the limits: $T_f$ = 10.50 s" in text

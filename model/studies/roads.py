@@ -361,8 +361,8 @@ def operational_text(preset_name: str) -> str:
 
     lim = operational_limits(preset_name)
     return (f"{preset_name}: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}] m/s^2, jerk in "
-            f"[{lim.jerk[0]:g}, {lim.jerk[1]:g}] m/s^3, |a_lat| <= {lim.lateral_acceleration:g} m/s^2, "
-            f"|steering rate| <= {lim.steering_rate:g} rad/s, v <= {lim.speed:.2f} m/s, entering at "
+            f"[{lim.jerk[0]:g}, {lim.jerk[1]:g}] m/s^3, lateral acceleration at most {lim.lateral_acceleration:g} "
+            f"m/s^2, steering rate at most {lim.steering_rate:g} rad/s, v at most {lim.speed:.2f} m/s, entering at "
             f"{lim.crawl_speed:.2f} m/s")  # fmt: skip
 
 
@@ -386,18 +386,21 @@ def limits_note(preset_name: str, operational: bool, max_lateral: float | None,
     -------
     str
         "operational limits of the <preset>: ..." with what the run reached, or "kinematic model without
-        operational limits: max |a_lat| X m/s^2, above (or within) the <preset>'s allowed Y m/s^2; ...".
+        operational limits: max lateral acceleration X m/s^2 (above (or within) the <preset>'s allowed Y
+        m/s^2); ...". No "|": the note goes into Markdown tables.
     """
     from model.vehicles import operational_limits
 
     lim = operational_limits(preset_name)
     allowed = lim.lateral_acceleration
-    lat = "max |a_lat| not measured" if max_lateral is None else f"max |a_lat| {max_lateral:.2f} m/s^2"
+    lat = ("max lateral acceleration not measured" if max_lateral is None
+           else f"max lateral acceleration {max_lateral:.2f} m/s^2")  # fmt: skip
     if operational:
         reached = f"; reached: {lat}" + (f", a in [{acceleration[0]:.2f}, {acceleration[1]:.2f}] m/s^2"
                                          if acceleration and None not in acceleration else "")  # fmt: skip
         return (f"operational limits of the {preset_name}: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}]"
-                f" m/s^2, |jerk| <= {max(map(abs, lim.jerk)):g} m/s^3, |a_lat| <= {allowed:g} m/s^2{reached}")
+                f" m/s^2, jerk in [{lim.jerk[0]:g}, {lim.jerk[1]:g}] m/s^3, lateral acceleration at most {allowed:g}"
+                f" m/s^2{reached}")
     side = "" if max_lateral is None else (" (above" if max_lateral > allowed * (1 + 1e-6) else " (within")
     side = side and f"{side} the {preset_name}'s allowed {allowed:g} m/s^2)"
     return (f"kinematic model without operational limits: {lat}{side}; the speed a control, its changes "
@@ -450,7 +453,8 @@ def road_limits_note(scenario: Path, summary: Mapping) -> str:
     preset_name, operational, via = reference_preset(scenario)
     if preset_name is None:
         lat = "not measured" if max_lat is None else f"{max_lat:.2f} m/s^2"
-        return f"kinematic model without operational limits: max |a_lat| {lat} (no preset's limits to compare with)"
+        return (f"kinematic model without operational limits: max lateral acceleration {lat} (no preset's limits "
+                "to compare with)")
     note = limits_note(preset_name, operational, max_lat, accel if longitudinal else None)
     if via:
         note += f" (compared with the {preset_name} of {via}, the same route; this vehicle is not that preset)"

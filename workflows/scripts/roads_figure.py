@@ -1,9 +1,13 @@
-"""One road scenario's figure: the manoeuvre to scale with its bodies (or the failure, written as such)."""
+"""One road scenario's figure: the manoeuvre to scale with its bodies (or the failure, written as such).
+
+Its heading says the limits the run was held to, or that it ran without operational limits and how far its
+lateral acceleration goes beyond what the preset allows (model.studies.roads.road_limits_note)."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -11,10 +15,18 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
+from roads_section import driving  # noqa: E402
 
 from model.plotting.figures import save  # noqa: E402
-from model.plotting.roads import road_figure, road_note  # noqa: E402
+from model.plotting.roads import driving_label, road_figure, road_note  # noqa: E402
 from model.problem.scenario import load_scenario  # noqa: E402
+from model.studies.roads import road_limits_note  # noqa: E402
+
+
+def heading_note(scenario: Path, summary: dict, ocp, columns) -> str:
+    """``road_note`` with the road's own driving label (at operational limits, where it is) and its limits note."""
+    note = road_note(summary, ocp, columns).replace(driving_label(ocp), driving(scenario, ocp))
+    return note + "\n" + textwrap.fill(road_limits_note(scenario, summary), 130)
 
 
 def main() -> None:
@@ -28,7 +40,7 @@ def main() -> None:
     summary = json.loads((args.result / "summary.json").read_text())
     if summary.get("valid"):
         columns = pd.read_csv(args.result / "trajectory.csv")
-        fig = road_figure(ocp, columns, note=road_note(summary, ocp, columns))
+        fig = road_figure(ocp, columns, note=heading_note(args.scenario, summary, ocp, columns))
     else:
         fig, ax = plt.subplots(figsize=(6, 2))
         ax.axis("off")

@@ -11,11 +11,10 @@ import numpy as np
 
 from model.plotting.figures import ENERGY_UNIT
 from model.plotting.results import fmt
-from model.plotting.roads import KMH, driving_label, steering_changes
+from model.plotting.roads import KMH, ROLE_PANELS, driving_label, steering_changes
 from model.problem.ocp import OCP
 from model.problem.scenario import load_scenario
-
-DESIGN_SUFFIX = "-design"  # a road solved at its design speed, beside the time-optimal <road>
+from model.studies.roads import DESIGN_SUFFIX, OPERATIONAL_SUFFIX, reference_preset, road_limits_note
 
 
 def read(scenario: Path, results: Path) -> tuple[OCP, dict, dict[str, np.ndarray]]:
@@ -38,6 +37,16 @@ def at_top_speed(ocp: OCP, cols: dict[str, np.ndarray]) -> float:
     return 100.0 * float(np.mean(cols["u1"] >= top - 0.01 * abs(top)))
 
 
+def driving(scenario: Path, ocp: OCP, math: bool = True) -> str:
+    """How the road drives: at its preset's operational limits (the bound of v read from the problem), or as
+    ``driving_label`` says (time-optimal, or at a design speed)."""
+    preset_name, operational, _ = reference_preset(scenario)
+    if not operational:
+        return driving_label(ocp, math)
+    top = ocp.bounds[ocp.vehicle.roles.speed][1] * KMH
+    return f"time-optimal at the {preset_name}'s operational limits (speed at most {top:.0f} km/h)"
+
+
 def lateral(s: dict, key: str) -> float | None:
     return (s.get("lateral_acceleration") or {}).get(key)
 
@@ -55,12 +64,52 @@ def row(scenario: Path, results: Path) -> str:
     return (
         f"| {ocp.name} | {ocp.vehicle.model} ({bodies}) | exit {ocp.road.route.exit} of "
         f"{len(ocp.road.roundabout.legs)}, {ocp.road.roundabout.traffic}-hand | {s.get('objective_name')}: "
-        f"{driving_label(ocp)} | "
-        f"{fmt(s.get('final_time'))} | {fmt(s.get('energy'))} | {s.get('exit_taken')} | "
+        f"{driving(scenario, ocp)} | "
+        f"{fmt(s.get('final_time'))} | {energy(ocp, s)} | {s.get('exit_taken')} | "
         f"{fmt(s.get('min_clearance'), 3)} | {fmt(s.get('min_clearance_dense'), 3)} | "
         f"{fixed(lateral(s, 'max_abs_nodes'))} / {fixed(lateral(s, 'max_abs_dense'))} | "
-        f"{'–' if count is None else count} | {s.get('iterations')} | {ok} |"
+        f"{'–' if count is None else count} | {s.get('iterations')} | {ok} | {road_limits_note(scenario, s)} |"
     )
+
+
+def energy(ocp: OCP, s: dict) -> str:
+    """The energy; with longitudinal dynamics it integrates other controls (a or j for u1), and says which."""
+    if ocp.vehicle.roles.acceleration is None or s.get("energy") is None:
+        return fmt(s.get("energy"))
+    return f"{fmt(s['energy'])} (of {', '.join(ocp.vehicle.controls)}, not comparable)"
+
+
+def limited(scenarios: list[Path], results: Path) -> list[str]:
+    """One sentence per road at operational limits beside the same route without them, every number read."""
+    by_stem = {p.stem: p for p in scenarios}
+    lines = []
+    for stem, path in by_stem.items():
+        base = by_stem.get(stem.removesuffix(OPERATIONAL_SUFFIX)) if stem.endswith(OPERATIONAL_SUFFIX) else None
+        if base is None:
+            continue
+        (free, f, _), (held, h, _) = read(base, results), read(path, results)
+        if not (f.get("valid") and h.get("valid")):
+            continue
+        lon = h.get("longitudinal") or {}
+        lines.append(
+            f"- {held.name} ({road_limits_note(path, h)}): $T_f$ = {h['final_time']:.2f} s, $a$ in "
+            f"[{lon['min_acceleration']:.2f}, {lon['max_acceleration']:.2f}] m/s$^2$ at the nodes "
+            f"([{lon['min_acceleration_dense']:.2f}, {lon['max_acceleration_dense']:.2f}] between them), the largest "
+            f"absolute $a_{{lat}}$ {lateral(h, 'max_abs_dense'):.3f} m/s$^2$ between the nodes; {free.name} "
+            f"without the limits: $T_f$ = {f['final_time']:.2f} s at a largest $a_{{lat}}$ of "
+            f"{lateral(f, 'max_abs_nodes'):.2f} m/s$^2$."
+        )
+    if lines:
+        lines = [
+            "The same routes at the operational limits of the presets (`[vehicle] operational = true`, "
+            "docs/dynamics-format.md: the speed the state $v$, the acceleration and jerk bounded, the lateral "
+            "acceleration and steering rate the preset's; the rigid truck is the AASHTO SU-30 preset, not the "
+            "time-optimal rows' truck):",
+            "",
+            *lines,
+            "",
+        ]
+    return lines
 
 
 def comparison(scenarios: list[Path], results: Path) -> list[str]:
@@ -98,7 +147,10 @@ def comparison(scenarios: list[Path], results: Path) -> list[str]:
 
 def panels_text(ocp) -> str:
     """The road figure's time panels in words (only those it draws for this vehicle)."""
-    names = ["speed u1", "steering rate u2", "steering angle phi"]
+    r = ocp.vehicle.roles
+    names = [f"{ROLE_PANELS[role][0]} {name}" for role, name in (("speed", r.speed), ("acceleration", r.acceleration),
+                                                                 ("jerk", r.jerk)) if name]  # fmt: skip
+    names += ["steering rate u2", "steering angle phi"]
     if ocp.vehicle.lateral_acceleration is not None:
         names.append("lateral acceleration")
     if "articulation" in ocp.vehicle.outputs():
@@ -106,15 +158,20 @@ def panels_text(ocp) -> str:
     return ", ".join(names[:-1]) + " and " + names[-1]
 
 
-def animation(gif: Path) -> list[str]:
-    """The paragraph embedding the animated GIF (the PDF shows its first frame)."""
+def animation(gif: Path, note: str = "") -> list[str]:
+    """The paragraph embedding the animated GIF (the PDF shows its first frame); ``note``: its limits note."""
     return [
         f"![{gif.stem}, animated: the vehicle drives its optimal trajectory; each body's swept path grows "
-        "behind it, the dotted line is the rear axle's path ahead. (In the PDF: its first frame, the complete "
-        "manoeuvre at t = Tf; the HTML "
-        f"paper plays it, and it is `{gif.as_posix()}` in the results.)]({gif.as_posix()})",
+        "behind it, the dotted line is the rear axle's path ahead"
+        + (f"; {note}" if note else "") + ". (In the PDF: its first frame, the complete manoeuvre at t = Tf; "
+        f"the HTML paper plays it, and it is `{gif.as_posix()}` in the results.)]({gif.as_posix()})",
         "",
     ]
+
+
+def note_of(scenario: Path, results: Path) -> str:
+    """The road's limits note from its summary.json."""
+    return road_limits_note(scenario, json.loads((results / scenario.stem / "summary.json").read_text()))
 
 
 def main() -> None:
@@ -133,26 +190,34 @@ def main() -> None:
         "corridor at every node. Clearances are the smallest distance from a body to the edge of its allowed "
         'region (negative: an encroachment); "between nodes" is measured on linearly interpolated states.',
         "",
+        f"A road `<name>{OPERATIONAL_SUFFIX}` drives its route at the operational limits of its preset (the design "
+        "vehicles' acceleration, braking, jerk, steering rate and allowed lateral acceleration, each with its source: "
+        "docs/dynamics-format.md); the others are the kinematic model **without operational limits** (the speed a "
+        "control that may jump), kept beside them as what they are: the *limits* column says, for every row, "
+        "what it was held to and how far its lateral acceleration goes beyond what the preset allows.",
+        "",
         f"| scenario | vehicle | route | objective: driving | Tf (s) | energy ({ENERGY_UNIT}) | exit taken "
         "| clearance at nodes (m) "
         "| between nodes (m) | max abs. lateral acc. nodes / between (m/s$^2$) | $u_2$ sign changes | iterations "
-        "| result |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| result | limits |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
         *(row(s, args.results) for s in args.scenarios),
         "",
         *comparison(args.scenarios, args.results),
+        *limited(args.scenarios, args.results),
     ]
     for s in args.scenarios:
         lines += [
             f"![{s.stem}: the plan to scale (curbs, hatched truck apron, central island, centre and "
             "give-way lines), each body's swept path outlined, the bodies along the path, the axle tracks; "
             f"right: {panels_text(load_scenario(s).ocp)} over time, their bounds dashed; "
-            f"{driving_label(load_scenario(s).ocp, math=False)}]"
+            f"{driving(s, load_scenario(s).ocp, math=False)}; {note_of(s, args.results)}]"
             f"(results/figures/roads/{s.stem}.png)",
             "",
         ]
     if args.animation:
-        lines += animation(args.animation)
+        animated = {s.stem: s for s in args.scenarios}.get(args.animation.stem)
+        lines += animation(args.animation, note_of(animated, args.results) if animated else "")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text("\n".join(lines))
 
