@@ -76,6 +76,7 @@ rule traffic_table:
         code=TR_TABLE_CODE,
     output:
         csv=f"{TR_DIR}/table.csv",
+        measures=f"{TR_DIR}/measures.json",
         figures=expand(f"{TR_DIR}/comparison.{{ext}}", ext=["png", "pdf"]),
         section="results/sections/85-traffic.md",
     params:
@@ -90,3 +91,23 @@ rule traffic_table:
         "{PYTHON} {input.script} --cells {input.cells} --mode {TR_STUDY} --vehicles {params.vehicles}"
         " --rates {params.rates} --drivers {params.drivers} --runs {params.runs} --seed {params.seed} --out {TR_DIR}"
         " --figure-link {TR_DIR}/comparison.png --extra {input.fragment} --section {output.section} 2> {log}"
+
+
+# The grid's results as a committed benchmark (run on demand, never by the default build), e.g. the full grid:
+#   snakemake -c2 --config traffic_study=full -- benchmarks/traffic-study.md
+# writes benchmarks/traffic-study.md (the section's tables, headed by the grid, commit and CPU seconds)
+# and benchmarks/traffic-study.csv (the per-cell table), from results/studies/traffic/<grid>/.
+rule traffic_benchmark:
+    input:
+        section="results/sections/85-traffic.md",
+        csv=f"{TR_DIR}/table.csv",
+        measures=f"{TR_DIR}/measures.json",
+        cells=expand(f"{TR_DIR}/cells/{{cell}}.json", cell=TR_CELLS),
+    output:
+        md="benchmarks/traffic-study.md",
+        csv="benchmarks/traffic-study.csv",
+    params:
+        study=TR_STUDY,
+    shell:
+        "{PYTHON} {SCRIPTS}/traffic_benchmark.py --study {params.study} --section {input.section}"
+        " --table {input.csv} --cells {input.cells} --md {output.md} --csv {output.csv}"

@@ -3,13 +3,15 @@
 The cell's scenario is the template (workflows/scenarios/traffic/<vehicle>.toml) with ``--rate``
 veh/h entering from every other leg (model.traffic.study.cell_document); ``roundabout traffic``'s
 runs (model.traffic.run.run_traffic) go to ``--keep``; the cell's JSON holds each run's metrics and
-gap acceptance (model.traffic.study.run_record). A run that fails (no arrival, a collision, a road
+gap acceptance and SUMO's cars' at their entries (model.traffic.study.run_record), the wall and CPU
+seconds of the runs. A run that fails (no arrival, a collision, a road
 violation) is recorded as failed, never dropped.
 """
 
 from __future__ import annotations
 
 import argparse
+import resource
 import shutil
 import sys
 import time
@@ -28,6 +30,12 @@ from model.traffic.study import cell_document, conflicting_demand, parse_cell, r
 from model.traffic.sumo import find_sumo  # noqa: E402
 
 
+def cpu_seconds() -> float:
+    """CPU seconds (user + system) of this process and its finished children (SUMO, netconvert)."""
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def run_cell(template: Path, cell: str, runs: int, seed: int, keep: Path) -> dict:
     vehicle, rate, driver = parse_cell(cell)
     doc = cell_document(tomllib.loads(template.read_text()), rate, seed)
@@ -35,13 +43,14 @@ def run_cell(template: Path, cell: str, runs: int, seed: int, keep: Path) -> dic
     if keep.exists():
         shutil.rmtree(keep)
     keep.mkdir(parents=True)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), cpu_seconds()
     summary = run_traffic(scenario, find_sumo(), keep, driver, runs)
-    seconds = time.perf_counter() - start
+    seconds, cpu = time.perf_counter() - start, cpu_seconds() - cpu
     folders = [keep] if runs == 1 else [keep / f"run-{k}" for k in range(runs)]
     records = [run_record(scenario, f) for f in folders if (f / "traffic.csv").exists()]
     return {"cell": cell, "vehicle": vehicle, "rate": rate, "driver": driver, "seed": seed, "template": str(template),
-            "demand_q": conflicting_demand(scenario), "summary": summary, "runs": records, "seconds": seconds}
+            "demand_q": conflicting_demand(scenario), "summary": summary, "runs": records, "seconds": seconds,
+            "cpu_seconds": cpu}
 
 
 def main() -> None:

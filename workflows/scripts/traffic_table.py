@@ -98,17 +98,16 @@ def everyone_rows(cells: list[dict]) -> list[dict]:
     return list(out.values())
 
 
-COLUMNS = {"vehicle": "vehicle", "rate": "flow entering per other leg (veh/h)", "driver": "driver",
-           "demand_vph": "conflicting demand at the truck's entry (veh/h)",
-           "arrived_text": "arrived (runs / runs)", "collided_text": "runs with a collision (runs / runs)",
-           "min_distance": "least distance to another vehicle (m, exact rectangles, over the runs)",
-           "max_braking": "strongest braking caused within 50 m of the truck (m/s², over the runs)",
-           "max_braking_without": "the same runs without the truck (m/s²)",
-           "harder_text": "runs braking harder than without the truck (runs / runs)",
-           "delay_median": "truck's delay, median (s)", "delay_text": "truck's delay, mean ± 95 % CI (s)",
-           "entry_wait": "truck stood before the line, mean (s)",
-           "everyone_text": "everyone's delay, mean ± 95 % CI (s)",
-           "violations_text": "runs leaving the road (runs / runs)"}  # fmt: skip
+CELL = {"vehicle": "vehicle", "rate": "flow entering per other leg (veh/h)", "driver": "driver"}
+SAFETY_COLUMNS = CELL | {
+    "arrived_text": "arrived (runs / runs)", "collided_text": "with a collision (runs / runs)",
+    "min_distance": "least distance to another vehicle (m)",
+    "max_braking": "strongest braking caused (m/s²)", "max_braking_without": "same runs without the truck (m/s²)",
+    "harder_text": "braking harder than without the truck (runs / runs)",
+    "violations_text": "leaving the road (runs / runs)"}  # fmt: skip
+DELAY_COLUMNS = CELL | {
+    "demand_vph": "conflicting demand at the truck's entry (veh/h)", "delay_median": "truck's delay, median (s)",
+    "delay_text": "truck's delay, mean ± 95 % CI (s)", "entry_wait": "truck stood before the line, mean (s)"}
 GAP_COLUMNS = {"who": "drivers at the line", "drivers": "drivers (offers used)", "rejected": "rejected gaps",
                "raff_text": "t_c Raff ± bootstrap SE (s)", "mle_text": "t_c max. likelihood ± SE (s)",
                "mle_sd": "spread of the drivers' t_c (s, log-normal SD)", "follow_up": "t_f (s)",
@@ -182,16 +181,19 @@ Grid run: **{mode}** (vehicles {', '.join(grid['vehicles'])}; {', '.join(f'{r:g}
 leg; drivers {', '.join(grid['drivers'])}; {grid['runs']} seeds from {grid['seed']}). The full grid's results are
 benchmarks/traffic-study.md (its command there).
 
-Table: The truck in traffic, per vehicle, flow and driver. "Braking caused": the strongest deceleration of
-another vehicle within 50 m of the truck; "the same runs without the truck": the same seeds' traffic
-replayed without it (SUMO's cars brake up to 4.5 m/s² at the entries on their own); a run counts as
-braking harder when the first exceeds the second by more than {HARDER} m/s². Everyone's delay: the truck's
-delay plus the time the others lost because of it (their summed SUMO time loss less the same vehicles'
-loss without the truck over the same span). The 95 % confidence intervals are Student's t over the runs.
+Table: Safety per vehicle, flow and driver (over the runs). Distances between exact rectangles. Braking
+caused: the strongest deceleration of another vehicle within 50 m of the truck, beside the same seeds' traffic
+replayed without the truck (SUMO's cars brake up to 4.5 m/s² at the entries on their own); a run brakes
+harder when the first exceeds the second by more than {HARDER} m/s².
 
-{tables['main']}
+{tables['safety']}
 
-Table: Everyone's delay (s, mean ± 95 % CI over the runs, n runs), the drivers on the same seeds.
+Table: The truck's delay per vehicle, flow and driver: travel time less the same driver's without other traffic.
+
+{tables['delay']}
+
+Table: Everyone's delay (s, mean ± 95 % CI over n runs, Student's t), the drivers on the same seeds: the truck's
+delay plus the others' summed SUMO time loss less the same vehicles' loss without the truck over the same span.
 
 {tables['everyone']}
 
@@ -266,7 +268,8 @@ def main() -> None:
             "drivers": args.drivers}
     extra = args.extra.read_text() if args.extra else ""
     drivers = sorted({c["driver"] for c in cells})
-    tables = {"main": table(rows, COLUMNS), "gaps": table(gap_rows, GAP_COLUMNS),
+    tables = {"safety": table(rows, SAFETY_COLUMNS), "delay": table(rows, DELAY_COLUMNS),
+              "gaps": table(gap_rows, GAP_COLUMNS),
               "everyone": table(everyone_rows(cells), {"vehicle": "vehicle", "rate": "flow per other leg (veh/h)",
                                                        **{d: f"{d} (s)" for d in drivers}}),
               "cars": table(cars["cells"], CARS_COLUMNS), "truck": table(truck_rows, TRUCK_COLUMNS)}  # fmt: skip
