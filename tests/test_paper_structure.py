@@ -182,3 +182,27 @@ def test_claims_table_of_the_derivation_report_is_captioned():
     assert "### Part" in out and "# Checks" not in out
     page = paper_html.to_html(out, "", Path("."))
     assert "<strong>Table 1.</strong> Every claim" in page
+
+
+def test_reversing_and_clockwise_runs_are_flagged_and_one_costate_figure_stays_in_the_main_part(tmp_path):
+    import pandas as pd  # noqa: PLC0415
+    import paper_sections  # noqa: PLC0415
+
+    from model.plotting.results import Result  # noqa: PLC0415
+
+    traj = pd.DataFrame({"t": [0.0, 0.5, 1.0], "u1": [-0.5, 0.2, 1.0], "u2": [0.0, 0.1, 0.0]})
+    summary = {"status": "optimal", "valid": True, "final_time": 1.0, "energy": 0.3, "iterations": 5,
+               "solve_seconds": 0.1, "intervals": 2, "pass": "cw", "swept_angle": -3.1, "min_clearance": 0.0,
+               "min_clearance_dense": 0.0}
+    back, ahead = Result("back", summary, traj), Result("ahead", {**summary, "pass": "ccw"}, traj.abs())
+    notes = paper_sections.direction_notes(back)
+    assert "**It reverses**: u1 < 0 on 1 of its 3 nodes" in notes and "clockwise" in notes
+    assert paper_sections.direction_notes(ahead) == ""
+    ctx = paper_sections.Context({"back": back, "ahead": ahead}, {}, ["ahead", "back"], {}, "", "", Path("f"),
+                                 results_dir=tmp_path)
+    main = paper_sections.scenario_sections(ctx)
+    assert main.count("costates.png") == 1 and "f/ahead/costates.png" in main
+    assert "were not checked under grid refinement" in main and "no transversality condition" in main
+    assert "**It reverses**" in main
+    supplementary = paper_sections.costate_figures(ctx)
+    assert supplementary.count("costates.png") == 1 and "f/back/costates.png" in supplementary

@@ -23,6 +23,7 @@ rule paper_sections:
         report="results/derivations/report.md",
         table="results/tables/scenarios.md",
         json=TEMPLATE_JSON,
+        convergence="results/studies/convergence/convergence.json",  # the costate captions
         script=SCRIPTS / "paper_sections.py",
         helpers=closure(SCRIPTS / "paper_sections.py"),
     output:

@@ -8,7 +8,7 @@ results file through one of them (an unknown placeholder is an error):
 - ``{{ claim ID }}``: a derivation claim's id and verdict
 - ``{{ json PATH KEY [FORMAT] }}``: a value of the JSON file results/PATH, KEY a dotted path of keys and
   list indices (``scenarios.0.final_time``); workflows/rules/paper.smk makes each such file an input
-- ``{{ scenario_table }}``, ``{{ reproduction_notes }}``, ``{{ scenario_sections }}``,
+- ``{{ scenario_table }}``, ``{{ reproduction_notes }}``, ``{{ scenario_sections }}``, ``{{ costate_figures }}``,
   ``{{ comparison_figures }}``, ``{{ derivation_report }}``: generated blocks
 """
 
@@ -112,26 +112,79 @@ def scenario_paragraph(r: Result) -> str:
     )
 
 
+def direction_notes(r: Result) -> str:
+    """Flags for a solved run that reverses (u1 < 0 at some node) or passes the obstacle clockwise."""
+    notes = []
+    traj = r.trajectory
+    if "u1" in traj and (traj["u1"] < 0).any():
+        back = traj[traj["u1"] < 0]
+        notes.append(f"**It reverses**: u1 < 0 on {len(back)} of its {len(traj)} nodes (t from "
+                     f"{fmt(back['t'].min(), 3)} to {fmt(back['t'].max(), 3)} s, least u1 "
+                     f"{fmt(traj['u1'].min(), 3)} m/s); the problem bounds |u1| and allows both directions.")
+    if r.summary.get("pass") == "cw":
+        notes.append("**It passes the island clockwise**, against the counter-clockwise circulation of a "
+                     "right-hand-traffic roundabout: the seed paper's problem has an obstacle, no direction "
+                     "of traffic.")
+    return " ".join(notes)
+
+
 def scenario_sections(ctx: Context) -> str:
+    """Each paper scenario's paragraph and solution figure; the costate figure of the first one only (the
+    others are in the supplementary material, ``{{ costate_figures }}``)."""
     blocks = []
-    for name in ctx.paper:
+    for i, name in enumerate(ctx.paper):
         r = ctx.results[name]
         title = r.summary.get("title") or name
         blocks += [
             f"### {title}",
             "",
-            scenario_paragraph(r),
+            scenario_paragraph(r) + (f" {direction_notes(r)}" if r.solved and direction_notes(r) else ""),
             "",
             ctx.figure(f"{name}/solution.png", f"`{name}`: (a) controls with their bounds dashed, (b) states, "
                        "(c) path with the obstacle, its safety circle and the start and goal poses, "
                        "(d) cumulative energy (the paper's Figures 4-7)."),
             "",
-            ctx.figure(f"{name}/costates.png", f"`{name}`: costate estimates from the NLP multipliers, the "
-                       "switching functions beside the controls they select, the Hamiltonian and the obstacle "
-                       "multiplier."),
-            "",
         ]
+        if i == 0:
+            blocks += [costate_figure(ctx, name), ""]
+            if len(ctx.paper) > 1:
+                others = ", ".join(f"`{n}`" for n in ctx.paper[1:])
+                blocks += [f"The costate figures of {others} are in the supplementary material (S5).", ""]
     return "\n".join(blocks + [other_scenarios(ctx)])
+
+
+def costate_change(ctx: Context, name: str) -> str:
+    """What the grid-convergence study says of a scenario's costates (results/studies/convergence)."""
+    path = ctx.results_dir / "studies" / "convergence" / "convergence.json"
+    rows = json.loads(path.read_text()).get("rows", []) if path.is_file() else []
+    row = next((r for r in rows if r.get("scenario") == name), None)
+    if row is None:
+        return "Its costates were not checked under grid refinement."
+    return (f"Under grid refinement (N = {row['grids']}, supplementary S2) its costates change by up to "
+            f"{fmt(row['costate_change'], 3)} between the two finest grids (observed orders {row['order_p']}).")
+
+
+def transversality(r: Result) -> str:
+    """The certificate's transversality residual of a run, or why there is none."""
+    item = ((r.summary.get("certificate") or {}).get("items") or {}).get("transversality") or {}
+    if "value" not in item:
+        return "No state is free at Tf, so there is no transversality condition to check."
+    states = ", ".join(item.get("states") or [])
+    return (f"Transversality (p = 0 at Tf for the free final state(s) {states}): residual {item['value']:.1e} "
+            f"(tolerance {item.get('tolerance', float('nan')):.0e}) for the certificate's end-node estimate "
+            "carried the half step to Tf; the plotted last-node estimate need not vanish.")
+
+
+def costate_figure(ctx: Context, name: str) -> str:
+    r = ctx.results[name]
+    return ctx.figure(f"{name}/costates.png", f"`{name}`: costate estimates from the NLP multipliers, the "
+                      "switching functions beside the controls they select, the Hamiltonian and the obstacle "
+                      f"multiplier. {costate_change(ctx, name)} {transversality(r)}")
+
+
+def costate_figures(ctx: Context) -> str:
+    """The costate figures of the paper scenarios after the first (the supplementary material)."""
+    return "\n\n".join(costate_figure(ctx, name) for name in ctx.paper[1:]) or "No further paper scenario."
 
 
 def other_scenarios(ctx: Context) -> str:
@@ -180,6 +233,7 @@ BLOCKS: dict[str, Callable[[Context], str]] = {
     "scenario_table": lambda ctx: ctx.table_md,
     "reproduction_notes": reproduction_notes,
     "scenario_sections": scenario_sections,
+    "costate_figures": costate_figures,
     "comparison_figures": comparison_figures,
     "derivation_report": derivation_report,
 }
