@@ -15,9 +15,10 @@ from model.errors import InputError
 from model.problem.tables import array_of_tables, is_number, no_unknown, number, table_of
 from model.scene.road import Road
 
-TRAFFIC_KEYS = {"seed", "warmup", "time_limit", "step", "safety_distance", "flows"}
+TRAFFIC_KEYS = {"seed", "warmup", "time_limit", "step", "safety_distance", "flows", "speed_planner"}
 FLOW_KEYS = {"leg", "vehicles_per_hour", "exits", "type"}
 FLOW_TYPES = ("passenger", "truck", "bus", "motorcycle")
+SPEED_PLANNERS = ("rules", "qp")  # the autopilot's speed along its plan: rule-based profiles, or the QP
 SHARE_TOL = 1e-9  # the exit shares sum to 1 within this
 DIVISOR_TOL = 1e-9  # relative: warmup / step within this of a whole number
 
@@ -38,7 +39,7 @@ class Flow:
 
 @dataclass(frozen=True)
 class TrafficSettings:
-    """The ``[traffic]`` table: SUMO's seed and step, the warm-up, the time limit, the flows."""
+    """The ``[traffic]`` table: SUMO's seed and step, the warm-up, the time limit, the flows, the speed planner."""
 
     seed: int = 0
     warmup: float = 60.0
@@ -46,6 +47,7 @@ class TrafficSettings:
     step: float = 0.1
     safety_distance: float = 1.0
     flows: tuple[Flow, ...] = ()
+    speed_planner: str = "rules"
 
     @property
     def depart(self) -> float:
@@ -93,7 +95,10 @@ def parse_traffic(data: dict[str, Any], road: Road | None) -> TrafficSettings | 
     flows = tuple(
         _flow(item, where, road) for _, where, item in array_of_tables(table.get("flows", []), "traffic.flows")
     )
-    return TrafficSettings(seed, warmup, time_limit, step, safety, flows)
+    planner = table.get("speed_planner", TrafficSettings.speed_planner)
+    if planner not in SPEED_PLANNERS:
+        raise InputError("traffic.speed_planner", f"must be one of {', '.join(SPEED_PLANNERS)}, got {planner!r}")
+    return TrafficSettings(seed, warmup, time_limit, step, safety, flows, planner)
 
 
 def _flow(item: dict[str, Any], where: str, road: Road) -> Flow:
@@ -127,4 +132,4 @@ def _finite(table: dict[str, Any], key: str, default: float) -> float:
     return val
 
 
-__all__ = ["FLOW_TYPES", "Flow", "TrafficSettings", "parse_traffic"]
+__all__ = ["FLOW_TYPES", "SPEED_PLANNERS", "Flow", "TrafficSettings", "parse_traffic"]

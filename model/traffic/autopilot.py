@@ -41,6 +41,7 @@ do at their speeds, is not checked.
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Iterator
@@ -53,6 +54,7 @@ from model.problem.scenario import Scenario
 from model.scene.moving import MovingVehicle
 from model.scene.roundabout import lane_side
 from model.traffic.network import ring_radius, truck_geometry
+from model.traffic.speed_planner import QpDriver
 
 HORIZON = 5.0  # s looked ahead
 SAMPLE = 0.25  # s between the predicted instants (plus the first step's end)
@@ -138,6 +140,7 @@ class Autopilot:
     length: float = field(init=False)  # SUMO's length of the truck (the straight vehicle's overall length)
     leader_decel: float = LEADER_DECEL  # m/s^2: the truck's vType decel, which SUMO's follower assumes
     rate_slope: float = field(init=False)  # 1/s: the progress rate's largest change per second (``slope``)
+    qp: QpDriver | None = field(init=False, default=None, repr=False)  # [traffic] speed_planner = "qp": the QP
 
     def __post_init__(self) -> None:
         self.give_way = self._give_way_time()
@@ -151,6 +154,8 @@ class Autopilot:
         self.rate_slope = self.slope()
         self.length = truck_geometry(self.scenario)["length"]
         self._merge_geometry()
+        if getattr(self.scenario.traffic, "speed_planner", "rules") == "qp":  # its profile is tried first
+            self.qp = QpDriver(self)
 
     def _merge_geometry(self) -> None:
         """The merge point of the entry, the front's path length along the plan and at the merge point."""
@@ -450,8 +455,11 @@ class Autopilot:
                 keeps[i] = not self.junction_conflict(tau, s, theirs) and brakes(i, rates, s) <= FOLLOWER_DECEL
             return keeps[i]
 
-        best, tried = None, []
-        for i, (name, rates, s) in enumerate(self.profiles(tau)):
+        best, tried, candidates, planned = None, [], self.profiles(tau), None
+        if self.qp is not None:  # the QP's profile first, under the same checks; the rules' if it fails them
+            planned = self.qp.profile(others, tau, step, exiting)
+            candidates = itertools.chain([("qp", *planned)], candidates)
+        for i, (name, rates, s) in enumerate(candidates):
             gaps = self.clearances(s, theirs)
             net = self.net_gap(tau, s, gaps)
             if net >= safety and rules(i, rates, s):
@@ -470,6 +478,8 @@ class Autopilot:
         name, rates = best
         new_rate = float(np.interp(step, tau, rates))
         advance = 0.5 * (self.rate + new_rate) * step
+        if name == "qp":  # the QP's own plan time at the step's end
+            advance = max(float(planned[1][1]) - self.s, 0.0)
         if name in ("approach", "stop at the line", "stand") and self.s < self.give_way:
             advance = min(advance, self.give_way - self.s)  # never past the line when it chose to stop there
         self.s = min(self.s + advance, self.plan.duration)
@@ -657,6 +667,10 @@ class Autopilot:
         The others are predicted as ``expect`` says (``exiting``: the keys showing the exit side's signal).
         """
         return self._predict(self._near(others, tau), tau, exiting)
+
+    def near(self, others: list[MovingVehicle], tau: np.ndarray) -> list[MovingVehicle]:
+        """The vehicles that can come near within the horizon ``tau[-1]`` (``predicted``)."""
+        return self._near(others, tau)
 
     def _near(self, others: list[MovingVehicle], tau: np.ndarray) -> list[MovingVehicle]:
         """The vehicles that can come near within the horizon (``predicted``)."""
