@@ -223,15 +223,19 @@ def test_group_measures_pool_the_truck_gaps_and_subtract_the_free_line_time():
 
     cells = [{"rate": 0.0, "runs": [run(1.0, 30.0, [], 0)]},
              {"rate": 600.0, "runs": [run(4.0, 6.0, [2.0, 3.0]), run(2.0, 5.0, [])]}]  # fmt: skip
-    g = group_measures(cells)
-    assert g["critical_gap"] == pytest.approx(raff_critical_gap([30.0, 6.0, 5.0], [2.0, 3.0]))  # 3 drivers: no MLE
-    assert g["mle"] is None
+    g = group_measures(cells, reference_gap=4.0)
+    assert g["raff"] == pytest.approx(raff_critical_gap([30.0, 6.0, 5.0], [2.0, 3.0]))
+    assert g["mle"] is None and g["critical_gap"] is None  # 3 entries: Raff's crossing, too few for the formulas
     assert (g["accepted"], g["rejected"], g["follow_up"], g["line_time_free"]) == (3, 2, 2.0, 1.5)
     row = g["cells"][1]
     assert row["q"] == pytest.approx(20 / 120)
     assert row["line_wait"] == pytest.approx(3.0 - 1.5)
-    assert row["adams_delay"] == pytest.approx(adams_delay(20 / 120, g["critical_gap"]))
-    assert "capacity_pcph" not in row  # a queue of trucks' follow-up time is not measured
+    assert "adams_delay" not in row and row["adams_reference"] == pytest.approx(adams_delay(20 / 120, 4.0))
+    cells[1]["runs"] += [run(3.0, 7.0, [2.5]), run(2.0, 4.5, [1.0])]  # 5 entries: Raff's t_c goes into Adams'
+    g = group_measures(cells)
+    assert g["critical_gap"] == g["raff"] is not None
+    assert g["cells"][1]["adams_delay"] == pytest.approx(adams_delay(20 / 120, g["raff"]))
+    assert "capacity_pcph" not in g["cells"][1]  # a queue of trucks' follow-up time is not measured
 
 
 def test_without_a_rejected_gap_there_is_only_a_bound_and_no_adams_delay():

@@ -46,6 +46,7 @@ from model.traffic.gaps import (
 )
 
 MLE_MIN_DRIVERS = 10  # fewer drivers give no maximum-likelihood estimate (Raff's only)
+FORMULA_MIN_DRIVERS = 5  # fewer drivers give Raff's crossing but no t_c for Adams' delay and the capacity
 RUN_KEYS = ("arrived", "ok", "delay", "travel_time", "free_flow_time", "entry_wait", "collisions", "min_distance",
             "min_clearance", "max_braking_caused", "max_braking_without_truck", "others_time_loss",
             "others_time_loss_without_truck", "realtime_factor", "road_violation")  # fmt: skip
@@ -188,7 +189,7 @@ def gap_estimates(offers: Sequence[Mapping]) -> dict:
         gap), ``raff_se`` (s, bootstrap over the drivers), ``raff_at_most`` (the shortest accepted gap when
         none was rejected), ``mle`` (s, Troutbeck's log-normal mean), ``mle_se`` (s, its standard error),
         ``mle_sd`` (s, the spread of the drivers' critical gaps; the MLE with ``MLE_MIN_DRIVERS`` drivers or
-        more), ``critical_gap`` (the MLE, else Raff's).
+        more), ``critical_gap`` (the MLE, else Raff's with ``FORMULA_MIN_DRIVERS`` drivers or more, else None).
     """
     used = [o for o in offers if not o.get("censored")]
     accepted = [float(o["accepted"]) for o in used]
@@ -202,7 +203,8 @@ def gap_estimates(offers: Sequence[Mapping]) -> dict:
            "raff_at_most": None if flat else (min(accepted) if accepted else None),
            "mle": mle["mean"] if mle else None, "mle_se": mle["se"] if mle else None,
            "mle_sd": mle["sd"] if mle else None}  # fmt: skip
-    out["critical_gap"] = out["mle"] if out["mle"] is not None else raff
+    fallback = raff if len(used) >= FORMULA_MIN_DRIVERS else None
+    out["critical_gap"] = out["mle"] if out["mle"] is not None else fallback
     return out
 
 
@@ -228,13 +230,15 @@ def truck_offers(runs: Sequence[Mapping]) -> list[dict]:
             for r in runs if r.get("entry") is not None and r.get("accepted_gap") is not None]  # fmt: skip
 
 
-def group_measures(cells: Sequence[Mapping]) -> dict:
+def group_measures(cells: Sequence[Mapping], reference_gap: float | None = None) -> dict:
     """The truck's critical gap, t_f and per cell q, its waits, Adams' delay, the HCM capacity: one vehicle, driver.
 
     Parameters
     ----------
     cells : sequence of mapping
         Cell records (``rate`` and ``runs``, each run a ``run_record``), one vehicle and driver.
+    reference_gap : float, optional
+        Another critical gap (s; the cars'): each cell also gets Adams' delay with it (``adams_reference``).
 
     Returns
     -------
@@ -258,6 +262,8 @@ def group_measures(cells: Sequence[Mapping]) -> dict:
         wait = _mean([o["line_time"] - free for o in mine]) if free is not None else None
         row = {"rate": c["rate"], "line_wait": wait, "observed": len(mine),
                **formula_row(q, est["critical_gap"], None, PCE_HEAVY)}  # fmt: skip
+        if reference_gap is not None:
+            row["adams_reference"] = adams_delay(q, reference_gap)
         out["cells"].append(row)
     return out
 
@@ -303,6 +309,6 @@ def _mean(values: Sequence[float]) -> float | None:
     return float(np.mean(values)) if len(values) else None
 
 
-__all__ = ["RUN_KEYS", "cell_document", "cell_name", "conflicting_demand", "free_line_time", "gap_estimates",
-           "group_measures", "merged", "others_measures", "others_record", "parse_cell", "read_columns", "run_record",
-           "truck_centres", "truck_offers"]  # fmt: skip
+__all__ = ["FORMULA_MIN_DRIVERS", "MLE_MIN_DRIVERS", "RUN_KEYS", "cell_document", "cell_name", "conflicting_demand",
+           "free_line_time", "gap_estimates", "group_measures", "merged", "others_measures", "others_record",
+           "parse_cell", "read_columns", "run_record", "truck_centres", "truck_offers"]  # fmt: skip

@@ -21,7 +21,7 @@ from studies_common import parser, plt, table, write_text
 
 from model.plotting.figures import save
 from model.traffic.gaps import HCM_CRITICAL_GAP, HCM_FOLLOW_UP, adams_delay, gap_capacity, hcm_capacity
-from model.traffic.study import group_measures, others_measures
+from model.traffic.study import FORMULA_MIN_DRIVERS, group_measures, others_measures
 
 DRIVER_STYLE = {"autopilot": {"color": "#1f6fb4", "marker": "o"}, "sumo": {"color": "#d2691e", "marker": "s"},
                 "cooperative": {"color": "#2e8b57", "marker": "^"}}  # fmt: skip
@@ -118,13 +118,14 @@ CARS_COLUMNS = {"rate": "flow entering per other leg (veh/h)", "leg": "entry leg
                 "capacity_pcph": "gap capacity, Siegloch (pc/h)", "hcm_capacity_pcph": "HCM 6th ed. capacity (pc/h)"}
 TRUCK_COLUMNS = {"vehicle": "vehicle", "driver": "driver", "rate": "flow entering per other leg (veh/h)",
                  "vc_pcph": "conflicting flow v_c (pc/h, measured)", "observed": "runs entered",
-                 "line_wait": "measured wait at the line (s, mean)", "adams_delay": "Adams E[W] (s)",
+                 "line_wait": "measured wait at the line (s, mean)", "adams_delay": "Adams E[W], own t_c (s)",
+                 "adams_reference": "Adams E[W], the cars' t_c (s)",
                  "hcm_capacity_pcph": "HCM 6th ed. capacity (pc/h)"}  # fmt: skip
 
 
-def groups(cells: list[dict]) -> dict[tuple[str, str], dict]:
+def groups(cells: list[dict], reference_gap: float | None) -> dict[tuple[str, str], dict]:
     keys = sorted({(c["vehicle"], c["driver"]) for c in cells})
-    return {k: group_measures([c for c in cells if (c["vehicle"], c["driver"]) == k]) for k in keys}
+    return {k: group_measures([c for c in cells if (c["vehicle"], c["driver"]) == k], reference_gap) for k in keys}
 
 
 def gap_row(who: str, g: dict) -> dict:
@@ -143,6 +144,12 @@ def figure(cars: dict, measures: dict, stem: Path) -> None:
     left.plot([r["vc_pcph"] for r in rows], [r["line_wait"] for r in rows], "o", color="0.2", ms=5,
               label="cars: measured (per rate and leg)")  # fmt: skip
     tc = cars["critical_gap"]
+    for (vehicle, driver), g in measures.items():
+        own = g["critical_gap"]
+        if own is not None:
+            left.plot(vc, [adams_delay(v / 3600, own) for v in vc], lw=1.0, ls="--",
+                      color=DRIVER_STYLE.get(driver, {}).get("color", "0.5"),
+                      label=f"{vehicle} ({driver}): Adams, t_c = {own:.2f} s")  # fmt: skip
     if tc is not None:
         left.plot(vc, [adams_delay(v / 3600, tc) for v in vc], color="0.2", lw=1.2,
                   label=f"cars: Adams, t_c = {tc:.2f} s")  # fmt: skip
@@ -169,7 +176,7 @@ def section(tables: dict[str, str], mode: str, grid: dict, figure_path: str, ext
     return f"""## The truck in traffic
 
 The truck drives through the four-leg 40 m roundabout of `workflows/scenarios/traffic/` among SUMO
-traffic (docs/traffic-format.md): every other leg sends a random (Poisson) stream of passenger cars of
+traffic [@sumo2018] (docs/traffic-format.md): every other leg sends a random (Poisson) stream of passenger cars of
 the given rate, exits shared equally, no U-turns. The drivers on the same seeds: the project's
 `autopilot` (its plan's path, with a speed profile chosen against the predicted vehicles), SUMO's
 own driver model moving a vehicle of the truck's length (the baseline; SUMO has no trailers, so its
@@ -203,7 +210,7 @@ outer curb (or, in a queue, from when the vehicle ahead entered) until its front
 conflicting stream of an entry is the times circulating vehicles (the truck included) cross the ray
 along the leg's axis across the ring roadway. The offered intervals start at the arrival (the lag,
 then the stream's headways); the one containing the entry is accepted, the earlier ones rejected; an
-accepted gap cut by the run's end is left out. Raff's t_c is where the number of accepted gaps shorter
+accepted gap cut by the run's end is left out. Raff's t_c [@raff1950] is where the number of accepted gaps shorter
 than t equals the number of rejected gaps longer than t (its standard error by resampling the drivers,
 200 draws); the maximum-likelihood t_c is Troutbeck's (each consistent driver's critical gap between its
 longest rejected and its accepted gap, the drivers' critical gaps log-normal; the mean, its standard
@@ -215,12 +222,12 @@ Table: Critical gaps (s) of the drivers at the line.
 
 {tables['gaps']}
 
-**Against traffic engineering.** Adams' delay E[W] = (exp(q t_c) - 1 - q t_c) / q is the mean wait
+**Against traffic engineering.** Adams' delay [@adams1936] E[W] = (exp(q t_c) - 1 - q t_c) / q is the mean wait
 of a driver arriving at random at a Poisson stream of rate q who needs a gap t_c (the estimate above,
 the maximum-likelihood one where there is one); the measured wait is the mean line-to-entry time beyond
 the median of the drivers who took the first gap offered (queued cars that followed the one ahead left
-out). Siegloch's entry capacity c = exp(-q (t_c - t_f / 2)) / t_f with the cars' measured t_c and t_f
-is set beside the HCM 6th edition's single-lane entry capacity c = 1380 exp(-1.02e-3 v_c) (pc/h, v_c the
+out). Siegloch's entry capacity [@siegloch1973] c = exp(-q (t_c - t_f / 2)) / t_f with the cars' measured t_c and t_f
+is set beside the HCM 6th edition's [@hcm2016] single-lane entry capacity c = 1380 exp(-1.02e-3 v_c) (pc/h, v_c the
 conflicting flow in pc/h; Exhibit 22-12), itself Siegloch's with t_f = {HCM_FOLLOW_UP:.2f} s and
 t_c = {HCM_CRITICAL_GAP:.2f} s. The capacities are formulas at the measured v_c; the runs do not saturate
 the entries, so no capacity is measured.
@@ -229,7 +236,8 @@ Table: SUMO's cars per flow and entry leg: measured waits against Adams, Siegloc
 
 {tables['cars']}
 
-Table: The truck's waits at its line against Adams' delay with its own critical gap (where it rejected a gap).
+Table: The truck's waits at its line against Adams' delay with its own critical gap (from {FORMULA_MIN_DRIVERS}
+entries with a rejected gap among them) and with the cars' critical gap.
 
 {tables['truck']}
 
@@ -257,7 +265,8 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     pd.DataFrame(rows).drop(columns=[k for k in rows[0] if k.endswith("_text")] if rows else []).to_csv(
         args.out / "table.csv", index=False)
-    measures, cars = groups(cells), others_measures(cells)
+    cars = others_measures(cells)
+    measures = groups(cells, cars["critical_gap"])
     gap_rows = [gap_row("SUMO's passenger cars, every entry", cars)]
     gap_rows += [gap_row(f"{v} ({d}) at its entry", g) for (v, d), g in measures.items()]
     truck_rows = [{"vehicle": v, "driver": d, **r} for (v, d), g in measures.items() for r in g["cells"]]
