@@ -185,8 +185,9 @@ among connected vehicles that are held out of the ring's areas while the truck o
 distance is between exact rectangles; a failed run is counted, never dropped.
 
 Grid run: **{mode}** (vehicles {', '.join(grid['vehicles'])}; {', '.join(f'{r:g}' for r in grid['rates'])} veh/h per
-leg; drivers {', '.join(grid['drivers'])}; {grid['runs']} seeds from {grid['seed']}). The full grid's results are
-benchmarks/traffic-study.md (its command there).
+leg; drivers {', '.join(grid['drivers'])}; {grid['runs']} seeds from {grid['seed']}). A larger grid's results are
+committed as benchmarks/traffic-study.md (its header names the grid and the command that wrote it; the full grid's:
+`snakemake -c2 --config traffic_study=full -- benchmarks/traffic-study.md`).
 
 Table: Safety per vehicle, flow and driver (over the runs). Distances between exact rectangles. Braking
 caused: the strongest deceleration of another vehicle within 50 m of the truck, beside the same seeds' traffic
