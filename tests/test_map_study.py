@@ -250,3 +250,33 @@ def test_an_operational_cell_solves_within_the_presets_limits(kackertstrasse, te
     assert lim.acceleration[0] - 1e-6 <= np.min(cols["a"]) and np.max(cols["a"]) <= lim.acceleration[1] + 1e-6
     lateral = sol.validation["measures"]["lateral_acceleration"]
     assert lateral["max_abs_nodes"] <= lim.lateral_acceleration + 1e-6
+
+
+def test_the_map_tables_rows_and_section_say_the_limits():
+    """A cell at the preset's limits says them and what it reached; one without says so, against the preset's."""
+    import sys
+
+    from model.vehicles import operational_limits
+
+    sys.path.insert(0, str(ROOT / "workflows" / "scripts"))
+    try:
+        import map_study_table as mst
+    finally:
+        sys.path.remove(str(ROOT / "workflows" / "scripts"))
+    lim = operational_limits("SU-30")
+    base = {"preset": "SU-30", "movement": "90-102", "apron": True, "apron_use": "all", "intervals": 100,
+            "valid": True, "final_time": 20.0, "route": {"to_lanelet": 102}}  # fmt: skip
+    held = {**base, "operational": True, "initial_speed": lim.crawl_speed, "speed_bound": [0.0, 6.9],
+            "max_abs_lateral_acceleration": 1.5, "min_acceleration": -1.25, "max_acceleration": 1.0}  # fmt: skip
+    free = {**base, "apron": False, "operational": False, "max_abs_lateral_acceleration": 3.5}
+    rows = [mst.flat(held), mst.flat(free)]
+    assert rows[0]["limits"].startswith(f"operational limits of the SU-30: a in [{lim.acceleration[0]:g}, "
+                                        f"{lim.acceleration[1]:g}]") and "a in [-1.25, 1.00] m/s^2" in rows[0]["limits"]
+    assert rows[1]["limits"] == mst.limits_note("SU-30", False, 3.5, (None, None))
+    assert f"above the SU-30's allowed {lim.lateral_acceleration:g} m/s^2" in rows[1]["limits"]
+    import pandas as pd
+
+    text = mst.limits_paragraph(pd.DataFrame(rows))
+    assert text.startswith("1 of the 2 cells run") and mst.operational_text("SU-30") in text
+    assert "v in [0, 6.9] m/s" in text
+    assert mst.limits_paragraph(pd.DataFrame(rows[1:])).startswith("Every cell is solved with the kinematic model")

@@ -234,3 +234,35 @@ def test_a_row_with_bad_cells_or_files_is_refused_in_one_line(tmp_path, cells, o
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
     assert done.stderr.startswith(f"{flag}:")
     assert not list(tmp_path.iterdir())
+
+
+def test_the_energy_time_section_labels_its_rows_and_sets_the_operational_time_beside_them():
+    """The trade-off's rows (the kinematic model) each say their lateral acceleration against the preset's allowed
+    one; the minimum time at the preset's limits stands beside them, its numbers read from its record."""
+    from model.problem.scenario import load_scenario
+
+    sys.path.insert(0, str(SCRIPTS))
+    try:
+        import studies_roads_tradeoff as tradeoff
+    finally:
+        sys.path.remove(str(SCRIPTS))
+    scenario = ROOT / "workflows" / "scenarios" / "roads" / "su30-left-turn.toml"
+    lim = operational_limits("SU-30")
+    row = {"objective": "time", "ratio": None, "final_time": 12.5, "status": "optimal", "valid": True,
+           "energy": 625.0, "iterations": 40, "solve_seconds": 1.0, "max_speed": 10.0, "mean_speed": 10.0,
+           "max_steering_rate": 0.5, "path_length": 125.0, "speed_share": 0.99, "min_clearance": 0.1,
+           "min_clearance_dense": 0.1, "max_abs_lateral_acceleration": 8.25, "apron_used_m": 1.9,
+           "swept_width_m": 4.2, "diagnosis": None}  # fmt: skip
+    slow = {**row, "objective": "energy", "ratio": 2.0, "final_time": 25.0, "energy": 312.5,
+            "max_abs_lateral_acceleration": 0.5 * lim.lateral_acceleration}  # fmt: skip
+    ref = {"preset": "SU-30", "valid": True, "status": "optimal", "final_time": 17.5, "intervals": 120,
+           "max_abs_lateral_acceleration": 2.0, "acceleration": [-2.25, 1.3], "speed_bound": [0.0, 10.0]}  # fmt: skip
+    text = tradeoff.section(load_scenario(scenario).ocp, [row, slow], Path("f.png"), 60, 0.01, "SU-30", ref)
+    assert (f"max lateral acceleration 8.25 m/s^2 (above the SU-30's allowed {lim.lateral_acceleration:g} m/s^2)"
+            in text) and "(within the SU-30's allowed" in text  # fmt: skip
+    assert "the same turn's minimum time is 17.5 s (N = 120; reached: max lateral acceleration 2.00 m/s^2, a in " \
+           "[-2.25, 1.30] m/s^2), against T_min = 12.5 s without them" in text
+    assert tradeoff.operational_text("SU-30") in text
+    failed = tradeoff.reference_lines({**ref, "valid": False, "diagnosis": "the body crosses the island"}, row)
+    assert failed[0].endswith("FAILED: the body crosses the island.")
+    assert tradeoff.reference_lines(None, row) == []

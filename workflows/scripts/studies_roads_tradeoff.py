@@ -4,10 +4,18 @@ The scenario's minimum time T_min first, then the energy-optimal problem at fixe
 ratio x T_min, each started from the previous solution (the first from the time-optimal one).
 Every solve is validated with the exact rectangles in the exact corridor; a failed solve is a
 row marked failed and is neither plotted nor counted as a point of the trade-off.
+
+The trade-off is that of the seed paper's model (the speed u1 a control, J = 1/2 int u1^2 + u2^2 dt): its rows
+are the kinematic model without operational limits, and each says so beside its largest lateral acceleration and
+the preset's allowed one (model.studies.roads.limits_note). Beside them, the same turn's minimum time at the
+preset's operational limits (model.studies.roads.operational_document; ``--no-operational-reference``: not solved).
 """
 
 from __future__ import annotations
 
+import argparse
+import copy
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +26,15 @@ from studies_common import fmt, parser, plt, table, write_json, write_text
 from model.analysis.bodies import swept_polygons
 from model.plotting.figures import ENERGY_UNIT, save
 from model.plotting.roads import draw_roundabout, draw_scale_bar, geometry_patch
-from model.problem.scenario import load_scenario
-from model.studies.roads import apron_used, swept_width
+from model.problem.scenario import load_scenario, parse_scenario
+from model.studies.roads import (
+    apron_used,
+    limits_note,
+    operational_document,
+    operational_text,
+    reference_preset,
+    swept_width,
+)
 from model.studies.sweeps import as_energy
 
 
@@ -42,10 +57,46 @@ def record(sol, ratio: float | None, objective: str) -> dict:
         "speed_share": float(np.trapezoid(0.5 * cols["u1"] ** 2, cols["t"]) / sol.energy) if sol.energy else None,
         "min_clearance": measures.get("min_clearance"),
         "min_clearance_dense": measures.get("min_clearance_dense"),
+        "max_abs_lateral_acceleration": (measures.get("lateral_acceleration") or {}).get("max_abs_nodes"),
         "apron_used_m": apron_used(sol.ocp, cols) if sol.ok else None,
         "swept_width_m": swept_width(sol.ocp, cols) if sol.ok else None,
         "diagnosis": (sol.diagnosis or {}).get("message") if not sol.ok else None,
     }
+
+
+def operational_reference(scenario: Path, intervals: int) -> dict | None:
+    """The scenario's minimum time at its preset's operational limits (None without a preset): Tf, the largest
+    lateral acceleration and the acceleration's range at the nodes, validity, wall seconds."""
+    doc = tomllib.loads(scenario.read_text())
+    preset_name = doc.get("vehicle", {}).get("preset")
+    if not preset_name:
+        return None
+    doc = operational_document(copy.deepcopy(doc), preset_name)
+    sol = parse_scenario(doc, path=scenario).ocp.solve(intervals=intervals)
+    measures = sol.validation.get("measures", {})
+    lon = measures.get("longitudinal") or {}
+    return {"preset": preset_name, "valid": bool(sol.ok), "status": sol.status, "final_time": sol.final_time,
+            "intervals": sol.intervals, "solve_seconds": sol.solve_seconds,
+            "max_abs_lateral_acceleration": (measures.get("lateral_acceleration") or {}).get("max_abs_nodes"),
+            "acceleration": [lon.get("min_acceleration"), lon.get("max_acceleration")],
+            "initial_speed": doc["initial"]["v"], "speed_bound": doc["bounds"].get("v"),
+            "diagnosis": (sol.diagnosis or {}).get("message") if not sol.ok else None}  # fmt: skip
+
+
+def reference_lines(ref: dict | None, tmin: dict) -> list[str]:
+    """The paragraph on the operational minimum time beside the rows without limits (nothing without one)."""
+    if ref is None:
+        return []
+    head = (f"Every row above is the seed paper's kinematic model **without operational limits** (the speed u1 a "
+            f"control that may jump; J needs it as a control), labelled in its *limits* column. At the preset's "
+            f"operational limits ({operational_text(ref['preset'])}; v in [{ref['speed_bound'][0]:g}, "
+            f"{ref['speed_bound'][1]:g}] m/s, the scenario's bound of u1) the same turn's minimum time")  # fmt: skip
+    if not ref["valid"]:
+        return [f"{head} FAILED: {ref['diagnosis'] or ref['status']}.", ""]
+    lo, hi = ref["acceleration"]
+    return [f"{head} is {fmt(ref['final_time'], 5)} s (N = {ref['intervals']}; reached: max lateral acceleration "
+            f"{ref['max_abs_lateral_acceleration']:.2f} m/s^2, a in [{lo:.2f}, {hi:.2f}] m/s^2), against T_min = "
+            f"{fmt(tmin['final_time'], 5)} s without them.", ""]  # fmt: skip
 
 
 def path_spread(trajectories: dict) -> float | None:
@@ -65,7 +116,7 @@ def energy_panel(ax, rows: list[dict]) -> None:
         ax.axvline(tmin["final_time"], color="C3", ls=":", lw=1)
     ax.set_xlabel("final time Tf (s)")
     ax.set_ylabel(f"J = ½∫(u1² + u2²) dt ({ENERGY_UNIT})")
-    ax.set_title("energy against time", fontsize=10)
+    ax.set_title("energy against time (kinematic model, no operational limits)", fontsize=10)
     ax.legend(fontsize=8)
 
 
@@ -148,7 +199,9 @@ def findings(tmin: dict, ok: list[dict], failed: list[dict], spread: float | Non
     )
 
 
-def section(ocp, rows: list[dict], fig: Path, intervals: int, spread: float | None = None) -> str:
+def section(ocp, rows: list[dict], fig: Path, intervals: int, spread: float | None = None,
+            preset: str | None = None, reference: dict | None = None) -> str:  # fmt: skip
+    """The section; ``preset``: whose limits each row is set beside; ``reference``: ``operational_reference``."""
     tmin = next(r for r in rows if r["objective"] == "time")
     en = [r for r in rows if r["objective"] == "energy"]
     ok = [r for r in en if r["valid"]]
@@ -171,20 +224,22 @@ def section(ocp, rows: list[dict], fig: Path, intervals: int, spread: float | No
             "max_speed": "max speed (m/s)", "mean_speed": "mean speed (m/s)", "apron_used_m": "apron used (m)",
             "path_length": "path (m)", "speed_share": "share of J from u1",
             "swept_width_m": "swept width (m)", "min_clearance": "clearance (m)", "iterations": "iterations",
-            "status": "status"}  # fmt: skip
+            "status": "status", **({"limits": "limits"} if preset else {})}  # fmt: skip
     shown = [
         {
             **r,
             "ratio": r["ratio"] or 1.0,
             "status": "valid" if r["valid"] else f"FAILED: {r['diagnosis'] or r['status']}",
+            "limits": limits_note(preset, False, r.get("max_abs_lateral_acceleration")) if preset else None,
         }
         for r in rows
     ]
-    lines += [table(shown, cols), ""]
+    lines += [table(shown, cols), "", *reference_lines(reference, tmin)]
     if ok:
         lines += [findings(tmin, ok, failed, spread), ""]
     lines += [
-        f"![Energy against the final time; the rear-axle paths on the roundabout to scale (they coincide); the speed"
+        f"![The kinematic model without operational limits (each row's limits above): energy against the final time;"
+        f" the rear-axle paths on the roundabout to scale (they coincide); the speed"
         f" and the steering rate against the normalised time t / Tf, where the solves differ]({fig})",
         "",
     ]
@@ -197,6 +252,8 @@ def main() -> None:
     ap.add_argument("--ratios", type=float, nargs="+", default=[1.1, 1.25, 1.5, 2.0])
     ap.add_argument("--intervals", type=int, default=None)
     ap.add_argument("--formats", nargs="+", default=["pdf", "png"])
+    ap.add_argument("--operational-reference", action=argparse.BooleanOptionalAction, default=True,
+                    help="also solve the minimum time at the preset's operational limits (default)")
     args = ap.parse_args()
     sc = load_scenario(args.scenario)
     ocp, n = sc.ocp, args.intervals or sc.intervals
@@ -212,13 +269,15 @@ def main() -> None:
             if esol.ok:
                 guess = esol.trajectory
                 trajectories[f"energy, {ratio:g} T_min"] = {k: np.asarray(v) for k, v in esol.columns.items()}
+    reference = operational_reference(args.scenario, n) if args.operational_reference else None
+    preset = reference_preset(args.scenario)[0]
     args.out.mkdir(parents=True, exist_ok=True)
     pd.DataFrame(rows).to_csv(args.out / "tradeoff.csv", index=False)
     spread = path_spread(trajectories)
-    write_json(args.out / "tradeoff.json",
-               {"scenario": str(args.scenario), "intervals": n, "rows": rows, "path_spread_m": spread})  # fmt: skip
+    write_json(args.out / "tradeoff.json", {"scenario": str(args.scenario), "intervals": n, "rows": rows,
+                                            "path_spread_m": spread, "operational_reference": reference})  # fmt: skip
     figure(ocp, rows, trajectories, args.out, args.formats)
-    write_text(args.section, section(ocp, rows, args.out / "tradeoff.png", n, spread))
+    write_text(args.section, section(ocp, rows, args.out / "tradeoff.png", n, spread, preset, reference))
 
 
 if __name__ == "__main__":
