@@ -71,3 +71,26 @@ def test_rate_penalty_smooths_switches_at_a_small_cost_in_time():
     smooth = dataclasses.replace(ocp, cost=Time(rate_penalty=1e-4)).solve(intervals=60, guess=plain.trajectory)
     assert plain.ok and smooth.ok
     assert plain.final_time < smooth.final_time < plain.final_time * 1.05
+
+
+def test_the_time_optimal_section_sets_the_real_truck_beside_a_design_vehicles_limits():
+    """The real-scale rows (the seed paper's model, kept) each say their lateral acceleration against the SU-30's
+    allowed one; the paper-scale rows (d = 0.02 m, not a vehicle) are not compared."""
+    import sys
+
+    from model.vehicles import operational_limits
+
+    scripts = str(ROOT / "workflows" / "scripts")
+    sys.path.insert(0, scripts)
+    try:
+        import studies_time
+    finally:
+        sys.path.remove(scripts)
+    allowed = operational_limits(studies_time.REFERENCE_PRESET).lateral_acceleration
+    real = {"name": "time-real-s1", "wheelbase": 5.0, "max_abs_lateral_acceleration": 4.5 * allowed}
+    paper = {"name": "time-s1", "wheelbase": 0.02, "max_abs_lateral_acceleration": 4.4}
+    lines = studies_time.limits_lines([paper, real])
+    assert "without operational limits" in lines[0] and not any("time-s1" in line for line in lines)
+    assert (f"- `time-real-s1`: kinematic model without operational limits: max lateral acceleration "
+            f"{4.5 * allowed:.2f} m/s^2 (above the SU-30's allowed {allowed:g} m/s^2)") in lines[2]
+    assert studies_time.limits_lines([paper]) == []

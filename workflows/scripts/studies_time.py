@@ -10,9 +10,12 @@ from studies_common import fmt, parser, plt, save, solved, table, write_json, wr
 
 from model.analysis.arcs import arc_structure
 from model.problem.costs import Time
+from model.studies.roads import limits_note
 from model.studies.sweeps import progress
 
 EPSILONS = [1e-5, 1e-4]
+REAL_SCALE = 1.0  # m: a wheelbase from here up is a vehicle's, not the paper's model scale (d = 0.02 m)
+REFERENCE_PRESET = "SU-30"  # the design vehicle whose operational limits the real truck (d = 5 m) is set beside
 
 
 def describe(name: str, res) -> dict:
@@ -29,6 +32,7 @@ def describe(name: str, res) -> dict:
         "final_time": res.summary["final_time"],
         "wheelbase": ocp.vehicle.wheelbase,
         "u1_max": ocp.max_speed(),
+        "max_abs_lateral_acceleration": (res.summary.get("lateral_acceleration") or {}).get("max_abs_nodes"),
         "certificate": cert.get("passed"),
         "H_deviation": ham.get("value"),
         "H_tolerance": ham.get("tolerance"),
@@ -89,6 +93,22 @@ def figure(results: dict, out: Path) -> None:
     save(fig, out / "controls")
 
 
+def limits_lines(rows: list[dict]) -> list[str]:
+    """What the real-scale rows (the seed paper's model, kept exactly) are beside a design vehicle's limits."""
+    real = [r for r in rows if r["wheelbase"] >= REAL_SCALE]
+    if not real:
+        return []
+    return [
+        f"The real-truck rows are the seed paper's model (1) **without operational limits** (the speed a control), "
+        f"kept as it is; set beside the operational limits of the {REFERENCE_PRESET}, the AASHTO single-unit truck "
+        "nearest to this d = 5 m truck (docs/dynamics-format.md; the road sections run it at those limits):",
+        "",
+        *(f"- `{r['name']}`: {limits_note(REFERENCE_PRESET, False, r['max_abs_lateral_acceleration'])}."
+          for r in real),  # fmt: skip
+        "",
+    ]
+
+
 def section(rows: list[dict], reg: list[dict], fig: Path) -> str:
     ok = [r for r in rows if r["ok"]]
     failed = [r["name"] for r in rows if not r["ok"]]
@@ -109,6 +129,7 @@ def section(rows: list[dict], reg: list[dict], fig: Path) -> str:
                 "wheelbase": "d [m]",
                 "u1_max": "u1 max",
                 "final_time": "min Tf [s]",
+                "max_abs_lateral_acceleration": "max abs(a_lat) [m/s^2]",
                 "structure_u1": "u1 arcs",
                 "structure_u2": "u2 arcs",
                 "chattering": "chattering",
@@ -120,6 +141,7 @@ def section(rows: list[dict], reg: list[dict], fig: Path) -> str:
             digits=5,
         ),
         "",
+        *limits_lines(ok),
     ]
     if failed:
         lines += [f"Failed (not shown): {', '.join(failed)}.", ""]
@@ -159,7 +181,8 @@ def section(rows: list[dict], reg: list[dict], fig: Path) -> str:
             digits=6,
         ),
         "",
-        f"![Controls of the time-optimal solves, scaled by their bounds; chattering windows shaded]({fig})",
+        f"![Controls of the time-optimal solves (the seed paper's model without operational limits), scaled by their"
+        f" bounds; chattering windows shaded]({fig})",
     ]
     return "\n".join(lines)
 
