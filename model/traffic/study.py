@@ -107,17 +107,15 @@ def read_columns(path: Path) -> dict[str, np.ndarray]:
 
 
 def truck_centres(scenario: Scenario, trajectory: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The truck's bodies' centres as ``traffic.csv`` columns (``t``, ``id``, ``x``, ``y``): it conflicts too."""
+    """The truck as one more ``traffic.csv`` vehicle (``t``, ``id``, ``x``, ``y``): its last body's centre.
+
+    It is part of the conflicting stream at the other legs' entries; its last body (the trailer of a
+    semitrailer) marks when it has passed, one passage per truck.
+    """
     corners = body_corners(scenario.ocp, {s: np.asarray(trajectory[s], float) for s in scenario.ocp.vehicle.states})
+    centre = corners[list(corners)[-1]].mean(axis=1)
     t = np.asarray(trajectory["t"], float)
-    out: dict[str, list] = {"t": [], "id": [], "x": [], "y": []}
-    for name, c in corners.items():
-        centre = c.mean(axis=1)
-        out["t"] += list(t)
-        out["id"] += [f"truck-{name}"] * len(t)
-        out["x"] += list(centre[:, 0])
-        out["y"] += list(centre[:, 1])
-    return {k: np.array(v) for k, v in out.items()}
+    return {"t": t, "id": np.array(["truck"] * len(t)), "x": centre[:, 0], "y": centre[:, 1]}
 
 
 def merged(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarray], keys: Sequence[str]) -> dict[str, np.ndarray]:
