@@ -29,10 +29,11 @@ speed:
    then every ``QP_SAMPLE``; the corridor's instants carried onto them soundly, ``coarse``); v and s
    integrate a linear-in-time acceleration; bounds 0 <= v <= vmax(s) (the plan's speed at that path
    length, the speed bound and sqrt(a_lat_max / |kappa|), evaluated at the previous solution's path
-   lengths and re-solved once at the new ones), the acceleration and jerk bounds (the scenario's
-   ``[vehicle.longitudinal]``, else the rule-based driver's: +-``RATE_SLOPE`` times the plan's top
-   speed, no jerk bound); the corridor and follower constraints soft (slacks at ``SLACK_WEIGHT`` per
-   metre); objective: the speed's distance to vmax (progress), acceleration and jerk.
+   lengths and re-solved once at the new ones if they differ by more than ``VMAX_TOL``), the
+   acceleration and jerk bounds (the scenario's ``[vehicle.longitudinal]``, else the rule-based
+   driver's: +-``RATE_SLOPE`` times the plan's top speed, no jerk bound); the corridor and follower
+   constraints soft (slacks at ``SLACK_WEIGHT`` per metre); objective: the speed's distance to vmax
+   (progress), acceleration and jerk.
 
 The autopilot then checks the QP's profile with its own checks (least predicted distance, SUMO's
 junction rule if on, follower braking) and falls back to its rule-based profiles when it fails
@@ -64,6 +65,7 @@ GRID = 0.5  # m between the truck's path lengths of the occupancy graph
 BUFFER = 0.0  # m: the occupancy's distance threshold beyond the autopilot's
 ALONG = math.radians(30.0)  # a vehicle heading within this of the truck's path drives along it
 V_FLOOR = 0.5  # m/s: vmax is at least this (a plan ending at rest still reaches its end)
+VMAX_TOL = 0.2  # m/s: the QP is solved again when vmax at its path lengths differs from the guess's by more
 SLACK_WEIGHT = 1.0e3  # objective per metre of an occupancy or follower constraint's violation
 SPEED_WEIGHT = 1.0  # per (m/s)^2 below vmax, per second
 ACCEL_WEIGHT = 0.5  # per (m/s^2)^2, per second
@@ -394,8 +396,8 @@ class SpeedPlanner:
         h_sp = self._matrix(self._h_rows, self._h_cols, np.ones(len(self._h_rows)), self.nx).sparsity()
         a_sp = self._matrix(self._a_rows, self._a_cols, np.ones(len(self._a_rows)), self.nrow).sparsity()
         opts = {"printLevel": "none", "error_on_fail": False, "hessian_type": "posdef"}
-        self.solver = casadi.conic("speed_qp", "qpoases", {"h": h_sp, "a": a_sp}, opts)
-        with _quiet():  # qpOASES prints its banner from C at its first solve
+        with _quiet():  # qpOASES prints its banner from C when made (and the first solve, to be sure)
+            self.solver = casadi.conic("speed_qp", "qpoases", {"h": h_sp, "a": a_sp}, opts)
             n = self.n
             self.solve(0.0, 0.0, np.full(n, -np.inf), np.full(n, np.inf), np.full(n, -np.inf), np.zeros(n),
                        np.ones(n))  # fmt: skip
@@ -542,10 +544,11 @@ def plan_speed(planner: SpeedPlanner, pilot: Autopilot, path: PathSpeed, s0: flo
         q = coarse(fine, ks, tau, "pass")
         need = low[ks] + graph.speed[i] ** 2 / (2.0 * FOLLOWER_DECEL) + v_ref[q] ** 2 / (2.0 * pilot.leader_decel)
         np.maximum.at(follower, q, need)
-    best = None
-    for _ in range(2):  # vmax at the guess's path lengths, then at the solution's
-        best = planner.solve(v0, a0, lower, upper, follower, follow, path.vmax_at(guess))
-        guess = s0 + best.s
+    vmax = path.vmax_at(guess)
+    best = planner.solve(v0, a0, lower, upper, follower, follow, vmax)
+    again = path.vmax_at(s0 + best.s)
+    if np.max(np.abs(again - vmax)) > VMAX_TOL:  # vmax at the solution's path lengths, once
+        best = planner.solve(v0, a0, lower, upper, follower, follow, again)
     planner.previous = best
     return best
 
@@ -629,7 +632,7 @@ class QpDriver:
 
 __all__ = [
     "ACCEL_WEIGHT", "ALONG", "BUFFER", "GRID", "JERK_WEIGHT", "MODES", "PLAN_HORIZON", "PLAN_SAMPLE", "QP_SAMPLE",
-    "SLACK_WEIGHT", "SPEED_WEIGHT", "V_FLOOR",
+    "SLACK_WEIGHT", "SPEED_WEIGHT", "VMAX_TOL", "V_FLOOR",
     "Limits", "Occupancy", "PathSpeed", "QpDriver", "SpeedPlanner", "SpeedProfile", "fastest", "grid", "limits_of",
     "coarse", "corridor", "followers", "guide", "occupancy", "path_speed", "plan_speed", "qp_grid", "threshold",
 ]  # fmt: skip
