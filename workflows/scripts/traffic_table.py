@@ -172,7 +172,24 @@ def figure(cars: dict, measures: dict, stem: Path) -> None:
     save(fig, stem)
 
 
-def section(tables: dict[str, str], mode: str, grid: dict, figure_path: str, extra: str) -> str:
+def findings(cars: dict) -> str:
+    """One sentence on the cars' critical gap against the HCM's and their waits against Adams' delay."""
+    if cars["critical_gap"] is None:
+        return "No critical gap of SUMO's cars could be estimated on this grid (no rejected gap, or too few drivers)."
+    est = (f"SUMO's cars: t_c = {pm(cars['mle'], cars['mle_se'])} s by maximum likelihood"
+           if cars["mle"] is not None else f"SUMO's cars: Raff's t_c = {cars['raff']:.3g} s")
+    pairs = [(r["line_wait"], r["adams_delay"]) for r in cars["cells"] if r.get("line_wait") is not None
+             and r.get("adams_delay") is not None]  # fmt: skip
+    waits = ""
+    if pairs:
+        measured, adams = float(np.mean([w for w, _ in pairs])), float(np.mean([a for _, a in pairs]))
+        waits = (f"; over {len(pairs)} flow-and-leg cells their mean measured wait is {measured:.2f} s against Adams'"
+                 f" {adams:.2f} s (measured minus Adams {measured - adams:+.2f} s)")
+    return (f"**Result.** {est} from {cars['drivers']} drivers and {cars['rejected']} rejected gaps, against the"
+            f" HCM's passenger-car t_c of {HCM_CRITICAL_GAP:.2f} s{waits}.")
+
+
+def section(tables: dict[str, str], mode: str, grid: dict, figure_path: str, extra: str, result: str) -> str:
     return f"""## The truck in traffic
 
 The truck drives through the four-leg 40 m roundabout of `workflows/scenarios/traffic/` among SUMO
@@ -242,6 +259,8 @@ entries with a rejected gap among them) and with the cars' critical gap.
 
 {tables['truck']}
 
+{result}
+
 {extra}
 
 ![Measured waits against Adams' delay; Siegloch's capacity against the HCM 6th edition's]({figure_path})
@@ -283,7 +302,7 @@ def main() -> None:
               "everyone": table(everyone_rows(cells), {"vehicle": "vehicle", "rate": "flow per other leg (veh/h)",
                                                        **{d: f"{d} (s)" for d in drivers}}),
               "cars": table(cars["cells"], CARS_COLUMNS), "truck": table(truck_rows, TRUCK_COLUMNS)}  # fmt: skip
-    write_text(args.section, section(tables, args.mode, grid, args.figure_link, extra))
+    write_text(args.section, section(tables, args.mode, grid, args.figure_link, extra, findings(cars)))
 
 
 if __name__ == "__main__":
