@@ -93,8 +93,8 @@ def everyone_rows(cells: list[dict]) -> list[dict]:
     out: dict[tuple, dict] = {}
     for c in cells:
         got = everyone(c["runs"])
-        out.setdefault((c["vehicle"], c["rate"]), {"vehicle": c["vehicle"], "rate": c["rate"]})[c["driver"]] = pm(
-            *mean_ci(got), len(got))
+        row = out.setdefault((c["vehicle"], c["rate"]), {"vehicle": c["vehicle"], "rate": c["rate"]})
+        row[c["driver"]] = pm(*mean_ci(got), len(got))
     return list(out.values())
 
 
