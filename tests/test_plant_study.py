@@ -154,6 +154,6 @@ def test_the_pipeline_plans_one_job_per_manoeuvre_and_the_section(tmp_path):
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-2000:]
     out = run.stdout + run.stderr
-    assert "--exit 1 --levels 1.5 2.5 3.5 --intervals 40" in out
+    assert "--exit 1 --levels 1.5 3.5 --intervals 40" in out
     jobs = dict(re.findall(r"^(plant_study_\w+)\s+(\d+)\s*$", out.split("Job stats:", 1)[1], re.M))
     assert jobs == {"plant_study_manoeuvre": "2", "plant_study_section": "1"}
