@@ -49,7 +49,9 @@ MARKERS = {"truck": "o", "semitrailer": "s"}
 def read_records(paths: list[Path]) -> list[dict]:
     """Every record of the manoeuvres' files, by vehicle, manoeuvre and level."""
     records = [r for p in paths for r in json.loads(Path(p).read_text())]
-    return sorted(records, key=lambda r: (r["vehicle"], r["exit"], r["lateral_acceleration_bound_mps2"]))
+    order = {name: i for i, name in enumerate(TITLES)}  # the rigid truck first, then the semitrailer, then others
+    return sorted(records, key=lambda r: (order.get(r["vehicle"], len(order)), r["vehicle"], r["exit"],
+                                          r["lateral_acceleration_bound_mps2"]))  # fmt: skip
 
 
 def csv_text(records: list[dict]) -> str:
@@ -166,7 +168,7 @@ def section(records: list[dict], study: str, figure_path: str) -> str:
         "## Where the kinematic plan holds",
         "",
         f"The time-optimal plans of the road sections come from the kinematic model. Here the same manoeuvres "
-        f"({len(by)}: {', '.join(label(g[0]) for g in by.values())}, at their operational limits) are planned at "
+        f"({'; '.join(label(g[0]) for g in by.values())}; each vehicle at its operational limits) are planned at "
         f"rising bounds of the lateral acceleration ({', '.join(fmt(v, 3) for v in levels)} m/s^2; the "
         f"`{study}` grid of `plant_study` in workflows/config.yaml, the plans solved on N = "
         f"{', '.join(str(n) for n in intervals)} after the solve's own refinement), and each plan is driven by "
