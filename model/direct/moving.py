@@ -182,16 +182,14 @@ def fill_moving_at(m: pyo.ConcreteModel, ocp: OCP, times: np.ndarray) -> None:
         raise ValueError(f"{len(times)} node times for {len(m.nodes)} nodes")
     m.moving_t0.set_value(float(times[0]))
     m.moving_tf_ref.set_value(float(times[-1] - times[0]))
-    nodes = list(m.nodes)
-    for i, ob in enumerate(ocp.moving_obstacles):
-        centres, _ = ob.discs(times)
-        speeds = ob.disc_velocities(times)
-        for j in range(centres.shape[1]):
-            for k, t in enumerate(nodes):
-                m.moving_cx[i, j, t] = float(centres[k, j, 0])
-                m.moving_cy[i, j, t] = float(centres[k, j, 1])
-                m.moving_vx[i, j, t] = float(speeds[k, j, 0])
-                m.moving_vy[i, j, t] = float(speeds[k, j, 1])
+    node = {t: k for k, t in enumerate(m.nodes)}
+    arrays = [(ob.discs(times)[0], ob.disc_velocities(times)) for ob in ocp.moving_obstacles]
+    for name, which, axis in (("cx", 0, 0), ("cy", 0, 1), ("vx", 1, 0), ("vy", 1, 1)):
+        param = getattr(m, f"moving_{name}")
+        # the Param's own keys only (no new index); unchecked: a float per key, 15x faster than one
+        # validated assignment each (the MPC refills them every step: 22 of 93 ms per step, profiled)
+        values = {(i, j, t): float(arrays[i][which][node[t], j, axis]) for i, j, t in param.keys()}
+        param.store_values(values, check=False)
 
 
 def solve_moving(
