@@ -126,7 +126,7 @@ class MPCSettings:
         for): the real-time iteration wherever it applies, warm-started Ipopt where it does not, with
         the reason in ``MPC.mpc_step``: a horizon that is the whole remaining manoeuvre (``horizon =
         "shrinking"``, or a time problem with ``time_receding = False``), or a horizon problem the
-        real-time iteration cannot build (its ValueError).
+        real-time iteration cannot build (the error of its construction).
     qp_solver : str
         The real-time iteration's QP solver (``rti.QP_SOLVERS``): "qpoases" or "daqp" on the
         condensed dense QP, "hpipm" on the uncondensed QP in the stage layout (``stagewise``;
@@ -269,15 +269,17 @@ class MPC:
 
     def _build_rti(self) -> tuple[RealTimeIteration | None, str | None]:
         """The real-time iteration on the built horizon, its QP solver's first (cold) active set found
-        before the loop; (None, why) where it cannot be built and was not asked for explicitly."""
+        before the loop; (None, why) where it cannot be built (any error of its construction: the
+        condensing's ValueError, a missing QP solver, a horizon model it does not know) and was not
+        asked for explicitly."""
         s = self.settings
         try:
             rti = RealTimeIteration(self.horizon.model, self.horizon.nlp, self.ocp.vehicle.states, s.qp_solver,
                                     s.rti_regularization, s.qp_options, self.ocp.vehicle.controls)  # fmt: skip
-        except ValueError as exc:
+        except Exception as exc:  # noqa: BLE001 (not asked for by name: warm-started Ipopt, the reason recorded)
             if s.realtime:  # asked for by name: the error, as before
                 raise
-            return None, f"the real-time iteration cannot be built for this horizon: {exc}"
+            return None, f"the real-time iteration cannot be built for this horizon: {type(exc).__name__}: {exc}"
         self._rti_key = None
         if s.rti_compiled:
             self.horizon.nlp.compile_first_order()
