@@ -44,6 +44,7 @@ COLUMNS = {
 }
 TITLES = {"truck": "rigid truck", "semitrailer": "tractor-semitrailer"}
 MARKERS = {"truck": "o", "semitrailer": "s"}
+TABLE_DIGITS = 3  # significant digits of the table
 
 
 def read_records(paths: list[Path]) -> list[dict]:
@@ -158,6 +159,19 @@ def verdict(group: list[dict], unsafe: dict | None) -> str:
     )
 
 
+def caption(records: list[dict], study: str) -> str:
+    """The table's caption: what its rows and columns are, their units in the headers."""
+    levels = ", ".join(fmt(v, 3) for v in sorted({r["lateral_acceleration_bound_mps2"] for r in records}))
+    return (
+        f"Table: Every manoeuvre of the `{study}` grid, one row per vehicle, manoeuvre and bound of the lateral "
+        f"acceleration ({levels} m/s^2): the plan (its status, grid N, final time Tf, top speed, largest lateral "
+        f"acceleration and least clearance), the least clearance and the largest lateral deviation from the plan on "
+        f"the kinematic and the dynamic plant, the clearance lost, the dynamic plant's largest side slip, lateral "
+        f"acceleration and friction use, its distance from the goal, and whether the plan is safe; units in the "
+        f"headers, numbers to {TABLE_DIGITS} significant digits."
+    )
+
+
 def section(records: list[dict], study: str, figure_path: str) -> str:
     """The paper's section: what ran, the trends, where the plan stops being safe, the table, the caveats."""
     levels = sorted({r["lateral_acceleration_bound_mps2"] for r in records})
@@ -173,7 +187,8 @@ def section(records: list[dict], study: str, figure_path: str) -> str:
         f"`{study}` grid of `plant_study` in workflows/config.yaml, the plans solved on N = "
         f"{', '.join(str(n) for n in intervals)} after the solve's own refinement), and each plan is driven by "
         f"the tracking controller (time-varying LQR on the kinematic model) twice: on the kinematic plant, which "
-        f"is what the plan promises, and on the dynamic plant (CommonRoad's single-track model for the rigid truck, "
+        f"is what the plan promises, and on the dynamic plant (CommonRoad's single-track model [@commonroadvehicles] "
+        f"for the rigid truck, "
         f"a yaw-plane tractor-semitrailer for the articulated one; docs/closed-loop-format.md). The clearance is "
         f"the bodies' least distance to the corridor's edge over the samples (exact rectangles); the clearance "
         f"lost is the kinematic plant's minus the dynamic plant's. A plan is safe when the dynamic plant keeps "
@@ -186,7 +201,9 @@ def section(records: list[dict], study: str, figure_path: str) -> str:
         f"![Lateral deviation from the plan and clearance lost on the dynamic plant against the plan's largest "
         f"lateral acceleration]({figure_path})",
         "",
-        table(records, COLUMNS, digits=3),
+        caption(records, study),
+        "",
+        table(records, COLUMNS, digits=TABLE_DIGITS),
         "",
         "Caveats: the tyres are linear (no saturation: the friction use is reported, not limited) and the "
         "semitrailer's plant has no load transfer; the tractor-semitrailer plant is checked against the "
@@ -209,7 +226,7 @@ def main() -> None:
     args = ap.parse_args()
     records = read_records(args.cells)
     write_text(args.out / "table.csv", csv_text(records))
-    write_text(args.out / "table.md", table(records, COLUMNS, digits=3))
+    write_text(args.out / "table.md", table(records, COLUMNS, digits=TABLE_DIGITS))
     figure(records, args.out / "plant-gap", args.formats)
     write_text(args.section, section(records, args.study, args.figure_link))
 
