@@ -5,8 +5,11 @@ the plan's path by this planner instead of the rule-based profiles (``model.traf
 Each step, from the truck's path length ``s0`` along the plan's path (the reference point's) and its
 speed:
 
-1. *s-t occupancy*: every other vehicle near enough is predicted over ``PLAN_HORIZON`` seconds as the
-   autopilot predicts it (``Autopilot.predicted``); on a grid of the truck's path lengths ahead
+1. *s-t occupancy*: every other vehicle near enough is predicted over ``OCCUPANCY_HORIZON`` seconds (the
+   QP's horizon; with a shorter one, at its last instant the truck must still be able to stop before
+   what then occupies the path ahead: a linear row, ``SpeedPlanner.solve``'s ``stop``; the autopilot's
+   5 s so was measured worse, benchmarks/traffic-planner.md) as the autopilot predicts it
+   (``Autopilot.predicted``); on a grid of the truck's path lengths ahead
    (``GRID`` m apart) the truck's bodies at each path length are compared with each prediction at
    each instant: where the exact rectangle distance is below the autopilot's own threshold
    (``safety_distance`` + the prediction margin of that instant, + ``BUFFER``) the cell is occupied
@@ -32,8 +35,10 @@ speed:
    lengths and re-solved once at the new ones if they differ by more than ``VMAX_TOL``), the
    acceleration and jerk bounds (the scenario's ``[vehicle.longitudinal]``, else the rule-based
    driver's: +-``RATE_SLOPE`` times the plan's top speed, no jerk bound); the corridor and follower
-   constraints soft (slacks at ``SLACK_WEIGHT`` per metre); objective: the speed's distance to vmax
-   (progress), acceleration and jerk.
+   constraints soft (slacks at ``SLACK_WEIGHT`` per metre); objective: the distance travelled
+   (``PROGRESS_WEIGHT``, linear: a quadratic tracking of vmax alone spreads a stop over the horizon,
+   creeping early, where the latest braking loses less time), the speed's distance to vmax,
+   acceleration and jerk.
 
 The autopilot then checks the QP's profile with its own checks (least predicted distance, SUMO's
 junction rule if on, follower braking) and falls back to its rule-based profiles when it fails
@@ -59,7 +64,8 @@ if TYPE_CHECKING:
     from model.traffic.autopilot import Autopilot
 
 PLAN_HORIZON = 8.0  # s: the QP's horizon
-PLAN_SAMPLE = 0.25  # s between the predicted instants of the occupancy after the autopilot's horizon
+PLAN_SAMPLE = 0.25  # s between the occupancy's instants after the autopilot's checked ones
+OCCUPANCY_HORIZON = 8.0  # s: the occupancy looks as far ahead as the QP (5 s, the autopilot's, measured worse)
 QP_SAMPLE = 0.5  # s between the QP's instants after the first step
 GRID = 0.5  # m between the truck's path lengths of the occupancy graph
 BUFFER = 0.0  # m: the occupancy's distance threshold beyond the autopilot's
@@ -67,10 +73,10 @@ ALONG = math.radians(30.0)  # a vehicle heading within this of the truck's path 
 V_FLOOR = 0.5  # m/s: vmax is at least this (a plan ending at rest still reaches its end)
 VMAX_TOL = 0.2  # m/s: the QP is solved again when vmax at its path lengths differs from the guess's by more
 SLACK_WEIGHT = 1.0e3  # objective per metre of an occupancy or follower constraint's violation
-SPEED_WEIGHT = 1.0  # per (m/s)^2 below vmax, per second
+SPEED_WEIGHT = 0.1  # per (m/s)^2 below vmax, per second
+PROGRESS_WEIGHT = 10.0  # per metre travelled (linear: the latest braking wins, as the rules brake late)
 ACCEL_WEIGHT = 0.5  # per (m/s^2)^2, per second
 JERK_WEIGHT = 0.1  # per (m/s^3)^2, per second
-MODES = ("rules", "qp")  # the [traffic] speed_planner values
 
 
 @dataclass(frozen=True)
@@ -129,8 +135,9 @@ def limits_of(pilot: Autopilot) -> Limits:
 
 
 def grid(step: float, samples: np.ndarray) -> np.ndarray:
-    """The occupancy's instants: ``samples`` (the autopilot's checked instants) continued every ``PLAN_SAMPLE`` s."""
-    more = np.arange(PLAN_SAMPLE, PLAN_HORIZON + 1e-9, PLAN_SAMPLE)
+    """The occupancy's instants: ``samples`` (the autopilot's checked instants) and every ``PLAN_SAMPLE`` s to
+    ``OCCUPANCY_HORIZON``."""
+    more = np.arange(PLAN_SAMPLE, OCCUPANCY_HORIZON + 1e-9, PLAN_SAMPLE)
     return np.unique(np.round(np.concatenate([samples, [step], more]), 9))
 
 
@@ -382,6 +389,7 @@ class SpeedPlanner:
 
     tau: np.ndarray
     limits: Limits
+    top: float = 8.0  # m/s: the top speed of the stop rows' linear bound (``solve``)
     solver: object = field(init=False, repr=False)
     n: int = field(init=False)
     previous: SpeedProfile | None = field(init=False, default=None)
@@ -390,6 +398,7 @@ class SpeedPlanner:
         import casadi
 
         self.n = len(self.tau)
+        self.stop_gain = self.top / (2.0 * -self.limits.a_min)
         self._layout()
         self._h_rows, self._h_cols = self._h_pattern()
         self._a_rows, self._a_cols = self._a_pattern()
@@ -410,8 +419,8 @@ class SpeedPlanner:
         # rows: v dynamics (n-1), s dynamics (n-1), jerk (n-1), lower (n), upper (n), follower (n), vmax (n)
         m = n - 1
         self.R_V, self.R_S, self.R_J = np.arange(m), m + np.arange(m), 2 * m + np.arange(m)
-        self.R_LO, self.R_HI, self.R_FO, self.R_VM = (3 * m + i * n + np.arange(n) for i in range(4))
-        self.nrow = 3 * m + 4 * n
+        self.R_LO, self.R_HI, self.R_FO, self.R_VM, self.R_ST = (3 * m + i * n + np.arange(n) for i in range(5))
+        self.nrow = 3 * m + 5 * n
 
     def _matrix(self, rows: list[int], cols: list[int], values, nrow: int):
         """A casadi matrix of the fixed pattern (rows, cols) with ``values`` (zeros kept as entries)."""
@@ -455,12 +464,16 @@ class SpeedPlanner:
             e += [(int(self.R_FO[k]), int(self.S[k]), 1.0), (int(self.R_FO[k]), int(self.V[k]), float(follow[k])),
                   (int(self.R_FO[k]), int(self.G[k]), 1.0)]  # fmt: skip
             e += [(int(self.R_VM[k]), int(self.V[k]), 1.0)]
+            e += [(int(self.R_ST[k]), int(self.S[k]), 1.0), (int(self.R_ST[k]), int(self.V[k]), self.stop_gain),
+                  (int(self.R_ST[k]), int(self.F[k]), -1.0)]  # fmt: skip
         return e
 
     def solve(self, v0: float, a0: float, lower: np.ndarray, upper: np.ndarray, follower: np.ndarray,
-              follow: np.ndarray, vmax: np.ndarray) -> SpeedProfile:  # fmt: skip
+              follow: np.ndarray, vmax: np.ndarray, stop: np.ndarray | None = None) -> SpeedProfile:  # fmt: skip
         """One QP: from speed ``v0`` and acceleration ``a0``, path lengths from now within [``lower``, ``upper``]
-        (m, -inf/inf: none), s + ``follow`` v >= ``follower`` (m, -inf: none), v <= ``vmax`` at the instants."""
+        (m, -inf/inf: none), s + ``follow`` v >= ``follower`` (m, -inf: none), v <= ``vmax`` at the instants;
+        ``stop``: s + ``stop_gain`` v <= stop (m, inf: none): the truck can still stop by there braking at
+        its hardest (v^2 / (2 |a_min|) <= stop_gain v for v <= the top speed: a conservative linear row)."""
         h, lim = np.diff(self.tau), self.limits
         w = np.concatenate([[h[0] / 2], 0.5 * (h[:-1] + h[1:]), [h[-1] / 2]])  # the instants' time weights
         H = np.zeros(self.nx)
@@ -473,7 +486,7 @@ class SpeedPlanner:
         hv = [H[int(i)] if i == j else -jw[min(i, j) - int(self.A[0])]
               for i, j in zip(self._h_rows, self._h_cols, strict=True)]  # fmt: skip
         g = np.zeros(self.nx)
-        g[self.V] = -2 * SPEED_WEIGHT * w * vmax
+        g[self.V] = -2 * SPEED_WEIGHT * w * vmax - PROGRESS_WEIGHT * w
         g[self.E] = g[self.F] = g[self.G] = SLACK_WEIGHT
         a0 = min(max(a0, lim.a_min), lim.a_max)
         lbx, ubx = np.full(self.nx, -np.inf), np.full(self.nx, np.inf)
@@ -488,6 +501,8 @@ class SpeedPlanner:
         lba[self.R_J], uba[self.R_J] = lim.j_min * h, lim.j_max * h
         lba[self.R_LO], uba[self.R_HI], lba[self.R_FO] = lower, upper, follower
         uba[self.R_VM] = np.maximum(vmax, self._braking_envelope(v0, a0))
+        if stop is not None:
+            uba[self.R_ST] = stop
         av = [val for _, _, val in self._a_values(follow)]
         big = 1e9  # qpOASES: no infinite bounds
         sol = self.solver(h=self._matrix(self._h_rows, self._h_cols, hv, self.nx), g=g,
@@ -539,16 +554,19 @@ def plan_speed(planner: SpeedPlanner, pilot: Autopilot, path: PathSpeed, s0: flo
     np.maximum.at(lower, coarse(fine, k, tau, "pass"), low[k])
     k = np.nonzero(np.isfinite(up))[0]
     np.minimum.at(upper, coarse(fine, k, tau, "yield"), up[k])
+    stop = np.full(n, np.inf)
+    if np.isfinite(up[-1]) and fine[-1] < tau[-1] - 1e-9:  # the graph ends before the QP: it can still stop there
+        stop[coarse(fine, np.array([len(fine) - 1]), tau, "yield")] = up[-1]
     follower, follow = np.full(n, -np.inf), v_ref / pilot.leader_decel
     for i, ks in followers(graph, low, s0):  # it can stop behind the truck braking at its decel
         q = coarse(fine, ks, tau, "pass")
         need = low[ks] + graph.speed[i] ** 2 / (2.0 * FOLLOWER_DECEL) + v_ref[q] ** 2 / (2.0 * pilot.leader_decel)
         np.maximum.at(follower, q, need)
     vmax = path.vmax_at(guess)
-    best = planner.solve(v0, a0, lower, upper, follower, follow, vmax)
+    best = planner.solve(v0, a0, lower, upper, follower, follow, vmax, stop)
     again = path.vmax_at(s0 + best.s)
     if np.max(np.abs(again - vmax)) > VMAX_TOL:  # vmax at the solution's path lengths, once
-        best = planner.solve(v0, a0, lower, upper, follower, follow, again)
+        best = planner.solve(v0, a0, lower, upper, follower, follow, again, stop)
     planner.previous = best
     return best
 
@@ -612,7 +630,7 @@ class QpDriver:
         """
         pilot = self.pilot
         if self.planner is None or self.planner.tau[1] != tau[1]:
-            self.planner = SpeedPlanner(qp_grid(step), self.limits)
+            self.planner = SpeedPlanner(qp_grid(step), self.limits, top=float(self.path.vmax.max()))
         fine = grid(step, tau)
         s0 = self.path.arc_at(pilot.s)
         here = float(pilot.plan.at(pilot.s)[pilot.scenario.ocp.vehicle.roles.speed][0])
@@ -631,7 +649,8 @@ class QpDriver:
 
 
 __all__ = [
-    "ACCEL_WEIGHT", "ALONG", "BUFFER", "GRID", "JERK_WEIGHT", "MODES", "PLAN_HORIZON", "PLAN_SAMPLE", "QP_SAMPLE",
+    "ACCEL_WEIGHT", "ALONG", "BUFFER", "GRID", "JERK_WEIGHT", "OCCUPANCY_HORIZON", "PLAN_HORIZON", "PLAN_SAMPLE",
+    "PROGRESS_WEIGHT", "QP_SAMPLE",
     "SLACK_WEIGHT", "SPEED_WEIGHT", "VMAX_TOL", "V_FLOOR",
     "Limits", "Occupancy", "PathSpeed", "QpDriver", "SpeedPlanner", "SpeedProfile", "fastest", "grid", "limits_of",
     "coarse", "corridor", "followers", "guide", "occupancy", "path_speed", "plan_speed", "qp_grid", "threshold",
