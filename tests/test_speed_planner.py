@@ -118,6 +118,20 @@ def test_the_follower_row_keeps_the_gap_a_braking_follower_needs():
     assert p.s[at][0] <= 15.0 + 1e-6 and p.s[at][0] + 2.0 * p.v[at][0] >= 30.0 - 1e-6 and p.violation < 1e-6
 
 
+def test_the_stop_row_leaves_room_to_stop_braking_at_the_hardest():
+    """s + top / (2 |a_min|) v <= stop at the row given: from there braking at a_min stops by ``stop``."""
+    lim = Limits(-2.0, 1.0)
+    planner = SpeedPlanner(qp_grid(STEP), lim, top=8.0)
+    n, tau = planner.n, planner.tau
+    stop = np.where(tau == 5.0, 40.0, np.inf)
+    loose = planner.solve(8.0, 0.0, *free(n), np.full(n, 8.0))
+    at = tau == 5.0
+    assert loose.s[at][0] + loose.v[at][0] ** 2 / 4.0 > 40.0  # without it the truck could not stop by 40 m
+    p = planner.solve(8.0, 0.0, *free(n), np.full(n, 8.0), stop)
+    within_limits(p, lim)
+    assert p.s[at][0] + p.v[at][0] ** 2 / 4.0 <= 40.0 + 1e-6 and p.violation < 1e-6
+
+
 def test_vmax_below_the_speed_now_brakes_as_hard_as_the_limits_allow_not_harder():
     lim = Limits(-2.0, 1.0, -1.0, 1.0)
     planner = SpeedPlanner(qp_grid(STEP), lim)
