@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import shapely
-from studies_common import fmt, parser, plt, table, write_json, write_text
+from studies_common import parser, plt, table, write_json, write_text
 
 from model.plotting.figures import save
 from model.plotting.roads import geometry_patch
@@ -23,6 +23,27 @@ from model.studies.roads import EU_INNER, EU_OUTER, corners, eu_turning_circle, 
 from model.vehicles import PRESETS, preset
 
 SUBJECT = "EU-semitrailer"
+# the start of a preset's source -> its citation (written out, so tests/test_paper_structure.py checks the keys)
+CITATIONS = {
+    "AASHTO": "[@aashto2018]",
+    "Council Directive 96/53/EC": "[@directive9653]",
+    "CommonRoad": "[@commonroadvehicles]",
+}
+
+
+def citation(source: str) -> str:
+    """The ``[@key]`` of a preset's source after a space, or the empty string for a source the bibliography lacks."""
+    cite = next((c for start, c in CITATIONS.items() if source.startswith(start)), None)
+    return f" {cite}" if cite else ""
+
+
+def preset_sources(names: list[str]) -> str:
+    """One sentence: where each preset's dimensions come from, with its citation."""
+    by_source: dict[str, list[str]] = {}
+    for name in names:
+        by_source.setdefault(preset(name)["source"], []).append(name)
+    parts = [f"{', '.join(group)} from {source}{citation(source)}" for source, group in by_source.items()]
+    return "The presets' dimensions: " + "; ".join(parts) + "."
 
 
 def preset_rows() -> list[dict]:
@@ -46,6 +67,22 @@ def preset_rows() -> list[dict]:
     return rows
 
 
+def metres(x: float) -> str:
+    """A length to the millimetre."""
+    return f"{x:.3f} m"
+
+
+def angle(x: float) -> str:
+    """An angle in degrees to the hundredth."""
+    return f"{x:.2f} deg"
+
+
+def preset_cells(row: dict) -> dict:
+    """A preset's row as the table prints it: angles to 0.01 deg, lengths to the millimetre, '-' for none."""
+    decimals = {"phi_deg": 2, "limit_deg": 2, "inner": 3, "inner_margin": 3}
+    return {k: (f"{v:.{decimals[k]}f}" if k in decimals and v is not None else v) for k, v in row.items()}
+
+
 def verdict(r: dict) -> str:
     if r.get("phi") is None:
         return f"no: outer radius >= {r['least_outer']['outer']:.2f} m at any steering"
@@ -53,7 +90,7 @@ def verdict(r: dict) -> str:
         return (f"no: needs {r['phi_deg']:.1f} deg > its limit; at the limit the outer radius is "
                 f"{r['least_outer']['outer']:.2f} m")  # fmt: skip
     if r["inner_margin"] < 0:
-        return f"no: inner radius {r['steady']['inner']:.3f} m < {EU_INNER} m"
+        return f"no: inner radius {r['steady']['inner']:.3f} m < {EU_INNER:.2f} m"
     return "yes"
 
 
@@ -113,60 +150,68 @@ def section(name: str, r: dict, rows: list[dict], fig: Path) -> str:
     lines = [
         "## The EU turning circle (Directive 96/53/EC, Annex I 1.5)",
         "",
-        "A vehicle combination in motion must turn a full circle within an outer radius of 12.50 m and an inner"
-        " radius of 5.30 m. Computed here from the model and the exact body rectangles (model/studies/roads.py):"
-        " the steady circle at the steering angle whose outer swept radius is exactly 12.50 m (bisection), the"
-        " inner swept radius in closed form (trailer axle radius R_t = sqrt(R^2 + h^2 - L^2), the least distance"
+        f"A vehicle combination in motion must turn a full circle within an outer radius of {EU_OUTER:.2f} m and an"
+        f" inner radius of {EU_INNER:.2f} m [@directive9653]. Computed here from the model and the exact body"
+        " rectangles (model/studies/roads.py): the steady circle at the steering angle whose outer swept radius is"
+        f" exactly {EU_OUTER:.2f} m (bisection), the inner swept radius in closed form (trailer axle radius"
+        " R_t = sqrt(R^2 + h^2 - L^2), the least distance"
         " of each rectangle from the centre), and the model integrated (DOP853, tolerance 1e-11) through two full"
         " turns of the tractor from straight driving (steering set, trailer aligned behind the tractor), the"
         " swept area of the rectangles measured on 1800 samples per turn and as a shapely polygon.",
         "",
-        f"**{name}** ({p['source']}; d = {p['wheelbase']} m, h = {p['hitch_offset']} m, L = {p['trailer_wheelbase']} m,"
+        f"**{name}** ({p['source']}{citation(p['source'])}; d = {p['wheelbase']} m, h = {p['hitch_offset']} m,"
+        f" L = {p['trailer_wheelbase']} m,"
         f" tractor {p['body']['length']:.2f} m, trailer {p['trailer_body']['length']:.2f} m, width"
         f" {p['body']['width']} m):",
+        "",
+        f"Table: The {name} on the EU turning circle: the steering angle (deg and rad) whose outer swept radius is"
+        f" {EU_OUTER:.2f} m, the axle radii (m) and articulation (deg) of the steady circle, the outer and inner"
+        f" swept radii (m) and their margins (m) against {EU_OUTER:.2f} and {EU_INNER:.2f} m, the swept radii (m)"
+        " and trailer axle radii (m) of the integrated turns, and the swing-out (m); the unit of each value beside"
+        " it.",
         "",
         table(
             [
                 {
-                    "what": "steering angle for an outer swept radius of 12.50 m",
-                    "value": f"{fmt(r['phi_deg'], 5)} deg ({fmt(r['phi'], 5)} rad); {limit}",
+                    "what": f"steering angle for an outer swept radius of {EU_OUTER:.2f} m",
+                    "value": f"{angle(r['phi_deg'])} ({r['phi']:.4f} rad); {limit}",
                 },
                 {
                     "what": "tractor rear axle radius R / front axle radius",
-                    "value": f"{fmt(s['R'], 5)} m / {fmt(s['front_axle_radius'], 5)} m",
+                    "value": f"{metres(s['R'])} / {metres(s['front_axle_radius'])}",
                 },
                 {
                     "what": "trailer axle radius R_t (closed form) / articulation",
-                    "value": f"{fmt(s['trailer_axle_radius'], 5)} m / {fmt(math.degrees(s['articulation']), 4)} deg",
+                    "value": f"{metres(s['trailer_axle_radius'])} / {angle(math.degrees(s['articulation']))}",
                 },
                 {
                     "what": "outer swept radius (steady; " + s["outer_body"] + ")",
-                    "value": f"{fmt(s['outer'], 6)} m, margin {r['outer_margin']:+.3f} m",
+                    "value": f"{metres(s['outer'])}, margin {r['outer_margin']:+.3f} m",
                 },
                 {
                     "what": "inner swept radius (steady; " + s["inner_body"] + ")",
-                    "value": f"{fmt(s['inner'], 5)} m, margin {r['inner_margin']:+.3f} m against 5.30 m",
+                    "value": f"{metres(s['inner'])}, margin {r['inner_margin']:+.3f} m against {EU_INNER:.2f} m",
                 },
                 {
                     "what": "integrated, turn 1 from straight: inner / outer swept radius",
-                    "value": f"{fmt(t1['inner'], 5)} m / {fmt(t1['outer'], 4)} m"
+                    "value": f"{metres(t1['inner'])} / {metres(t1['outer'])}"
                     " (the trailer still on the straight approach)",
                 },
                 {
                     "what": "integrated, turn 2: inner / outer swept radius",
-                    "value": f"{fmt(t2['inner'], 5)} m / {fmt(t2['outer'], 6)} m; swept polygon outside the annulus"
+                    "value": f"{metres(t2['inner'])} / {metres(t2['outer'])}; swept polygon outside the annulus"
                     f" {t2['outside_annulus_m2']:.2g} m^2",
                 },
                 {
                     "what": "trailer axle radius after turn 1 / turn 2 (steady: R_t)",
-                    "value": " / ".join(f"{fmt(x, 6)} m" for x in tr["trailer_axle_radius"]),
+                    "value": " / ".join(metres(x) for x in tr["trailer_axle_radius"]),
                 },
                 {
                     "what": "swing-out beyond the straight vehicle's outer side, first half turn",
-                    "value": f"{fmt(tr['swing_out'], 3)} m",
+                    "value": metres(tr["swing_out"]),
                 },
             ],
-            {"what": "", "value": ""},
+            {"what": "quantity", "value": "value (unit)"},
         ),  # fmt: skip
         "",
         f"So the {name} {'meets' if r['passes'] else 'does not meet'} the requirement: the inner margin is"
@@ -176,14 +221,18 @@ def section(name: str, r: dict, rows: list[dict], fig: Path) -> str:
         " radius of the first integrated turn is that of the trailer still lined up on the straight approach, not"
         " of the circle.",
         "",
-        f"![{name}: two integrated full turns in the 12.50 / 5.30 m annulus, and the trailer's inner swept radius"
-        f" against the heading turned]({fig})",
+        f"![{name}: two integrated full turns in the {EU_OUTER:.2f} / {EU_INNER:.2f} m annulus, and the trailer's"
+        f" inner swept radius against the heading turned]({fig})",
         "",
-        "Every preset, steady state (the steering angle for an outer swept radius of 12.50 m, its steering"
-        " limit, the inner swept radius and margin):",
+        preset_sources([r["preset"] for r in rows]),
+        "",
+        f"Table: Every preset in the steady state, one row per preset: its kinematic model, the steering angle"
+        f" (deg) whose outer swept radius is {EU_OUTER:.2f} m and the preset's steering limit (deg), the inner"
+        f" swept radius (m) and its innermost body, the margin (m) of the inner radius against {EU_INNER:.2f} m"
+        f" (negative: inside it), and whether the preset turns within {EU_OUTER:.2f} / {EU_INNER:.2f} m.",
         "",
         table(
-            rows,
+            [preset_cells(r) for r in rows],
             {
                 "preset": "preset",
                 "model": "model",
@@ -192,7 +241,7 @@ def section(name: str, r: dict, rows: list[dict], fig: Path) -> str:
                 "inner": "inner radius (m)",
                 "inner_body": "innermost body",
                 "inner_margin": "margin (m)",
-                "verdict": "turns within 12.50 / 5.30 m",
+                "verdict": f"turns within {EU_OUTER:.2f} / {EU_INNER:.2f} m",
             },
         ),  # fmt: skip
         "",
