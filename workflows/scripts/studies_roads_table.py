@@ -81,6 +81,14 @@ def limits_of(c: dict) -> str:
                        (t.get("min_acceleration"), t.get("max_acceleration")))  # fmt: skip
 
 
+def energy_header(df: pd.DataFrame, ratio: float) -> str:
+    """The energy column's header: J of u1 and u2 without the limits; at them J integrates the jerk j for u1."""
+    if not df.operational.any():
+        return f"J at {ratio:g} T_min ({ENERGY_UNIT})"
+    what = "1/2 int j^2 + u2^2 dt" if df.operational.all() else "of each cell's controls: j for u1 at the limits"
+    return f"J at {ratio:g} T_min ({what})"
+
+
 def limits_paragraph(df: pd.DataFrame) -> str:
     """How the vehicles were driven: at their presets' operational limits (with those limits), or not."""
     on = df[df.operational]
@@ -301,7 +309,7 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
                 "apron": "apron (m)",
                 "result": "result",
                 "t_min": "T_min (s)",
-                "energy": f"J at {ratio:g} T_min ({ENERGY_UNIT})",
+                "energy": energy_header(df, ratio),
                 "apron_used_m": "apron used (m)",
                 "swept_width_m": "swept width (m)",
                 "limits": "limits",
