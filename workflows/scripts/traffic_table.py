@@ -27,6 +27,11 @@ DRIVER_STYLE = {"autopilot": {"color": "#1f6fb4", "marker": "o"}, "sumo": {"colo
                 "cooperative": {"color": "#2e8b57", "marker": "^"}}  # fmt: skip
 
 
+def rounded(rows: list[dict], digits: int = 9) -> list[dict]:
+    """The rows with every float rounded to ``digits`` decimals (a wait of -4e-15 s is 0 s)."""
+    return [{k: round(v, digits) + 0.0 if isinstance(v, float) else v for k, v in r.items()} for r in rows]
+
+
 def values(runs: list[dict], key: str) -> list[float]:
     return [r[key] for r in runs if r.get(key) is not None]
 
@@ -301,7 +306,8 @@ def main() -> None:
               "gaps": table(gap_rows, GAP_COLUMNS),
               "everyone": table(everyone_rows(cells), {"vehicle": "vehicle", "rate": "flow per other leg (veh/h)",
                                                        **{d: f"{d} (s)" for d in drivers}}),
-              "cars": table(cars["cells"], CARS_COLUMNS), "truck": table(truck_rows, TRUCK_COLUMNS)}  # fmt: skip
+              "cars": table(rounded(cars["cells"]), CARS_COLUMNS),
+              "truck": table(rounded(truck_rows), TRUCK_COLUMNS)}  # fmt: skip
     write_text(args.section, section(tables, args.mode, grid, args.figure_link, extra, findings(cars)))
 
 
