@@ -142,8 +142,12 @@ def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: lis
         ax.legend(handles=[*handles, *ax.get_legend_handles_labels()[0]], fontsize=6, loc="upper left", ncol=2)
         ax.set_xlabel("fails (not drawn): " + (", ".join(failed) if failed else "none"), fontsize=8, wrap=True)
     save(fig, stem, formats)
-    return (f"{preset}: the swept paths (all bodies, exact rectangles) of every movement that passes, on the"
-            " map's lanelets drawn by type; the movements that fail are listed under each panel, not drawn")
+    held = [bool(c.get("operational")) for c in mine]
+    limits = (f"at the {preset}'s operational limits" if all(held) else
+              "without operational limits (the kinematic model)" if not any(held) else
+              "at the operational limits where the table's limits column says so")  # fmt: skip
+    return (f"{preset} ({limits}): the swept paths (all bodies, exact rectangles) of every movement that passes, on"
+            " the map's lanelets drawn by type; the movements that fail are listed under each panel, not drawn")
 
 
 def movement_key(name: str) -> tuple[int, int]:

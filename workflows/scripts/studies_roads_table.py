@@ -223,8 +223,11 @@ def caption(df: pd.DataFrame, aprons: list[float], by_icd: bool, lines: bool, fa
         "against the inscribed circle diameter (ICD)" if by_icd else f"per design vehicle at ICD {df.icd.iloc[0]:g} m"
     )
     keys = "; ".join(f"apron {a:g} m: {apron_words(j, lines)}" for j, a in enumerate(aprons))
-    return (f"Minimum time (left) and swept width of the time-optimal manoeuvre (right) {where}; colour: the"
-            f" vehicle; {keys}" + ("; x on the axis: no valid trajectory" if failed else ""))  # fmt: skip
+    limits = ("at the presets' operational limits" if df.operational.all() else
+              "without operational limits (the kinematic model)" if not df.operational.any() else
+              "at the presets' operational limits where the table's limits column says so")  # fmt: skip
+    return (f"Minimum time (left) and swept width of the time-optimal manoeuvre (right) {where}, {limits}; colour:"
+            f" the vehicle; {keys}" + ("; x on the axis: no valid trajectory" if failed else ""))  # fmt: skip
 
 
 def matrix(df: pd.DataFrame) -> str:
