@@ -16,6 +16,8 @@ SWEEPS = {
     "paper s3": ("time-s3", "s3", None, [0.01, 0.02, 0.04]),
     "real s2": ("time-real-s2", "time-real-s2", 10.0, [4.0, 5.0, 6.0]),
 }
+TF_DECIMALS = 4  # decimals of the minimum time in the table
+J_DIGITS = 5  # significant digits of J in the table
 
 
 def sweep(label: str, time_name: str, energy_name: str, tf: float | None, ds: list[float]) -> list[dict]:
@@ -77,10 +79,10 @@ def section(frame: pd.DataFrame, fig: Path) -> str:
             {
                 "sweep": label,
                 "d": d,
-                "tmin": t.final_time if t.ok else None,
+                "tmin": f"{t.final_time:.{TF_DECIMALS}f}" if t.ok else None,
                 "t_status": t.status,
                 "tf": e.fixed_tf,
-                "J": e.objective if e.ok else None,
+                "J": f"{e.objective:#.{J_DIGITS}g}" if e.ok else None,  # '#': trailing zeros kept
                 "e_status": e.status,
                 "cert": bool(t.certificate) and bool(e.certificate),
             }
@@ -94,15 +96,20 @@ def section(frame: pd.DataFrame, fig: Path) -> str:
             " Each d starts from the previous d's solution; a failed solve is listed with its status and not"
             " plotted.",
             "",
+            "Table: The wheelbase sweeps, one row per sweep and wheelbase d (m): the minimum final time (s) and the"
+            " status of its solve, the fixed final time Tf (s) of the energy solve, its energy-optimal cost J"
+            f" ({ENERGY_UNIT}) and status, and whether both solutions pass their optimality certificates; d and the"
+            f" fixed Tf as set, the minimum time to {TF_DECIMALS} decimals, J to {J_DIGITS} significant digits.",
+            "",
             table(
                 rows,
                 {
                     "sweep": "sweep",
-                    "d": "d [m]",
-                    "tmin": "min Tf [s]",
+                    "d": "d (m)",
+                    "tmin": "min Tf (s)",
                     "t_status": "time status",
-                    "tf": "fixed Tf [s]",
-                    "J": f"J at fixed Tf [{ENERGY_UNIT}]",
+                    "tf": "fixed Tf (s)",
+                    "J": f"J at fixed Tf ({ENERGY_UNIT})",
                     "e_status": "energy status",
                     "cert": "certificates pass",
                 },
