@@ -15,12 +15,22 @@ from model.studies.sweeps import front_statements, pareto_front
 PRINTED_ENERGIES = [e for _, _, _, e, _ in PRINTED_RESULTS]  # the seed paper's printed E of its cases
 # geometry (time scenario) -> the paper's energy cases on that front
 FRONTS = {"s1": ("time-s1", ["s1"]), "s2": ("time-s2", ["s2-case1", "s2-case2", "s2-case3"]), "s3": ("time-s3", ["s3"])}
+FIRST = 1.01  # a front's first final time, as a multiple of the minimum time
+# the tables' number formats: times to 0.1 ms, J to 4 significant digits (trailing zeros kept), C to 3 decimals
+FORMATS = {
+    "t_min": ".4f",
+    "final_time_set": ".4f",
+    "objective": "#.4g",
+    "C_max": ".3f",
+    "C_bound": ".3f",
+    "ratio": ".3f",
+}
 
 
 def final_times(t_min: float, t_max: float, count: int) -> list[float]:
     """Denser near the minimum time, where J(Tf) bends most."""
     s = np.linspace(0.0, 1.0, count) ** 2
-    return list(t_min * 1.01 + (t_max - t_min * 1.01) * s)
+    return list(t_min * FIRST + (t_max - t_min * FIRST) * s)
 
 
 def one_front(results: Path, key: str, count: int, t_max: float) -> tuple[pd.DataFrame, dict, list[dict]]:
@@ -67,6 +77,11 @@ def figure(fronts: pd.DataFrame, marks: list[dict], verdicts: dict, out: Path) -
     save(fig, out / "pareto")
 
 
+def cells(row: dict) -> dict:
+    """A row as the tables print it (``FORMATS``); other and missing values unchanged."""
+    return {k: format(v, FORMATS[k]) if k in FORMATS and isinstance(v, float) else v for k, v in row.items()}
+
+
 def section(verdicts: dict, marks: list[dict], fronts: pd.DataFrame, fig: Path) -> str:
     rows = []
     for key, v in verdicts.items():
@@ -98,30 +113,40 @@ def section(verdicts: dict, marks: list[dict], fronts: pd.DataFrame, fig: Path) 
     lines = [
         "## The time-energy trade-off (the paper's Section 5.7, tested)",
         "",
-        "For each geometry, the energy-optimal cost J(Tf) from just above the minimum time upward, each solve"
-        " warm-started from the previous one (the first from the time-optimal solution); the paper's cases"
-        " are marked on their front. A failed solve is left out of the front and counted.",
+        "The seed paper [@seed] states that a longer final time costs less energy and that J = 1/2 C Tf with C at"
+        " its upper bound for bang-bang controls. For each geometry, the energy-optimal cost J(Tf) from just above"
+        " the minimum time upward, each solve warm-started from the previous one (the first from the time-optimal"
+        " solution); the paper's cases are marked on their front. A failed solve is left out of the front and"
+        " counted.",
+        "",
+        "Table: The time-energy fronts, one row per geometry: its minimum final time Tf (s), the converged"
+        " energy solves on the front and the failed ones, whether J falls as Tf grows, the largest C = 2J/Tf over"
+        " the front and its admissibility bound u1max² + u2max² (both m²/s² + rad²/s²), and the ratio C/bound (-)"
+        " at the front's first point, just above the minimum time.",
         "",
         table(
-            rows,
+            [cells(r) for r in rows],
             {
                 "front": "geometry",
-                "t_min": "min Tf [s]",
-                "points": "points",
+                "t_min": "min Tf (s)",
+                "points": "converged",
                 "failed": "failed",
                 "monotone": "J decreasing in Tf",
-                "C_max": "max C = 2J/Tf [m²/s² + rad²/s²]",
-                "C_bound": "u1max^2+u2max^2 [m²/s² + rad²/s²]",
-                "ratio": "C/bound near Tmin",
+                "C_max": "max C = 2J/Tf (m²/s² + rad²/s²)",
+                "C_bound": "u1max² + u2max² (m²/s² + rad²/s²)",
+                "ratio": "C/bound near min Tf (-)",
             },
         ),
         "",
+        f"Table: Samples of each front (its first, middle and last converged solve): the final time Tf (s), the"
+        f" energy-optimal cost J ({ENERGY_UNIT}) and the solver's iterations.",
+        "",
         table(
-            samples,
+            [cells(r) for r in samples],
             {
                 "front": "geometry",
-                "final_time_set": "Tf [s]",
-                "objective": f"J [{ENERGY_UNIT}]",
+                "final_time_set": "Tf (s)",
+                "objective": f"J ({ENERGY_UNIT})",
                 "iterations": "iterations",
             },
         ),
@@ -132,7 +157,7 @@ def section(verdicts: dict, marks: list[dict], fronts: pd.DataFrame, fig: Path) 
         " computed here" + ("." if all_mono else " (see the table)."),
         f"- *J = 1/2 C Tf with C at its upper bound for bang-bang controls*: C = 2J/Tf never exceeds"
         f" u1max^2 + u2max^2 = {fmt(rows[0].get('C_bound'))} (admissibility), and approaches it only near the minimum"
-        f" time (C/bound up to {fmt(max_ratio)} at 1.01 Tmin). At the paper's cases C is: "
+        f" time (C/bound up to {fmt(max_ratio)} at {FIRST:g} Tmin). At the paper's cases C is: "
         + ", ".join(f"{r['case']} {fmt(r['C'])}" for r in c_rows)
         + ".",
         f"- The paper's printed energies ({fmt(min(PRINTED_ENERGIES))} to {fmt(max(PRINTED_ENERGIES))} {ENERGY_UNIT},"
