@@ -7,6 +7,7 @@ import logging
 import os
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -87,23 +88,32 @@ def check_options(options: dict) -> None:
             return x * 0
 
     probe = cyipopt.Problem(n=1, m=0, problem_obj=_Empty(), lb=[0.0], ub=[1.0])
-    with _quiet_stdout():
+    with quiet_stdout():
         for key, val in options.items():
             set_option(probe, key, val)
 
 
 @contextlib.contextmanager
-def _quiet_stdout():
-    """Silence file descriptor 1 (Ipopt writes there from C)."""
+def quiet_stdout() -> Iterator[None]:
+    """Silence file descriptor 1 (Ipopt, qpOASES write there from C); what C buffered goes to /dev/null too."""
     sys.stdout.flush()
     saved, null = os.dup(1), os.open(os.devnull, os.O_WRONLY)
     try:
         os.dup2(null, 1)
         yield
     finally:
+        _flush_c_stdout()  # what C buffered goes to /dev/null, not after the restore
         os.dup2(saved, 1)
         os.close(saved)
         os.close(null)
+
+
+def _flush_c_stdout() -> None:
+    """fflush(NULL): C's buffered output written out now."""
+    import ctypes
+
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None).fflush(None)
 
 
 @dataclass

@@ -47,17 +47,14 @@ junction rule if on, follower braking) and falls back to its rule-based profiles
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import sys
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from model.analysis.bodies import rectangle_gaps
+from model.nlp.ipopt import quiet_stdout
 from model.problem.ocp import LATERAL
 
 if TYPE_CHECKING:
@@ -405,7 +402,7 @@ class SpeedPlanner:
         h_sp = self._matrix(self._h_rows, self._h_cols, np.ones(len(self._h_rows)), self.nx).sparsity()
         a_sp = self._matrix(self._a_rows, self._a_cols, np.ones(len(self._a_rows)), self.nrow).sparsity()
         opts = {"printLevel": "none", "error_on_fail": False, "hessian_type": "posdef"}
-        with _quiet():  # qpOASES prints its banner from C when made (and the first solve, to be sure)
+        with quiet_stdout():  # qpOASES prints its banner from C when made (and the first solve, to be sure)
             self.solver = casadi.conic("speed_qp", "qpoases", {"h": h_sp, "a": a_sp}, opts)
             n = self.n
             self.solve(0.0, 0.0, np.full(n, -np.inf), np.full(n, np.inf), np.full(n, -np.inf), np.zeros(n),
@@ -569,29 +566,6 @@ def plan_speed(planner: SpeedPlanner, pilot: Autopilot, path: PathSpeed, s0: flo
         best = planner.solve(v0, a0, lower, upper, follower, follow, again, stop)
     planner.previous = best
     return best
-
-
-@contextlib.contextmanager
-def _quiet() -> Iterator[None]:
-    """File descriptor 1 silenced (qpOASES writes there from C)."""
-    sys.stdout.flush()
-    saved, null = os.dup(1), os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(null, 1)
-        yield
-    finally:
-        _flush_c_stdout()  # what C buffered goes to /dev/null, not after the restore
-        os.dup2(saved, 1)
-        os.close(saved)
-        os.close(null)
-
-
-def _flush_c_stdout() -> None:
-    """fflush(NULL): C's buffered output written out now."""
-    import ctypes
-
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None).fflush(None)
 
 
 @dataclass
