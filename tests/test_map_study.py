@@ -276,7 +276,9 @@ def test_the_map_tables_rows_and_section_say_the_limits():
     assert f"above the SU-30's allowed {lim.lateral_acceleration:g} m/s^2" in rows[1]["limits"]
     import pandas as pd
 
+    from model.studies.roads import operational_text
+
     text = mst.limits_paragraph(pd.DataFrame(rows))
-    assert text.startswith("1 of the 2 cells run") and mst.operational_text("SU-30") in text
+    assert text.startswith("1 of the 2 cells run") and operational_text("SU-30") in text
     assert "v in [0, 6.9] m/s" in text
     assert mst.limits_paragraph(pd.DataFrame(rows[1:])).startswith("Every cell is solved with the kinematic model")

@@ -15,13 +15,14 @@ from pathlib import Path
 
 import pandas as pd
 from studies_common import fmt, parser, plt, table, write_text
+from studies_common import limits_paragraph as common_limits_paragraph
 
 from model.plotting.figures import save
 from model.plotting.maps import draw_lanelets, draw_swept, map_limits
 from model.plotting.roads import draw_scale_bar
 from model.problem.maps import map_of
 from model.studies.maps import movements
-from model.studies.roads import limits_note, operational_text
+from model.studies.roads import limits_note
 
 COLUMNS = {
     "preset": "vehicle",
@@ -90,26 +91,8 @@ def limits_of(c: dict) -> str:
 
 
 def limits_paragraph(df: pd.DataFrame) -> str:
-    """How the vehicles were driven: at their presets' operational limits (with those limits), or not."""
-    on = df[df.operational]
-    if on.empty:
-        return ("Every cell is solved with the kinematic model **without operational limits** (the speed a control: "
-                "it may jump; no acceleration or lateral-acceleration bound; `map_study_operational: true` in "
-                "workflows/config.yaml applies them): each row's *limits* column sets what it reached beside what "
-                "its preset allows.")
-    speeds = {fmt(v, 3) for v in on.initial_speed.dropna()}
-    bound = next((b for b in on.speed_bound if isinstance(b, list) and b), None)
-    some = "Every vehicle runs" if len(on) == len(df) else (
-        f"{len(on)} of the {len(df)} cells run (the others without them: the kinematic model, the speed a control)")
-    return (f"{some} at **its preset's operational limits** (`[vehicle] operational = true`, "
-            "docs/dynamics-format.md; `map_study_operational: false` in workflows/config.yaml runs the kinematic "
-            "model without them): the speed is the state v, the jerk the control; "
-            + "; ".join(operational_text(p) for p in dict.fromkeys(on.preset))
-            + (f". It enters at the crawl speed ({', '.join(sorted(speeds))} m/s)" if speeds else
-               ". It enters at its crawl speed")
-            + " and leaves at any speed"
-            + (f"; v in [{bound[0]:g}, {bound[1]:g}] m/s (the template's bound of the speed)" if bound else "")
-            + ". Each row's *limits* column says what it reached.")
+    """How the vehicles were driven (``studies_common.limits_paragraph`` with this study's switch)."""
+    return common_limits_paragraph(df, "map_study_operational")
 
 
 def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: list[str]) -> str:

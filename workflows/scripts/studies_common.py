@@ -114,6 +114,35 @@ def __getattr__(name: str):
     return plt
 
 
+def limits_paragraph(df, switch: str) -> str:
+    """How a study's vehicles were driven: at their presets' operational limits (with those limits), or not.
+
+    ``df``: the study's rows (``operational``, ``preset``, ``initial_speed``, ``speed_bound``); ``switch``: the
+    workflows/config.yaml key that turns the limits on and off.
+    """
+    from model.studies.roads import operational_text
+
+    on = df[df.operational]
+    if on.empty:
+        return ("Every cell is solved with the kinematic model **without operational limits** (the speed a control: "
+                f"it may jump; no acceleration or lateral-acceleration bound; `{switch}: true` in "
+                "workflows/config.yaml applies them): each row's *limits* column sets what it reached beside what "
+                "its preset allows.")
+    speeds = {fmt(v, 3) for v in on.initial_speed.dropna()}
+    bound = next((b for b in on.speed_bound if isinstance(b, list) and b), None)
+    some = "Every vehicle runs" if len(on) == len(df) else (
+        f"{len(on)} of the {len(df)} cells run (the others without them: the kinematic model, the speed a control)")
+    return (f"{some} at **its preset's operational limits** (`[vehicle] operational = true`, "
+            f"docs/dynamics-format.md; `{switch}: false` in workflows/config.yaml runs the kinematic "
+            "model without them): the speed is the state v, the jerk the control; "
+            + "; ".join(operational_text(p) for p in dict.fromkeys(on.preset))
+            + (f". It enters at the crawl speed ({', '.join(sorted(speeds))} m/s: a start speed left free would let "
+               "the minimum time choose how fast the vehicle arrives)" if speeds else ". It enters at its crawl speed")
+            + " and leaves at any speed"
+            + (f"; v in [{bound[0]:g}, {bound[1]:g}] m/s (the template's bound of the speed)" if bound else "")
+            + ". Each row's *limits* column says what it reached.")  # fmt: skip
+
+
 __all__ = [  # and plt (module __getattr__)
     "scenario",
     "solved",
@@ -122,4 +151,5 @@ __all__ = [  # and plt (module __getattr__)
     "write_json",
     "save",
     "write_text",
+    "limits_paragraph",
 ]

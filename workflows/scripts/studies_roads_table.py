@@ -12,9 +12,10 @@ from pathlib import Path
 
 import pandas as pd
 from studies_common import fmt, parser, plt, table, write_text
+from studies_common import limits_paragraph as common_limits_paragraph
 
 from model.plotting.figures import ENERGY_UNIT, save
-from model.studies.roads import limits_note, operational_text
+from model.studies.roads import limits_note
 
 
 def load(cells: list[Path]) -> list[dict]:
@@ -90,25 +91,8 @@ def energy_header(df: pd.DataFrame, ratio: float) -> str:
 
 
 def limits_paragraph(df: pd.DataFrame) -> str:
-    """How the vehicles were driven: at their presets' operational limits (with those limits), or not."""
-    on = df[df.operational]
-    if on.empty:
-        return ("Every cell is solved with the kinematic model **without operational limits** (the speed a control: "
-                "it may jump; no acceleration or lateral-acceleration bound; `road_studies_operational: true` in "
-                "workflows/config.yaml applies them): each row's *limits* column sets what it reached beside what "
-                "its preset allows.")
-    speeds = {fmt(v, 3) for v in on.initial_speed.dropna()}
-    bound = on.speed_bound.dropna().iloc[0] if on.speed_bound.notna().any() else None
-    some = "Every vehicle runs" if len(on) == len(df) else (
-        f"{len(on)} of the {len(df)} cells run (the others without them: the kinematic model, the speed a control)")
-    return (f"{some} at **its preset's operational limits** (`[vehicle] operational = true`, "
-            "docs/dynamics-format.md; `road_studies_operational: false` in workflows/config.yaml runs the kinematic "
-            "model without them): the speed is the state v, the jerk the control; "
-            + "; ".join(operational_text(p) for p in dict.fromkeys(on.preset))
-            + f". It enters at the crawl speed ({', '.join(sorted(speeds))} m/s: a start speed left free would let "
-            "the minimum time choose how fast the vehicle arrives) and leaves at any speed"
-            + (f"; v in [{bound[0]:g}, {bound[1]:g}] m/s (the template's bound of the speed)" if bound else "")
-            + ". Each row's *limits* column says what it reached.")
+    """How the vehicles were driven (``studies_common.limits_paragraph`` with this study's switch)."""
+    return common_limits_paragraph(df, "road_studies_operational")
 
 
 def outliers(df: pd.DataFrame, column: str, unit: str) -> list[str]:
