@@ -63,9 +63,9 @@ def test_a_clock_that_is_not_wall_or_cpu_is_refused():
 def test_the_roundabout_search_keeps_time_with_a_budget():
     search = Search(load_scenario(EXAMPLE).ocp, 10, time_limit=100.0, reserve=20.0, clock="cpu")
     assert search.budget == Budget(100.0, "cpu", search.started, 20.0)
-    assert search.deadline == search.budget.deadline == search.started + 80.0
+    assert search.deadline == search.budget.deadline == pytest.approx(search.started + 80.0, abs=1e-9)
     search.reserve = 30.0  # the budget is the fields', never a stale copy
-    assert search.deadline == search.started + 70.0
+    assert search.deadline == pytest.approx(search.started + 70.0, abs=1e-9)
 
 
 @pytest.fixture(scope="module")

@@ -128,7 +128,7 @@ def wavy_reference(vehicle, speed: float = 6.0, seconds: float = 12.0):
     cols = {s: sol.y[i] for i, s in enumerate(vehicle.states)}
     cols |= {c: (np.full_like(t, speed) if c == "u1" else u2 if c == "u2" else np.zeros_like(t))
              for c in vehicle.controls}  # fmt: skip
-    return Reference(t, cols)
+    return Reference(t, cols, vehicle.position)
 
 
 def track(vehicle, bounds: dict, rates: np.ndarray, step: float = 0.1):

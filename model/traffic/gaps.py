@@ -203,8 +203,8 @@ def other_entries(scenario: Scenario, traffic: Mapping[str, np.ndarray], approac
     ra = scenario.ocp.road.roundabout
     t, ids = np.asarray(traffic["t"], float), np.asarray(traffic["id"])
     heading, half = np.asarray(traffic["heading"], float), np.asarray(traffic["length"], float) / 2
-    fx = np.asarray(traffic["x"], float) + half * np.cos(heading) - ra.center[0]
-    fy = np.asarray(traffic["y"], float) + half * np.sin(heading) - ra.center[1]
+    fx = np.asarray(traffic["x"], float) + half * np.cos(heading) - ra.center[0]  # names: traffic.csv columns
+    fy = np.asarray(traffic["y"], float) + half * np.sin(heading) - ra.center[1]  # names: traffic.csv columns
     radius, angle = np.hypot(fx, fy), np.arctan2(fy, fx)
     axes = np.array([leg.angle for leg in ra.legs])
     found = []

@@ -506,7 +506,7 @@ class SpeedPlanner:
                           a=self._matrix(self._a_rows, self._a_cols, av, self.nrow),
                           lbx=np.clip(lbx, -big, big), ubx=np.clip(ubx, -big, big),
                           lba=np.clip(lba, -big, big), uba=np.clip(uba, -big, big))  # fmt: skip
-        x = np.asarray(sol["x"]).ravel()
+        x = np.asarray(sol["x"]).ravel()  # names: casadi's solution key, not a vehicle state
         ok = bool(self.solver.stats().get("success", False))
         slack = float(max(x[self.E].max(), x[self.F].max(), x[self.G].max()))
         return SpeedProfile(self.tau.copy(), x[self.S], np.maximum(x[self.V], 0.0), x[self.A], ok, slack)

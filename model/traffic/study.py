@@ -115,7 +115,7 @@ def truck_centres(scenario: Scenario, trajectory: Mapping[str, np.ndarray]) -> d
     corners = body_corners(scenario.ocp, {s: np.asarray(trajectory[s], float) for s in scenario.ocp.vehicle.states})
     centre = corners[list(corners)[-1]].mean(axis=1)
     t = np.asarray(trajectory["t"], float)
-    return {"t": t, "id": np.array(["truck"] * len(t)), "x": centre[:, 0], "y": centre[:, 1]}
+    return {"t": t, "id": np.array(["truck"] * len(t)), "x": centre[:, 0], "y": centre[:, 1]}  # names: traffic.csv
 
 
 def merged(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarray], keys: Sequence[str]) -> dict[str, np.ndarray]:

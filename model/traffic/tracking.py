@@ -58,8 +58,8 @@ class Reference:
 
     t: np.ndarray
     columns: dict[str, np.ndarray]
+    position: tuple[str, str]  # the vehicle's position states (``roles.position``)
     arc: np.ndarray = field(init=False)
-    position: tuple[str, str] = ("x", "y")
 
     def __post_init__(self) -> None:
         x, y = (self.columns[n] for n in self.position)
