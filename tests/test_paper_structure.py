@@ -8,8 +8,8 @@ import re
 import sys
 from pathlib import Path
 
-import pypdfium2 as pdfium
 import pytest
+from test_paper_pdf import pdf_text
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "workflows" / "scripts"))
@@ -128,14 +128,6 @@ def test_html_unknown_key_or_stray_caption_is_one_line(tmp_path):
         paper_html.main(args)
     assert str(stop.value) == "paper_html: error: citation key(s) not in paper/references.bib: nosuchkey"
     assert not out.exists()
-
-
-def pdf_text(pdf: Path) -> str:
-    doc = pdfium.PdfDocument(str(pdf))
-    try:
-        return "\n".join(doc[i].get_textpage().get_text_range() for i in range(len(doc)))
-    finally:
-        doc.close()
 
 
 def test_pdf_numbers_citations_tables_and_supplementary_sections(tmp_path):

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+from test_traffic import ring_car, straight_pilot
 
 from model.errors import InputError
 from model.problem.scenario import parse_scenario
+from model.traffic.autopilot import Autopilot
 from model.traffic.speed_planner import (
     Limits,
     Occupancy,
@@ -195,23 +196,11 @@ def test_before_the_line_the_truck_waits_at_the_line_for_a_crossing_vehicle_but_
 
 
 def qp_pilot():
-    from model.problem.scenario import load_scenario
-    from model.traffic.autopilot import Autopilot, Plan
-
-    scenario = load_scenario(EXAMPLE)
-    scenario = dataclasses.replace(scenario, traffic=dataclasses.replace(scenario.traffic, speed_planner="qp"))
-    t = np.linspace(0.0, 5.0, 51)
-    cols = {"x": -50.0 + 8.0 * t, "y": np.full_like(t, -2.0), "theta": np.zeros_like(t), "phi": np.zeros_like(t),
-            "u1": np.full_like(t, 8.0), "u2": np.zeros_like(t)}  # fmt: skip
-    return Autopilot(scenario, Plan(t, cols), front=6.5)
-
-
-def ring_car(degrees: float, speed: float = 7.0):
-    from model.traffic.autopilot import predict
-
-    r, a = 17.0, math.radians(degrees)
-    row = (0.0, "car", "passenger", r * math.cos(a), r * math.sin(a), a + math.pi / 2, speed, 4.5, 1.8)
-    return predict(row, a + math.pi / 2 - speed / r * 0.5, 0.5)
+    """``straight_pilot`` of test_traffic.py with the qp planner."""
+    pilot = straight_pilot()
+    scenario = dataclasses.replace(pilot.scenario, traffic=dataclasses.replace(pilot.scenario.traffic,
+                                                                               speed_planner="qp"))
+    return Autopilot(scenario, pilot.plan, front=6.5)
 
 
 def test_with_no_traffic_the_qp_drives_the_plans_pace():
