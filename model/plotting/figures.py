@@ -6,6 +6,7 @@ import functools
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -13,13 +14,14 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-import sympy as sp  # noqa: E402
 from matplotlib.patches import Circle as Disc  # noqa: E402
 from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
 
-from model.plotting.results import Result  # noqa: E402
-from model.vehicles import Roles, sym  # noqa: E402
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from model.plotting.results import Result
+    from model.vehicles import Roles
 
 STYLE = {
     "figure.dpi": 110,
@@ -46,6 +48,10 @@ ENERGY_UNIT = "m²/s + rad²/s"
 
 def tex(name: str) -> str:
     """A state or control name as TeX math: ``u1`` -> ``$u_1$``, ``theta`` -> ``$\\theta$`` (SymPy's LaTeX)."""
+    import sympy as sp  # lazy: sympy (and model.vehicles, which imports it) cost 0.5 s at import
+
+    from model.vehicles import sym
+
     return "$" + re.sub(r"_\{(\w)\}", r"_\1", sp.latex(sym(name))) + "$"
 
 
@@ -80,10 +86,10 @@ def save(fig: plt.Figure, stem: str | Path, formats: Sequence[str] = ("pdf", "pn
 
 def cumulative_energy(frame: pd.DataFrame, controls: Sequence[str]) -> np.ndarray:
     """E(t) = 1/2 integral of (u1^2 + u2^2) (the sum over ``controls``), trapezoid rule on the nodes
-    (the paper's eq. 32)."""
-    t = frame["t"].to_numpy()
-    integrand = 0.5 * sum(frame[c].to_numpy() ** 2 for c in controls)
-    return np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (integrand[1:] + integrand[:-1]))])
+    (the paper's eq. 32; ``model.problem.costs.Energy.cumulative``, unit weights as summary.json's energy)."""
+    from model.problem.costs import Energy  # lazy, as the module's other model imports
+
+    return Energy().cumulative(frame, controls)
 
 
 def phase_rate(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:

@@ -5,8 +5,10 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pandas as pd
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 @dataclass
@@ -33,6 +35,8 @@ class Result:
 
 def load_result(directory: str | Path, name: str | None = None) -> Result:
     """summary.json and trajectory.csv of one solve folder."""
+    import pandas as pd  # lazy: a job that only formats numbers does not pay pandas' import
+
     directory = Path(directory)
     summary = json.loads((directory / "summary.json").read_text())
     trajectory = pd.read_csv(directory / "trajectory.csv")
