@@ -398,13 +398,59 @@ def limits_note(preset_name: str, operational: bool, max_lateral: float | None,
     if operational:
         reached = f"; reached: {lat}" + (f", a in [{acceleration[0]:.2f}, {acceleration[1]:.2f}] m/s^2"
                                          if acceleration and None not in acceleration else "")  # fmt: skip
-        return (f"operational limits of the {preset_name}: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}]"
-                f" m/s^2, jerk in [{lim.jerk[0]:g}, {lim.jerk[1]:g}] m/s^3, lateral acceleration at most {allowed:g}"
-                f" m/s^2{reached}")
+        return (
+            f"operational limits of the {preset_name}: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}]"
+            f" m/s^2, jerk in [{lim.jerk[0]:g}, {lim.jerk[1]:g}] m/s^3, lateral acceleration at most {allowed:g}"
+            f" m/s^2{reached}"
+        )
     side = "" if max_lateral is None else (" (above" if max_lateral > allowed * (1 + 1e-6) else " (within")
     side = side and f"{side} the {preset_name}'s allowed {allowed:g} m/s^2)"
-    return (f"kinematic model without operational limits: {lat}{side}; the speed a control, its changes "
-            f"unbounded (the {preset_name} allows a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}] m/s^2)")
+    return (
+        f"kinematic model without operational limits: {lat}{side}; the speed a control, its changes "
+        f"unbounded (the {preset_name} allows a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}] m/s^2)"
+    )
+
+
+def limits_cell(preset_name: str, operational: bool, max_lateral: float | None,
+                acceleration: tuple[float | None, float | None] | None = None) -> str:  # fmt: skip
+    """``limits_note`` short enough for a table cell (its header gives the unit, m/s^2).
+
+    "held: a_lat 1.50, a -1.27 to 1.00" for a run at the preset's operational limits (what it reached), "none:
+    a_lat 9.38 > 1.5" for the kinematic model without them (its largest lateral acceleration against the
+    preset's allowed one); the section states each preset's limits once, beside the table.
+    """
+    from model.vehicles import operational_limits
+
+    lat = "a_lat -" if max_lateral is None else f"a_lat {max_lateral:.2f}"
+    if operational:
+        accel = (f", a {acceleration[0]:.2f} to {acceleration[1]:.2f}"
+                 if acceleration and None not in acceleration else "")  # fmt: skip
+        return f"held: {lat}{accel}"
+    allowed = operational_limits(preset_name).lateral_acceleration
+    if max_lateral is None:
+        return f"none ({preset_name} allows a_lat {allowed:g})"
+    return f"none: {lat} {'>' if max_lateral > allowed * (1 + 1e-6) else '<='} {allowed:g}"
+
+
+# the start of a preset's source -> its citation (written out, so tests/test_paper_structure.py checks the keys)
+SOURCE_CITATIONS = {
+    "AASHTO": "[@aashto2018]",
+    "Council Directive 96/53/EC": "[@directive9653]",
+    "CommonRoad": "[@commonroadvehicles]",
+}
+
+
+def source_citation(source: str) -> str:
+    """The ``[@key]`` of a preset's source after a space, or the empty string for a source the bibliography lacks."""
+    cite = next((c for start, c in SOURCE_CITATIONS.items() if source.startswith(start)), None)
+    return f" {cite}" if cite else ""
+
+
+def preset_citation(name: str) -> str:
+    """The preset ``name`` and the citation of the source of its dimensions ("SU-30 [@aashto2018]")."""
+    from model.vehicles import preset
+
+    return name + source_citation(preset(name)["source"])
 
 
 OPERATIONAL_SUFFIX = "-operational"  # a road <name>-operational.toml: the route <name> at a preset's limits
@@ -453,12 +499,26 @@ def road_limits_note(scenario: Path, summary: Mapping) -> str:
     preset_name, operational, via = reference_preset(scenario)
     if preset_name is None:
         lat = "not measured" if max_lat is None else f"{max_lat:.2f} m/s^2"
-        return (f"kinematic model without operational limits: max lateral acceleration {lat} (no preset's limits "
-                "to compare with)")
+        return (
+            f"kinematic model without operational limits: max lateral acceleration {lat} (no preset's limits "
+            "to compare with)"
+        )
     note = limits_note(preset_name, operational, max_lat, accel if longitudinal else None)
     if via:
         note += f" (compared with the {preset_name} of {via}, the same route; this vehicle is not that preset)"
     return note
+
+
+def road_limits_cell(scenario: Path, summary: Mapping) -> str:
+    """``limits_cell`` of a solved road scenario (``road_limits_note`` in a table cell's length)."""
+    lateral, longitudinal = summary.get("lateral_acceleration") or {}, summary.get("longitudinal") or {}
+    valid = bool(summary.get("valid"))
+    max_lat = lateral.get("max_abs_nodes") if valid else None
+    accel = (longitudinal.get("min_acceleration"), longitudinal.get("max_acceleration")) if valid else None
+    preset_name, operational, _ = reference_preset(scenario)
+    if preset_name is None:
+        return "none" if max_lat is None else f"none: a_lat {max_lat:.2f}"
+    return limits_cell(preset_name, operational, max_lat, accel if longitudinal else None)
 
 
 def cell_document(template: dict, preset_name: str, icd: float, apron: float, intervals: int,

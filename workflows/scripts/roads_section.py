@@ -10,11 +10,17 @@ from pathlib import Path
 import numpy as np
 
 from model.plotting.figures import ENERGY_UNIT
-from model.plotting.results import fmt
 from model.plotting.roads import KMH, ROLE_PANELS, driving_label, steering_changes
 from model.problem.ocp import OCP
 from model.problem.scenario import load_scenario
-from model.studies.roads import DESIGN_SUFFIX, OPERATIONAL_SUFFIX, reference_preset, road_limits_note
+from model.studies.roads import (
+    DESIGN_SUFFIX,
+    OPERATIONAL_SUFFIX,
+    preset_citation,
+    reference_preset,
+    road_limits_cell,
+    road_limits_note,
+)
 
 
 def read(scenario: Path, results: Path) -> tuple[OCP, dict, dict[str, np.ndarray]]:
@@ -56,27 +62,88 @@ def fixed(value: float | None) -> str:
     return "–" if value is None else f"{value:.3f}"
 
 
-def row(scenario: Path, results: Path) -> str:
+def objective_cell(scenario: Path, ocp: OCP) -> str:
+    """The objective in a few words (``driving`` gives the whole of it, in the text and the captions)."""
+    if reference_preset(scenario)[1]:
+        return "min. time, operational limits"
+    weight = float(getattr(ocp.cost, "steering_weight", 0.0) or 0.0)
+    if weight or ocp.bounds.get("lateral_acceleration") is not None:
+        return f"min. $T_f + {weight:g} \\int u_2^2 dt$, design speed" if weight else "min. time, design speed"
+    return "min. time"
+
+
+def setting_row(scenario: Path, results: Path) -> str:
+    """The road's vehicle, route, objective and limits: one row of the setting table."""
+    ocp, s, _ = read(scenario, results)
+    bodies = " + ".join(f"{b.length:.2f} x {b.width:.2f}" for b in ocp.bodies.values())
+    route = f"exit {ocp.road.route.exit} of {len(ocp.road.roundabout.legs)}"
+    return (
+        f"| {ocp.name} | {ocp.vehicle.model} | {bodies} | {route} | {objective_cell(scenario, ocp)} "
+        f"| {road_limits_cell(scenario, s)} |"
+    )
+
+
+def metre(value: float | None) -> str:
+    """A clearance to the millimetre, a dash for a missing value."""
+    return "–" if value is None else f"{value:.3f}"
+
+
+def result_row(scenario: Path, results: Path) -> str:
+    """The road's solve: one row of the results table."""
     ocp, s, cols = read(scenario, results)
     count = changes(ocp, cols)
-    bodies = ", ".join(f"{n} {b.length:.2f} x {b.width:.2f} m" for n, b in ocp.bodies.items())
     ok = "valid" if s.get("valid") else f"FAILED ({(s.get('diagnosis') or {}).get('message', s.get('status'))})"
     return (
-        f"| {ocp.name} | {ocp.vehicle.model} ({bodies}) | exit {ocp.road.route.exit} of "
-        f"{len(ocp.road.roundabout.legs)}, {ocp.road.roundabout.traffic}-hand | {s.get('objective_name')}: "
-        f"{driving(scenario, ocp)} | "
-        f"{fmt(s.get('final_time'))} | {energy(ocp, s)} | {s.get('exit_taken')} | "
-        f"{fmt(s.get('min_clearance'), 3)} | {fmt(s.get('min_clearance_dense'), 3)} | "
-        f"{fixed(lateral(s, 'max_abs_nodes'))} / {fixed(lateral(s, 'max_abs_dense'))} | "
-        f"{'–' if count is None else count} | {s.get('iterations')} | {ok} | {road_limits_note(scenario, s)} |"
+        f"| {ocp.name} | {fixed2(s.get('final_time'))} | {energy(ocp, s)} | {s.get('exit_taken')} "
+        f"| {metre(s.get('min_clearance'))} | {metre(s.get('min_clearance_dense'))} "
+        f"| {fixed(lateral(s, 'max_abs_nodes'))} | {fixed(lateral(s, 'max_abs_dense'))} "
+        f"| {'–' if count is None else count} | {s.get('iterations')} | {ok} |"
     )
+
+
+def fixed2(value: float | None) -> str:
+    """A time to the hundredth of a second, a dash for a missing value."""
+    return "–" if value is None else f"{value:.2f}"
 
 
 def energy(ocp: OCP, s: dict) -> str:
     """The energy; with longitudinal dynamics it integrates other controls (a or j for u1), and says which."""
-    if ocp.vehicle.roles.acceleration is None or s.get("energy") is None:
-        return fmt(s.get("energy"))
-    return f"{fmt(s['energy'])} (of {', '.join(ocp.vehicle.controls)}, not comparable)"
+    if s.get("energy") is None:
+        return "–"
+    value = format(s["energy"], "#.4g")  # four significant digits, trailing zeros kept
+    return value if ocp.vehicle.roles.acceleration is None else f"{value} ({', '.join(ocp.vehicle.controls)})"
+
+
+def tables(scenarios: list[Path], results: Path) -> list[str]:
+    """The setting table and the results table, each with its caption."""
+    traffic = sorted({load_scenario(s).ocp.road.roundabout.traffic for s in scenarios})
+    return [
+        f"Table: The road scenarios: the vehicle, its bodies' length x width (m; tractor + trailer), the route"
+        f" ({' and '.join(traffic)}-hand traffic), the objective and the limits (m/s$^2$): *held* at the preset's"
+        " operational limits with the lateral acceleration a_lat and the acceleration a reached, or *none* (the"
+        " kinematic model) with the largest a_lat against the preset's allowed one.",
+        "",
+        "| scenario | vehicle | bodies (m) | route | objective | limits (m/s$^2$) |",
+        "|---|---|---|---|---|---|",
+        *(setting_row(s, results) for s in scenarios),
+        "",
+        f"Table: The road scenarios solved: final time, energy ({ENERGY_UNIT}; for the operational rows of the"
+        " controls named, not comparable), the exit taken, the smallest clearance at the nodes and between them"
+        " (m, negative: an encroachment), the largest absolute lateral acceleration at the nodes and between them"
+        " (m/s$^2$), the sign changes of the steering rate $u_2$, Ipopt's iterations [@ipopt] and the result.",
+        "",
+        "| scenario | Tf (s) | energy | exit taken | clearance nodes (m) | clearance between (m) "
+        "| max abs. a_lat nodes (m/s$^2$) | between (m/s$^2$) | $u_2$ sign changes | iterations | result |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+        *(result_row(s, results) for s in scenarios),
+        "",
+    ]
+
+
+def held_presets(scenarios: list[Path]) -> list[str]:
+    """The presets whose operational limits a road is solved at, in the order of the roads."""
+    names = [reference_preset(p)[0] for p in scenarios if reference_preset(p)[1]]
+    return list(dict.fromkeys(n for n in names if n))
 
 
 def limited(scenarios: list[Path], results: Path) -> list[str]:
@@ -101,10 +168,11 @@ def limited(scenarios: list[Path], results: Path) -> list[str]:
         )
     if lines:
         lines = [
-            "The same routes at the operational limits of the presets (`[vehicle] operational = true`, "
-            "docs/dynamics-format.md: the speed the state $v$, the acceleration and jerk bounded, the lateral "
-            "acceleration and steering rate the preset's; the rigid truck is the AASHTO SU-30 preset, not the "
-            "time-optimal rows' truck):",
+            "The same routes at the operational limits of the presets ("
+            + ", ".join(preset_citation(name) for name in held_presets(scenarios))
+            + "; `[vehicle] operational = true`, docs/dynamics-format.md: the speed the state $v$, the "
+            "acceleration and jerk bounded, the lateral acceleration and steering rate the preset's; the rigid "
+            "truck of the operational rows is a preset, not the time-optimal rows' truck):",
             "",
             *lines,
             "",
@@ -163,7 +231,8 @@ def animation(gif: Path, note: str = "") -> list[str]:
     return [
         f"![{gif.stem}, animated: the vehicle drives its optimal trajectory; each body's swept path grows "
         "behind it, the dotted line is the rear axle's path ahead"
-        + (f"; {note}" if note else "") + ". (In the PDF: its first frame, the complete manoeuvre at t = Tf; "
+        + (f"; {note}" if note else "")
+        + ". (In the PDF: its first frame, the complete manoeuvre at t = Tf; "
         f"the HTML paper plays it, and it is `{gif.as_posix()}` in the results.)]({gif.as_posix()})",
         "",
     ]
@@ -196,13 +265,7 @@ def main() -> None:
         "control that may jump), kept beside them as what they are: the *limits* column says, for every row, "
         "what it was held to and how far its lateral acceleration goes beyond what the preset allows.",
         "",
-        f"| scenario | vehicle | route | objective: driving | Tf (s) | energy ({ENERGY_UNIT}) | exit taken "
-        "| clearance at nodes (m) "
-        "| between nodes (m) | max abs. lateral acc. nodes / between (m/s$^2$) | $u_2$ sign changes | iterations "
-        "| result | limits |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
-        *(row(s, args.results) for s in args.scenarios),
-        "",
+        *tables(args.scenarios, args.results),
         *comparison(args.scenarios, args.results),
         *limited(args.scenarios, args.results),
     ]

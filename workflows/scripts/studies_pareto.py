@@ -50,7 +50,7 @@ def one_front(results: Path, key: str, count: int, t_max: float) -> tuple[pd.Dat
                 {"front": key, "case": c, "final_time": r.summary["final_time"], "energy": r.summary["objective"]}
             )
     u = base.bounds["u1"][1], base.bounds["u2"][1]
-    verdict = front_statements(front, {m["case"]: m["final_time"] for m in marks}, u)
+    verdict = front_statements(front, {m["case"]: (m["final_time"], m["energy"]) for m in marks}, u)
     verdict["t_min"] = tmin.summary["final_time"]
     return front, verdict, marks
 
@@ -157,8 +157,9 @@ def section(verdicts: dict, marks: list[dict], fronts: pd.DataFrame, fig: Path) 
         " computed here" + ("." if all_mono else " (see the table)."),
         f"- *J = 1/2 C Tf with C at its upper bound for bang-bang controls*: C = 2J/Tf never exceeds"
         f" u1max^2 + u2max^2 = {fmt(rows[0].get('C_bound'))} (admissibility), and approaches it only near the minimum"
-        f" time (C/bound up to {fmt(max_ratio)} at {FIRST:g} Tmin). At the paper's cases C is: "
-        + ", ".join(f"{r['case']} {fmt(r['C'])}" for r in c_rows)
+        f" time (C/bound up to {fmt(max_ratio)} at {FIRST:g} Tmin). At the paper's cases C = 2E/Tf of each"
+        " case's own solve (its E and Tf in the scenario table) is: "
+        + ", ".join(f"{r['case']} {format(r['C'], FORMATS['C_max'])}" for r in c_rows)
         + ".",
         f"- The paper's printed energies ({fmt(min(PRINTED_ENERGIES))} to {fmt(max(PRINTED_ENERGIES))} {ENERGY_UNIT},"
         " derivations/paper/claims_numbers.py) lie far above every front: no admissible control reaches"

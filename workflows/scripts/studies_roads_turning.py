@@ -19,22 +19,10 @@ from studies_common import parser, plt, table, write_json, write_text
 
 from model.plotting.figures import save
 from model.plotting.roads import geometry_patch
-from model.studies.roads import EU_INNER, EU_OUTER, corners, eu_turning_circle, preset_vehicle
+from model.studies.roads import EU_INNER, EU_OUTER, corners, eu_turning_circle, preset_vehicle, source_citation
 from model.vehicles import PRESETS, preset
 
 SUBJECT = "EU-semitrailer"
-# the start of a preset's source -> its citation (written out, so tests/test_paper_structure.py checks the keys)
-CITATIONS = {
-    "AASHTO": "[@aashto2018]",
-    "Council Directive 96/53/EC": "[@directive9653]",
-    "CommonRoad": "[@commonroadvehicles]",
-}
-
-
-def citation(source: str) -> str:
-    """The ``[@key]`` of a preset's source after a space, or the empty string for a source the bibliography lacks."""
-    cite = next((c for start, c in CITATIONS.items() if source.startswith(start)), None)
-    return f" {cite}" if cite else ""
 
 
 def preset_sources(names: list[str]) -> str:
@@ -42,7 +30,7 @@ def preset_sources(names: list[str]) -> str:
     by_source: dict[str, list[str]] = {}
     for name in names:
         by_source.setdefault(preset(name)["source"], []).append(name)
-    parts = [f"{', '.join(group)} from {source}{citation(source)}" for source, group in by_source.items()]
+    parts = [f"{', '.join(group)} from {source}{source_citation(source)}" for source, group in by_source.items()]
     return "The presets' dimensions: " + "; ".join(parts) + "."
 
 
@@ -159,7 +147,7 @@ def section(name: str, r: dict, rows: list[dict], fig: Path) -> str:
         " turns of the tractor from straight driving (steering set, trailer aligned behind the tractor), the"
         " swept area of the rectangles measured on 1800 samples per turn and as a shapely polygon.",
         "",
-        f"**{name}** ({p['source']}{citation(p['source'])}; d = {p['wheelbase']} m, h = {p['hitch_offset']} m,"
+        f"**{name}** ({p['source']}{source_citation(p['source'])}; d = {p['wheelbase']} m, h = {p['hitch_offset']} m,"
         f" L = {p['trailer_wheelbase']} m,"
         f" tractor {p['body']['length']:.2f} m, trailer {p['trailer_body']['length']:.2f} m, width"
         f" {p['body']['width']} m):",
