@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import re
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -44,6 +45,9 @@ ROLE_UNITS = {"heading": "rad", "steering": "rad", "speed": "m/s", "steering_rat
 # The energy J = 1/2 int (u1^2 + u2^2) dt adds an m^2/s term (u1 in m/s) and a rad^2/s term (u2 in rad/s): the
 # paper adds them as numbers in SI units (the radian counted as 1), so every J is written with this unit.
 ENERGY_UNIT = "m²/s + rad²/s"
+# The PDF prints a figure 0.88 of the 16.4 cm text width (5.68 in; model.plotting.rules): drawn at most
+# this wide, the style's smallest text (8 pt) prints at 7 pt or more.
+FIGURE_WIDTH = 6.2  # in
 
 
 def tex(name: str) -> str:
@@ -100,6 +104,17 @@ def phase_rate(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     return np.arctan2(u2, u1), (u1 * du2 - u2 * du1) / norm
 
 
+def legend_above(ax: plt.Axes, title: str, ncols: int = 3, width: int = 42, **kw) -> None:
+    """The panel's title (wrapped at ``width`` characters) and its legend above the axes, off the data (the
+    panel has no axes title). Under constrained layout a legend wider than its axes narrows the axes."""
+    handles, labels = ax.get_legend_handles_labels()
+    handles, labels = kw.pop("handles", handles), kw.pop("labels", labels)
+    style = {"handlelength": 1.8, "columnspacing": 1.0, "borderaxespad": 0.2, **kw}
+    legend = ax.legend(handles, labels, title=textwrap.fill(title, width), loc="lower left", bbox_to_anchor=(0.0, 1.0),
+                       ncols=ncols, frameon=False, alignment="left", **style)  # fmt: skip
+    legend.get_title().set_fontsize(plt.rcParams["axes.titlesize"])
+
+
 def _bounds(ax: plt.Axes, bounds: dict, name: str, color) -> None:
     for value in bounds.get(name, ()):
         ax.axhline(value, color=color, linestyle="--", linewidth=0.9, alpha=0.8)
@@ -115,6 +130,25 @@ def _pose_arrow(ax: plt.Axes, pose: dict, roles: Roles, color, label: str, lengt
         ax.plot([x + dx], [y + dy], alpha=0.0)  # keeps the arrow's tip inside the axes
         label = f"{label} pose"
     ax.plot([x], [y], "o", color=color, markersize=6, label=label)
+
+
+def direction_arrow(ax: plt.Axes, x: np.ndarray, y: np.ndarray, color, where: float = 0.5) -> None:
+    """An arrowhead on the path (x, y) at the fraction ``where`` of its length: the direction of travel."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
+    if len(x) < 3 or arc[-1] <= 0:
+        return
+    k = int(np.clip(np.searchsorted(arc, where * arc[-1]), 1, len(x) - 2))
+    ax.annotate("", xy=(x[k + 1], y[k + 1]), xytext=(x[k - 1], y[k - 1]),
+                arrowprops={"arrowstyle": "-|>", "color": color, "lw": 0, "mutation_scale": 14})  # fmt: skip
+
+
+def mark_reversing(ax: plt.Axes, x, y, speed, label: bool = True) -> None:
+    """The nodes where the speed is negative (the vehicle reverses), black crosses; nothing if it never does."""
+    back = np.asarray(speed, float) < 0
+    if back.any():
+        ax.plot(np.asarray(x)[back], np.asarray(y)[back], "x", color="black", ms=3.5, mew=0.8, zorder=6,
+                label="reversing ($u_1 < 0$)" if label else None)  # fmt: skip
 
 
 def draw_obstacles(ax: plt.Axes, obstacles: Sequence, label: bool = True) -> None:
@@ -155,18 +189,18 @@ def controls_panel(ax: plt.Axes, frame: pd.DataFrame, bounds: dict, roles: Roles
     for name, color in ((n, c) for n, c in names if n is not None):
         ax.plot(frame["t"], frame[name], color=color, label=f"{tex(name)} ({unit(roles, name)})")
         _bounds(ax, bounds, name, color)
-    title = "(a) speed, acceleration and steering rate" if roles.acceleration else "(a) controls"
-    ylabel = "value (SI units)" if roles.acceleration else "control"
-    ax.set(xlabel="t (s)", ylabel=ylabel, title=title + " (bounds dashed)")
-    ax.legend(loc="best")
+    title = "(a) speed, acceleration, steering rate" if roles.acceleration else "(a) controls"
+    ylabel = "value (SI units)" if roles.acceleration else "control (SI units)"
+    ax.set(xlabel="t (s)", ylabel=ylabel)
+    legend_above(ax, title + " (bounds dashed)")
 
 
 def states_panel(ax: plt.Axes, frame: pd.DataFrame, roles: Roles) -> None:
     """The position over time."""
     for name, color in ((roles.x, PALETTE[0]), (roles.y, PALETTE[2])):
         ax.plot(frame["t"], frame[name], color=color, label=tex(name))
-    ax.set(xlabel="t (s)", ylabel="position (m)", title="(b) states")
-    ax.legend(loc="best")
+    ax.set(xlabel="t (s)", ylabel="position (m)")
+    legend_above(ax, "(b) states")
 
 
 def path_panel(ax: plt.Axes, frame: pd.DataFrame, ocp, color=PALETTE[0], label: str = "path") -> None:
@@ -181,20 +215,23 @@ def path_panel(ax: plt.Axes, frame: pd.DataFrame, ocp, color=PALETTE[0], label: 
         draw_moving_obstacles(ax, ocp, t[marks], float(t[-1]))
         ax.plot(np.asarray(frame[r.x])[marks], np.asarray(frame[r.y])[marks], "o", color=color, ms=3)
     ax.plot(frame[r.x], frame[r.y], color=color, label=label)
+    direction_arrow(ax, frame[r.x], frame[r.y], color)
+    mark_reversing(ax, frame[r.x], frame[r.y], frame[r.speed])
     span = max(np.ptp(frame[r.x]), np.ptp(frame[r.y]), 0.1)
     _pose_arrow(ax, ocp.initial, r, "tab:green", "start", 0.18 * span)
     if set(r.position) <= set(ocp.final):
         _pose_arrow(ax, ocp.final, r, "tab:red", "goal", 0.18 * span)
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set(xlabel="x (m)", ylabel="y (m)", title="(c) path")
-    ax.legend(loc="best")
+    ax.set(xlabel="x (m)", ylabel="y (m)")
+    legend_above(ax, "(c) path (arrowhead: direction of travel)", ncols=2)
 
 
 def energy_panel(ax: plt.Axes, frame: pd.DataFrame, controls: Sequence[str]) -> None:
     """The cumulative energy of ``controls`` over time."""
     ax.plot(frame["t"], cumulative_energy(frame, controls), color=PALETTE[4])
-    label = r"$E(t)=\frac{1}{2}\int_0^t (u_1^2+u_2^2)\,ds$" + f" ({ENERGY_UNIT})"
-    ax.set(xlabel="t (s)", ylabel=label, title="(d) cumulative energy")
+    ax.set(xlabel="t (s)", ylabel=f"energy $E(t)$ ({ENERGY_UNIT})")
+    ax.plot([], [], " ", label=r"$E(t)=\frac{1}{2}\int_0^t (u_1^2+u_2^2)\,ds$")
+    legend_above(ax, "(d) cumulative energy", ncols=1, handlelength=0)
 
 
 def failed_figure(result: Result, title: str) -> plt.Figure:
@@ -216,8 +253,8 @@ def _solved_grid(draw):
     def figure(result: Result, ocp) -> plt.Figure:
         if not result.solved:
             return failed_figure(result, ocp.title or result.name)
-        fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), layout="constrained")
-        fig.suptitle(draw(axes, result.trajectory, result, ocp))
+        fig, axes = plt.subplots(2, 2, figsize=(FIGURE_WIDTH, 5.6), layout="constrained")
+        fig.suptitle(textwrap.fill(draw(axes, result.trajectory, result, ocp), 80))
         return fig
 
     return figure
@@ -241,8 +278,8 @@ def costate_figure(axes, frame: pd.DataFrame, result: Result, ocp) -> str:
     ax = axes[0, 0]
     for i, name in enumerate(c for c in frame.columns if c.startswith("p_")):
         ax.plot(frame["t"], frame[name], color=PALETTE[i], label=f"$p_{{{tex(name[2:])[1:-1]}}}$")
-    ax.set(xlabel="t (s)", ylabel="costate estimate", title="(a) costates (from the NLP multipliers)")
-    ax.legend(loc="best", ncols=2)
+    ax.set(xlabel="t (s)", ylabel="costate estimate (SI units)")
+    legend_above(ax, "(a) costates (from the NLP multipliers)", ncols=4)
     v = ocp.vehicle
     for ax, name, tag in ((axes[0, 1], v.roles.speed, "b"), (axes[1, 0], v.roles.turning, "c")):
         psi, k, color = f"psi_{name}", v.controls.index(name) + 1, PALETTE[0 if name == v.roles.speed else 3]
@@ -250,30 +287,30 @@ def costate_figure(axes, frame: pd.DataFrame, result: Result, ocp) -> str:
                 label=rf"$\psi_{{{k}}}$ (switching function)")
         ax.plot(frame["t"], frame[name], color=color, linewidth=1.4, label=f"{tex(name)} ({unit(v.roles, name)})")
         _bounds(ax, ocp.bounds, name, color)
-        ax.set(xlabel="t (s)", ylabel=f"{tex(name)}, " + rf"$\psi_{{{k}}}$",
-               title=f"({tag}) {tex(name)} and its switching function (bounds dashed)")
-        ax.legend(loc="best")
+        ax.set(xlabel="t (s)", ylabel=f"{tex(name)} ({unit(v.roles, name)}), " + rf"$\psi_{{{k}}}$")
+        legend_above(ax, f"({tag}) {tex(name)} and its switching function (bounds dashed)", ncols=1)
     hamiltonian_panel(axes[1, 1], frame)
     return f"{ocp.title or result.name}: Pontryagin quantities"
 
 
 def hamiltonian_panel(ax: plt.Axes, frame: pd.DataFrame) -> None:
     ax.plot(frame["t"], frame["H"], color=PALETTE[4], label="$H$")
-    ax.set(xlabel="t (s)", ylabel="Hamiltonian $H$", title="(d) Hamiltonian and obstacle multiplier")
+    ax.set(xlabel="t (s)", ylabel="Hamiltonian $H$")
+    title = "(d) Hamiltonian and obstacle multiplier"
     if "mu" in frame:
         twin = ax.twinx()
         twin.plot(frame["t"], frame["mu"], color=PALETTE[1], linestyle=":", label=r"$\mu$")
         twin.set_ylabel(r"obstacle multiplier $\mu$")
         twin.grid(False)
         lines = ax.get_lines() + twin.get_lines()
-        ax.legend(lines, [ln.get_label() for ln in lines], loc="best")
+        legend_above(ax, title, ncols=2, handles=lines, labels=[ln.get_label() for ln in lines])
     else:
-        ax.legend(loc="best")
+        legend_above(ax, title, ncols=2)
 
 
 def phase_rate_figure(results: Sequence[Result], order: Sequence[str]) -> plt.Figure:
     """The paper's Figure 8: psi = atan2(u2, u1) and its rate for each solved scenario."""
-    fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True, layout="constrained")
+    fig, axes = plt.subplots(2, 1, figsize=(FIGURE_WIDTH, 5.2), sharex=True, layout="constrained")
     for r in results:
         if not r.solved:
             axes[0].plot([], [], " ", label=f"{r.name}: {r.status_text}, not plotted")
@@ -282,34 +319,57 @@ def phase_rate_figure(results: Sequence[Result], order: Sequence[str]) -> plt.Fi
         color = color_for(r.name, order)
         axes[0].plot(r.trajectory["t"], psi, color=color, label=r.name)
         axes[1].plot(r.trajectory["t"], rate, color=color, label=r.name)
-    axes[0].set(ylabel=r"$\psi=\mathrm{atan2}(u_2,u_1)$ (rad)", title=r"(a) phase of the control vector")
-    axes[1].set(xlabel="t (s)", ylabel=r"$\dot\psi$ (rad/s)",
+    axes[0].set(ylabel=r"$\psi=\mathrm{atan2}(u_2,u_1)$ (rad)")
+    axes[1].set(xlabel="t (s)", ylabel=r"$\dot\psi$ (rad/s, symlog)",
                 title=r"(b) phase rate $\dot\psi=(u_1\dot u_2-u_2\dot u_1)/(u_1^2+u_2^2)$ (finite differences)")
     axes[1].set_yscale("symlog", linthresh=1.0)
-    axes[0].legend(loc="best")
+    legend_above(axes[0], "(a) phase of the control vector", ncols=5, width=80)
     fig.suptitle(r"Hypothesis 1: singular arcs have $\dot\psi = 0$")
     return fig
 
 
-def paths_figure(results: Sequence[Result], ocps: Sequence, order: Sequence[str]) -> plt.Figure:
-    """The paper's Figure 9: several scenarios' paths in one plane."""
-    fig, ax = plt.subplots(figsize=(7, 6), layout="constrained")
+def _shared_obstacles(ax: plt.Axes, ocps: Sequence) -> None:
     drawn: set = set()
-    for r, ocp in zip(results, ocps, strict=True):
+    for ocp in ocps:
         for ob in ocp.obstacles:
             key = (tuple(ob.center), ob.radius, ob.safety)
             if key not in drawn:
                 draw_obstacles(ax, [ob], label=not drawn)
                 drawn.add(key)
+
+
+def _start_goal(ax: plt.Axes, ocps: Sequence) -> None:
+    """Each distinct start and goal pose once: green and red, an arrow along a fixed heading."""
+    span = max(max(abs(o.initial[o.vehicle.roles.x] - o.final.get(o.vehicle.roles.x, 0.0)) for o in ocps), 0.1)
+    seen: set = set()
+    for ocp in ocps:
+        r = ocp.vehicle.roles
+        for pose, color, name in ((ocp.initial, "tab:green", "start"), (ocp.final, "tab:red", "goal")):
+            key = (name, *(round(float(pose.get(k, np.nan)), 6) for k in (r.x, r.y, r.heading)))
+            if set(r.position) <= set(pose) and key not in seen:
+                _pose_arrow(ax, pose, r, color, name if not any(k[0] == name for k in seen) else "_", 0.12 * span)
+                seen.add(key)
+
+
+def paths_figure(results: Sequence[Result], ocps: Sequence, order: Sequence[str]) -> plt.Figure:
+    """The paper's Figure 9: several scenarios' paths in one plane, each with its direction of travel,
+    the start and goal poses, and its reversing nodes."""
+    fig, ax = plt.subplots(figsize=(FIGURE_WIDTH, 5.0), layout="constrained")
+    _shared_obstacles(ax, ocps)
+    for k, (r, ocp) in enumerate(zip(results, ocps, strict=True)):
         if not r.solved:
             ax.plot([], [], " ", label=f"{r.name}: {r.status_text}, not plotted")
             continue
-        style = LINESTYLES[len(ax.get_lines()) // 2 % len(LINESTYLES)]
+        style, color = LINESTYLES[k % len(LINESTYLES)], color_for(r.name, order)
         px, py = ocp.vehicle.position
-        ax.plot(r.trajectory[px], r.trajectory[py], color=color_for(r.name, order), linestyle=style,
-                linewidth=2.2 if style == "-" else 1.8, label=f"{r.name} (Tf = {r.summary['final_time']:.3g} s)")
-        ax.plot(*(r.trajectory[[px, py]].to_numpy()[[0, -1]].T), "o", color=color_for(r.name, order), ms=4)
+        x, y = r.trajectory[px].to_numpy(), r.trajectory[py].to_numpy()
+        ax.plot(x, y, color=color, linestyle=style, linewidth=2.4 - 0.3 * k,
+                label=f"{r.name} ($T_f$ = {r.summary['final_time']:.3g} s)")  # fmt: skip
+        direction_arrow(ax, x, y, color, where=0.3 + 0.1 * k)
+        mark_reversing(ax, x, y, r.trajectory[ocp.vehicle.roles.speed], label=not any(
+            ln.get_label().startswith("reversing") for ln in ax.get_lines()))  # fmt: skip
+    _start_goal(ax, ocps)
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set(xlabel="x (m)", ylabel="y (m)", title="Paths around the roundabout")
-    ax.legend(loc="best")
+    ax.set(xlabel="x (m)", ylabel="y (m)")
+    legend_above(ax, "Paths of the compared scenarios (arrowheads: direction of travel)", ncols=3, width=80)
     return fig

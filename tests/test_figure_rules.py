@@ -1,0 +1,86 @@
+"""The paper's figure rules on small synthetic data: text at least 7 pt at print size, legends off the data,
+the path at equal aspect with start, goal and direction marked (model.plotting.rules)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from model.plotting import figures as plotting
+from model.plotting.results import Result
+from model.plotting.rules import MIN_FONT_PT, PRINT_WIDTH_IN, legends_on_data, print_scale, smallest_print_font
+from model.problem.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+SOLVED = {"status": "optimal", "valid": True, "exit_code": 0, "final_time": 1.35, "energy": 0.69}
+
+
+def synthetic_s3(n: int = 60) -> pd.DataFrame:
+    """A smooth pass above the obstacle from (0, 0) to (1, 0), reversing for the first nodes."""
+    t = np.linspace(0.0, 1.35, n)
+    s = t / t[-1]
+    u1 = np.where(s < 0.1, -0.5, 1.0)
+    frame = {"t": t, "x": s, "y": 0.28 * np.sin(np.pi * s) ** 2, "theta": 0 * t, "phi": 0 * t, "u1": u1,
+             "u2": 0.35 * np.sign(np.sin(6 * s)), "H": 1.5 + 0 * t, "mu": 0 * t}  # fmt: skip
+    for name in ("x", "y", "theta", "phi"):
+        frame[f"p_{name}"] = np.cos(3 * s + len(name))
+    frame["psi_u1"], frame["psi_u2"] = frame["p_x"], frame["p_phi"]
+    return pd.DataFrame(frame)
+
+
+@pytest.fixture(scope="module")
+def s3():
+    ocp = load_scenario(ROOT / "workflows/scenarios/s3.toml").ocp
+    return Result("s3", dict(SOLVED), synthetic_s3()), ocp
+
+
+def close(fig) -> None:
+    plotting.plt.close(fig)
+
+
+def test_the_checks_fail_on_a_wide_figure_with_small_text_and_a_legend_on_its_line():
+    plotting.apply_style()
+    fig, ax = plotting.plt.subplots(figsize=(2 * PRINT_WIDTH_IN, 4))
+    ax.plot([0, 1], [1, 1], label="a line under its legend")
+    ax.legend(loc="upper left")
+    ax.set_xlabel("x (m)", fontsize=9)
+    assert print_scale(fig) < 0.7
+    assert smallest_print_font(fig) < MIN_FONT_PT
+    assert legends_on_data(fig)
+    close(fig)
+
+
+@pytest.mark.parametrize("draw", ["solution_figure", "costate_figure"])
+def test_a_scenario_figure_prints_its_text_at_7_pt_with_its_legends_off_the_data(s3, draw):
+    plotting.apply_style()
+    fig = getattr(plotting, draw)(*s3)
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    assert legends_on_data(fig) == []
+    close(fig)
+
+
+def test_the_path_is_equal_aspect_with_start_goal_direction_and_reversing_marked(s3):
+    plotting.apply_style()
+    result, ocp = s3
+    fig = plotting.solution_figure(result, ocp)
+    path = fig.axes[2]
+    assert path.get_aspect() == 1.0
+    labels = {t.get_text() for t in path.get_legend().get_texts()}
+    assert {"start pose", "goal pose", "reversing ($u_1 < 0$)"} <= labels
+    assert any(a.arrow_patch is not None for a in path.texts), "no arrowhead on the path"
+    close(fig)
+
+
+def test_the_compared_paths_name_every_scenario_given(s3):
+    plotting.apply_style()
+    result, ocp = s3
+    other = Result("s2-case1", dict(SOLVED), synthetic_s3().assign(y=lambda f: -f["y"]))
+    fig = plotting.paths_figure([result, other], [ocp, ocp], ["s2-case1", "s3"])
+    labels = " ".join(t.get_text() for t in fig.axes[0].get_legend().get_texts())
+    assert "s3" in labels and "s2-case1" in labels
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    assert legends_on_data(fig) == []
+    close(fig)
