@@ -45,6 +45,7 @@ def test_the_checks_fail_on_a_wide_figure_with_small_text_and_a_legend_on_its_li
     plotting.apply_style()
     fig, ax = plotting.plt.subplots(figsize=(2 * PRINT_WIDTH_IN, 4))
     ax.plot([0, 1], [1, 1], label="a line under its legend")
+    ax.set_ylim(0.0, 1.05)  # the line runs along the top, where the legend is
     ax.legend(loc="upper left")
     ax.set_xlabel("x (m)", fontsize=9)
     assert print_scale(fig) < 0.7
