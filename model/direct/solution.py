@@ -164,11 +164,6 @@ def csv_text(columns: dict[str, np.ndarray]) -> str:
     return "\n".join([",".join(names), *rows]) + "\n"
 
 
-def trapezoid_energy(t: np.ndarray, u: list[np.ndarray]) -> float:
-    """1/2 integral of sum u_i^2 by the trapezoid rule on the nodes (eq. 32)."""
-    return float(np.trapezoid(0.5 * sum(np.asarray(c) ** 2 for c in u), t))
-
-
 def json_text(data: dict) -> str:
     """``data`` as full-precision JSON text (NaN and infinities as null), indented."""
     return json.dumps(jsonable(data), indent=2) + "\n"

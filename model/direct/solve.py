@@ -23,10 +23,11 @@ from model.analysis.validation import validate
 from model.direct.bodies import DEFAULT_FORMULATION
 from model.direct.costates import costates, obstacle_multiplier, path_multipliers
 from model.direct.moving import fill_moving, note_settling, solve_moving
-from model.direct.solution import Solution, trapezoid_energy
+from model.direct.solution import Solution
 from model.direct.transcription import PASS_BOUNDS, build_model, grid, set_pass_direction
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import IpoptResult
+from model.problem.costs import Energy
 from model.problem.ocp import OCP
 
 # What a solve is doing, as DEBUG records on "roundabout.solve": the command line's progress
@@ -212,7 +213,7 @@ def finish(
         status=res.status,
         objective=float(pyo.value(m.objective)),
         final_time=tf,
-        energy=trapezoid_energy(cols["t"], [cols[c] for c in ocp.vehicle.controls]),
+        energy=Energy().integral(cols, ocp.vehicle.controls),  # unit weights: summary.json's plain energy
         iterations=res.iterations,
         solve_seconds=res.seconds,
         columns=cols,

@@ -23,6 +23,7 @@ import numpy as np
 from model.direct.solution import Solution, csv_text, json_text
 from model.outputs import run_folder, write_files
 from model.problem.closed_loop import ControlSettings, Disturbance
+from model.problem.costs import Energy
 from model.problem.scenario import Scenario
 from model.simulation.base import Controller
 from model.simulation.controllers import wrap
@@ -242,12 +243,6 @@ def moving_distances(scenario: Scenario, columns: dict[str, np.ndarray]) -> dict
     return {"min_distance_moving": distance, "min_clearance_moving": float(np.min(clear)), "collided": distance <= 0.0}
 
 
-def zoh_energy(columns: dict[str, np.ndarray], controls) -> float:
-    """1/2 integral of the sum of the squared applied controls under the zero-order hold."""
-    dt = np.diff(columns["t"])
-    return float(0.5 * np.sum(dt * sum(columns[c][:-1] ** 2 for c in controls)))
-
-
 def reached(errors: dict[str, float], tol: dict) -> bool:
     """Every state fixed at Tf within its tolerance (position by distance, angles by ``angle``)."""
     ok = [errors["position"] <= tol["position"]] if "position" in errors and tol["position"] is not None else []
@@ -269,7 +264,7 @@ def _summary(scenario, solution, controller, columns, clocks: tuple, failed: int
         "steps": len(seconds),
         "final_position_error": errors.get("position"),
         "final_heading_error": errors.get(v.roles.heading),
-        "energy": zoh_energy(columns, v.controls),
+        "energy": Energy().integral(columns, v.controls, rule="zoh"),  # the applied controls, unit weights
         "final_time": float(columns["t"][-1]),
         "min_clearance": min_clearance(scenario, columns),
         **moving,

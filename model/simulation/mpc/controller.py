@@ -507,7 +507,7 @@ class MPC:
 
     def _cost_scales(self) -> tuple[float, float]:
         ref = self.reference
-        energy = float(np.trapezoid(sum(ref[c] ** 2 for c in self.ocp.vehicle.controls) / 2, ref["t"]))
+        energy = self.ocp.cost.energy.integral(ref, self.ocp.vehicle.controls)  # the horizon's energy: its weights
         return self.final_time, max(energy, 1e-9)
 
 
