@@ -85,3 +85,16 @@ def test_the_compared_paths_name_every_scenario_given(s3):
     assert smallest_print_font(fig) >= MIN_FONT_PT
     assert legends_on_data(fig) == []
     close(fig)
+
+
+def test_the_cases_figure_overlays_the_cases_and_measures_how_far_their_paths_are_apart(s3):
+    plotting.apply_style()
+    result, ocp = s3
+    slower = Result("s3-slow", dict(SOLVED, final_time=2.0), synthetic_s3().assign(t=lambda f: f["t"] * 1.5))
+    fig = plotting.cases_figure([result, slower], [ocp, ocp], ["s3", "s3-slow"])
+    assert "one path" in fig.get_suptitle()
+    assert len(fig.axes[0].get_lines()) >= 2
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    assert legends_on_data(fig) == []
+    close(fig)
+    assert plotting.path_gap([np.array([[0, 0], [1, 0]]), np.array([[0, 0.5], [1, 0.5]])]) == pytest.approx(0.5)

@@ -373,3 +373,59 @@ def paths_figure(results: Sequence[Result], ocps: Sequence, order: Sequence[str]
     ax.set(xlabel="x (m)", ylabel="y (m)")
     legend_above(ax, "Paths of the compared scenarios (arrowheads: direction of travel)", ncols=3, width=80)
     return fig
+
+
+def path_gap(paths: Sequence[np.ndarray], samples: int = 200) -> float:
+    """The largest distance between paths (n x 2 node arrays) at the same fraction of their length."""
+
+    def resample(xy: np.ndarray) -> np.ndarray:
+        arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+        s = np.linspace(0.0, arc[-1], samples)
+        return np.column_stack([np.interp(s, arc, xy[:, 0]), np.interp(s, arc, xy[:, 1])])
+
+    if len(paths) < 2:
+        return 0.0
+    first = resample(np.asarray(paths[0], float))
+    return max(float(np.max(np.hypot(*(resample(np.asarray(p, float)) - first).T))) for p in paths[1:])
+
+
+def cases_figure(results: Sequence[Result], ocps: Sequence, order: Sequence[str]) -> plt.Figure:
+    """Cases of one scenario that differ only in their final time or weights, overlaid: (a) speed and (b)
+    steering rate over time with their bounds, (c) the paths (coinciding ones drawn once, by the legend),
+    (d) the cumulative energy. One figure instead of a near-identical four-panel figure per case."""
+    fig, axes = plt.subplots(2, 2, figsize=(FIGURE_WIDTH, 5.4), layout="constrained")
+    (a, b), (c, d) = axes
+    solved = [(r, o) for r, o in zip(results, ocps, strict=True) if r.solved]
+    for k, (r, ocp) in enumerate(solved):
+        roles, color, style = ocp.vehicle.roles, color_for(r.name, order), LINESTYLES[k % len(LINESTYLES)]
+        label = f"{r.name} ($T_f$ = {r.summary['final_time']:.3g} s)"
+        frame = r.trajectory
+        for ax, name in ((a, roles.speed), (b, roles.turning)):
+            ax.plot(frame["t"], frame[name], color=color, ls=style, label=label)
+        c.plot(frame[roles.x], frame[roles.y], color=color, ls=style, lw=2.4 - 0.4 * k, label=label)
+        d.plot(frame["t"], cumulative_energy(frame, ocp.vehicle.controls), color=color, ls=style, label=label)
+    if solved:
+        ocp, roles = solved[0][1], solved[0][1].vehicle.roles
+        for ax, name in ((a, roles.speed), (b, roles.turning)):
+            _bounds(ax, ocp.bounds, name, "0.45")
+            ax.set(xlabel="t (s)", ylabel=f"{tex(name)} ({unit(roles, name)})")
+        draw_obstacles(c, ocp.obstacles, label=False)
+        frame = solved[0][0].trajectory
+        direction_arrow(c, frame[roles.x], frame[roles.y], "black")
+        span = max(np.ptp(frame[roles.x]), np.ptp(frame[roles.y]), 0.1)
+        _pose_arrow(c, ocp.initial, roles, "tab:green", "start", 0.15 * span)
+        _pose_arrow(c, ocp.final, roles, "tab:red", "goal", 0.15 * span)
+        c.set_aspect("equal", adjustable="datalim")
+    c.set(xlabel="x (m)", ylabel="y (m)")
+    d.set(xlabel="t (s)", ylabel=f"energy $E(t)$ ({ENERGY_UNIT})")
+    legend_above(a, "(a) speed (bounds dashed)", ncols=1)
+    legend_above(b, "(b) steering rate (bounds dashed)", handles=[], labels=[])
+    gap = path_gap([r.trajectory[[o.vehicle.roles.x, o.vehicle.roles.y]].to_numpy() for r, o in solved])
+    legend_above(c, f"(c) paths (at most {gap:.2g} m apart; arrowhead: direction)", ncols=2,
+                 handles=[h for h in c.get_lines() if "pose" in h.get_label()],
+                 labels=[h.get_label() for h in c.get_lines() if "pose" in h.get_label()])  # fmt: skip
+    legend_above(d, "(d) cumulative energy", handles=[], labels=[])
+    names = ", ".join(r.name for r, _ in solved)
+    span = max((np.ptp(r.trajectory[o.vehicle.roles.x]) for r, o in solved), default=1.0)
+    fig.suptitle(names + (": one path at different final times" if gap < 0.01 * span else ": compared"))
+    return fig

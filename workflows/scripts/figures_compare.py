@@ -1,4 +1,5 @@
-"""Figures across scenarios: the phase rate of the controls (Fig. 8) and the paths together (Fig. 9)."""
+"""Figures across scenarios: the phase rate of the controls (Fig. 8), the paths together (Fig. 9), and the
+cases of one scenario overlaid (their controls, path and energy in one figure)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from model.problem.scenario import load_scenario
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("kind", choices=["phase-rate", "paths"])
+    ap.add_argument("kind", choices=["phase-rate", "paths", "cases"])
     ap.add_argument("--scenarios", nargs="+", type=Path, required=True, help="scenario files")
     ap.add_argument("--results", nargs="+", type=Path, required=True, help="solve folders, same order")
     ap.add_argument("--order", nargs="+", required=True, help="every scenario name (fixes the colours)")
@@ -24,7 +25,8 @@ def main(argv: list[str] | None = None) -> None:
     if args.kind == "phase-rate":
         fig = plotting.phase_rate_figure(results, args.order)
     else:
-        fig = plotting.paths_figure(results, [load_scenario(f).ocp for f in args.scenarios], args.order)
+        draw = plotting.paths_figure if args.kind == "paths" else plotting.cases_figure
+        fig = draw(results, [load_scenario(f).ocp for f in args.scenarios], args.order)
     plotting.save(fig, args.out, args.formats)
 
 
