@@ -98,3 +98,21 @@ def test_the_cases_figure_overlays_the_cases_and_measures_how_far_their_paths_ar
     assert legends_on_data(fig) == []
     close(fig)
     assert plotting.path_gap([np.array([[0, 0], [1, 0]]), np.array([[0, 0.5], [1, 0.5]])]) == pytest.approx(0.5)
+
+
+def test_a_road_figure_prints_its_time_panels_at_7_pt_and_marks_start_goal_and_direction():
+    from model.plotting.roads import road_figure
+
+    ocp = load_scenario(ROOT / "workflows/roads/semitrailer-left-turn.toml").ocp
+    t = np.linspace(0.0, 2.0, 21)
+    theta = 0.15 * (t / 2.0) ** 2
+    columns = {"t": t, "x": -50.0 + 10.0 * t, "y": -2.0 + 0.4 * t**2, "theta": theta, "phi": 0.05 * t,
+               "theta1": 0.5 * theta, "u1": np.full_like(t, 10.0), "u2": np.full_like(t, 0.05)}  # fmt: skip
+    fig = road_figure(ocp, columns, note="a note line")
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    plan = fig.axes[0]
+    assert plan.get_aspect() == 1.0
+    labels = {t.get_text() for t in plan.get_legend().get_texts()}
+    assert {"start (rear axle)", "goal (rear axle)"} <= labels
+    assert sum(a.arrow_patch is not None for a in plan.texts) >= 2, "no direction arrowheads (besides north)"
+    close(fig)

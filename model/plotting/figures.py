@@ -179,7 +179,7 @@ def draw_moving_obstacles(ax: plt.Axes, ocp, times: Sequence[float], final_time:
                                       ec=MOVING_COLOR, lw=0.7, zorder=5,
                                       label="other vehicle" if first and k == 0 else None))  # fmt: skip
             x, y = ob.path(t)
-            ax.annotate(f"{t:.1f} s", (x, y), fontsize=5.5, color=MOVING_COLOR, ha="center", va="center", zorder=9)
+            ax.annotate(f"{t:.1f} s", (x, y), fontsize=7.5, color=MOVING_COLOR, ha="center", va="center", zorder=9)
 
 
 def controls_panel(ax: plt.Axes, frame: pd.DataFrame, bounds: dict, roles: Roles) -> None:

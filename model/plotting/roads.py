@@ -24,7 +24,7 @@ from matplotlib.path import Path as MplPath
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
 from model.analysis.bodies import body_corners, swept_polygons
-from model.plotting.figures import ENERGY_UNIT, apply_style, draw_moving_obstacles, tex
+from model.plotting.figures import ENERGY_UNIT, FIGURE_WIDTH, apply_style, direction_arrow, draw_moving_obstacles, tex
 from model.problem.ocp import OCP
 from model.scene.geometry import Disc
 from model.scene.roundabout import (
@@ -56,6 +56,7 @@ PANEL_LABELS = {
     "articulation": (r"articulation $\theta-\theta_1$", "deg", DEG),
 }
 KMH = 3.6  # km/h per m/s
+FONT = 8.0  # pt: the road figure is FIGURE_WIDTH wide, so its text prints at >= 7 pt (model.plotting.rules)
 
 
 # --------------------------------------------------------------------------- shapes as patches
@@ -176,7 +177,7 @@ def draw_scale_bar(ax: plt.Axes, loc: str = "lower right") -> AnchoredSizeBar:
     length = nice_length(x1 - x0)
     bar = AnchoredSizeBar(
         ax.transData, length, f"{length:g} m", loc, pad=0.4, borderpad=0.5, sep=3,
-        frameon=True, size_vertical=(x1 - x0) / 150, fontproperties={"size": 7},
+        frameon=True, size_vertical=(x1 - x0) / 150, fontproperties={"size": FONT},
     )  # fmt: skip
     bar.patch.set(alpha=0.85, edgecolor="none")
     bar.set_gid(SCALE_BAR_GID)
@@ -285,7 +286,7 @@ def draw_poses(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray], nodes: np
     draw_moving_obstacles(ax, ocp, t[nodes], float(t[-1]))
     px, py = ocp.vehicle.position
     for k in nodes:
-        ax.annotate(f"{t[k]:.1f} s", (cols[px][k], cols[py][k]), fontsize=5.5, color="black",
+        ax.annotate(f"{t[k]:.1f} s", (cols[px][k], cols[py][k]), fontsize=FONT, color="black",
                     ha="center", va="center", zorder=9)  # fmt: skip
 
 
@@ -326,26 +327,48 @@ def road_figure(
     v = ocp.vehicle
     cols = {k: np.asarray(columns[k], float) for k in ("t", *v.states, *v.controls)}
     (x0, x1), (y0, y1) = plan_limits(ocp, cols)
-    plan_width = 4.9
+    plan_width = 3.7
     rows = _panel_names(ocp, cols)
     least = max(4.0, 1.0 * len(rows))  # about an inch per time panel, so that their labels do not overlap
-    fig = plt.figure(figsize=(7.4, max(least, 0.9 * plan_width * (y1 - y0) / (x1 - x0) + 1.3)), layout="constrained")
-    grid = fig.add_gridspec(len(rows), 2, width_ratios=(plan_width, 7.4 - plan_width))
+    height = max(least, 0.9 * plan_width * (y1 - y0) / (x1 - x0) + 1.6)
+    fig = plt.figure(figsize=(FIGURE_WIDTH, height), layout="constrained")
+    grid = fig.add_gridspec(len(rows), 2, width_ratios=(plan_width, FIGURE_WIDTH - plan_width))
     ax = fig.add_subplot(grid[:, 0])
     draw_roundabout(ax, ocp)
     _draw_envelopes(ax, ocp, cols)
     nodes = np.arange(0, len(cols["t"]), every) if every else pose_nodes(ocp, cols)
     draw_poses(ax, ocp, cols, nodes)
     _draw_tracks(ax, ocp, cols)
+    draw_start_goal(ax, ocp, cols)
     frame_plan(ax, ocp, cols)
     draw_scale_bar(ax)
     draw_north(ax)
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.01), ncol=3, fontsize=6.5, frameon=False,
-              handlelength=2.2, columnspacing=1.0)  # fmt: skip
-    heading = textwrap.fill(title or ocp.title or ocp.name, 95) + (f"\n{note}" if note else "")
-    fig.suptitle(heading, fontsize=8.5)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.01), ncol=2, fontsize=FONT, frameon=False,
+              handlelength=2.0, columnspacing=1.0)  # fmt: skip
+    fig.suptitle(heading_text(title or ocp.title or ocp.name, note), fontsize=FONT)
     _time_panels(fig, grid, ocp, cols, rows)
     return fig
+
+
+def heading_text(title: str, note: str = "", width: int = 100) -> str:
+    """The figure's title and note, each line wrapped to ``width`` characters (the figure's width at 8 pt);
+    a line with TeX math is kept whole when wrapping would split a formula."""
+    lines = [title, *note.splitlines()] if note else [title]
+    out = []
+    for line in lines:
+        wrapped = textwrap.wrap(line, width) or [""]
+        out += wrapped if all(w.count("$") % 2 == 0 for w in wrapped) else [line]
+    return "\n".join(out)
+
+
+def draw_start_goal(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray]) -> None:
+    """The start (green) and goal (red) of the rear axle and arrowheads along it: the direction of travel."""
+    px, py = ocp.vehicle.position
+    x, y = np.asarray(cols[px], float), np.asarray(cols[py], float)
+    for where in (0.25, 0.5, 0.75):
+        direction_arrow(ax, x, y, "black", where=where)
+    ax.plot(x[:1], y[:1], "o", color="tab:green", ms=6, mec="white", mew=0.8, zorder=9, label="start (rear axle)")
+    ax.plot(x[-1:], y[-1:], "s", color="tab:red", ms=6, mec="white", mew=0.8, zorder=9, label="goal (rear axle)")
 
 
 def _panel_names(ocp: OCP, cols: Mapping[str, np.ndarray]) -> list[str]:
@@ -448,11 +471,12 @@ def _time_panels(fig: plt.Figure, grid, ocp: OCP, cols: Mapping[str, np.ndarray]
         for b in ocp.bounds.get(name, ()):
             if np.isfinite(b):
                 ax.axhline(scale * b, color="0.45", lw=0.7, ls="--")
-        ax.set_ylabel(f"{text}\n({unit})" if unit else text, fontsize=7.5)
-        ax.tick_params(labelsize=7)
+        head, _, last = text.rpartition(" ")  # two short lines: "steering rate" over "$u_2$ (deg/s)"
+        ax.set_ylabel(f"{head}\n{last}" + (f" ({unit})" if unit else "") if head else text, fontsize=FONT)
+        ax.tick_params(labelsize=FONT)
         if i < len(rows) - 1:
             ax.tick_params(labelbottom=False)
-    ax.set_xlabel("t (s)", fontsize=7.5)
+    ax.set_xlabel("t (s)", fontsize=FONT)
 def road_note(summary: Mapping, ocp: OCP | None = None, columns: Mapping | None = None) -> str:
     """The lines under the figure's title: final time, energy and the least clearance at the nodes;
     with the problem and its node columns, how it drives (time-optimal or its design speed and limits),

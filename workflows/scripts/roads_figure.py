@@ -23,10 +23,11 @@ from model.problem.scenario import load_scenario  # noqa: E402
 from model.studies.roads import road_limits_note  # noqa: E402
 
 
-def heading_note(scenario: Path, summary: dict, ocp, columns) -> str:
-    """``road_note`` with the road's own driving label (at operational limits, where it is) and its limits note."""
+def heading_note(scenario: Path, summary: dict, ocp, columns, limits: bool = False) -> str:
+    """``road_note`` with the road's own driving label (at operational limits, where it is); with ``limits``
+    its limits note too (the paper's caption states it, so its figure leaves it out)."""
     note = road_note(summary, ocp, columns).replace(driving_label(ocp), driving(scenario, ocp))
-    return note + "\n" + textwrap.fill(road_limits_note(scenario, summary), 130)
+    return note + ("\n" + textwrap.fill(road_limits_note(scenario, summary), 100) if limits else "")
 
 
 def main() -> None:
