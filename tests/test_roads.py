@@ -212,14 +212,17 @@ def test_the_road_section_labels_every_run_with_its_limits(tmp_path):
                    cwd=ROOT, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})  # fmt: skip
     text, lim = out.read_text(), operational_limits("SU-30")
     rows = [line for line in text.splitlines() if line.startswith("| truck-straight-on")]
-    header = next(line for line in text.splitlines() if line.startswith("| scenario"))
-    assert len(rows) == 2 and all(r.count("|") == header.count("|") for r in rows)  # the notes break no column
+    setting, solved = (line for line in text.splitlines() if line.startswith("| scenario"))
+    heads = [setting] * 2 + [solved] * 2
+    assert len(rows) == 4 and all(r.count("|") == h.count("|") for r, h in zip(rows, heads, strict=True))
+    # the setting table's limits cell (short); the full notes in the captions and the text
+    assert f"none: a_lat 7.25 > {lim.lateral_acceleration:g}" in rows[0]
+    assert "held: a_lat 1.75, a -2.25 to 1.25" in rows[1]
     without = (f"kinematic model without operational limits: max lateral acceleration 7.25 m/s^2 (above the SU-30's "
                f"allowed {lim.lateral_acceleration:g} m/s^2)")  # fmt: skip
     at = (f"operational limits of the SU-30: a in [{lim.acceleration[0]:g}, {lim.acceleration[1]:g}] m/s^2, jerk in "
           f"[{lim.jerk[0]:g}, {lim.jerk[1]:g}] m/s^3, lateral acceleration at most {lim.lateral_acceleration:g} m/s^2; "
           "reached: max lateral acceleration 1.75 m/s^2, a in [-2.25, 1.25] m/s^2")  # fmt: skip
-    assert without in rows[0] and at in rows[1]
     captions = [line for line in text.splitlines() if line.startswith("![truck-straight-on")]
     assert without in captions[0] and at in captions[1]
     assert "$T_f$ = 18.50 s" in text and "truck-straight-on without the limits: $T_f$ = 10.50 s" in text

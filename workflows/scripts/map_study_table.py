@@ -22,7 +22,7 @@ from model.plotting.maps import draw_lanelets, draw_swept, map_limits
 from model.plotting.roads import draw_scale_bar
 from model.problem.maps import map_of
 from model.studies.maps import movements
-from model.studies.roads import limits_note
+from model.studies.roads import limits_cell, limits_note, preset_citation
 
 COLUMNS = {
     "preset": "vehicle",
@@ -40,6 +40,34 @@ COLUMNS = {
     "limits": "limits",
     "diagnosis": "diagnosis",
 }
+
+
+# the section's cell table: the columns of COLUMNS that fit a page (the lanelets used and the full limits note are
+# in table.csv and table.md), the limits in a table cell's length
+PAPER_COLUMNS = {k: v for k, v in COLUMNS.items() if k not in ("lanelets_used", "limits", "diagnosis")} | {
+    "limits_cell": "limits (m/s^2)"
+} | {"to_lanelet": "goal on lanelet"}
+# the section's number formats: times to 0.01 s, clearances to the millimetre, depths to 1 cm, areas to 0.1 m^2
+FORMATS = {"final_time": ".2f", "min_clearance": ".3f", "min_clearance_dense": ".3f", "apron_used_m": ".2f",
+           "apron_area_m2": ".1f"}  # fmt: skip
+
+
+def lanelet_words(ids: list) -> str:
+    """Lanelet ids in words, never in brackets (which read as a citation): "lanelet 50", "lanelets 50 and 51"."""
+    names = [str(i) for i in ids]
+    if not names:
+        return "no lanelets"
+    if len(names) == 1:
+        return f"lanelet {names[0]}"
+    return f"lanelets {', '.join(names[:-1])} and {names[-1]}"
+
+
+def paper_rows(df: pd.DataFrame) -> list[dict]:
+    """The cells as the section prints them (``FORMATS``; a missing value stays missing)."""
+    out = []
+    for r in df.to_dict("records"):
+        out.append(r | {k: format(r[k], f) for k, f in FORMATS.items() if isinstance(r.get(k), float) and r[k] == r[k]})
+    return out
 
 
 def note(c: dict) -> str | None:
@@ -78,6 +106,12 @@ def flat(c: dict) -> dict:
         "speed_bound": c.get("speed_bound"),
         "initial_speed": c.get("initial_speed"),
         "limits": limits_of(c),
+        "max_abs_lateral": c.get("max_abs_lateral_acceleration") if valid else None,
+        "min_acceleration": c.get("min_acceleration") if valid else None,
+        "max_acceleration": c.get("max_acceleration") if valid else None,
+        "limits_cell": limits_cell(c["preset"], bool(c.get("operational")),
+                                   c.get("max_abs_lateral_acceleration") if valid else None,
+                                   (c.get("min_acceleration"), c.get("max_acceleration")) if valid else None),
     }
 
 
@@ -139,16 +173,40 @@ def movement_key(name: str) -> tuple[int, int]:
     return int(entry), int(exit_)
 
 
+def apron_label(apron: bool) -> str:
+    return "with apron" if apron else "without apron"
+
+
 def matrix(df: pd.DataFrame) -> str:
-    """Movement rows x vehicle columns: Tf with / without the apron, "fails" where a cell fails."""
+    """Movement rows x (vehicle, apron) columns: Tf (s), "fails" where a cell fails."""
+    columns = {(p, a): f"{p}, {apron_label(a)}" for p in dict.fromkeys(df.preset)
+               for a in sorted(set(df.apron), reverse=True)}  # fmt: skip
     rows = []
     for movement in sorted(set(df.movement), key=movement_key):
         row = {"movement": movement}
-        for preset in dict.fromkeys(df.preset):
-            g = df[(df.movement == movement) & (df.preset == preset)].sort_values("apron", ascending=False)
-            row[preset] = " / ".join(f"{r.final_time:.1f}" if r.valid else "fails" for r in g.itertuples())
+        for (preset, apron), header in columns.items():
+            g = df[(df.movement == movement) & (df.preset == preset) & (df.apron == apron)]
+            row[header] = "" if g.empty else (f"{g.iloc[0].final_time:.1f}" if g.iloc[0].valid else "fails")
         rows.append(row)
-    return table(rows, {"movement": "movement", **{p: p for p in dict.fromkeys(df.preset)}})
+    return table(rows, {"movement": "movement", **{h: h for h in columns.values()}})
+
+
+def preset_limits(df: pd.DataFrame) -> list[str]:
+    """One line per vehicle (and limits setting): its limits and the extremes its passing cells reached."""
+    lines = []
+    for (name, operational), g in df[df.valid].groupby(["preset", "operational"], sort=False):
+        low, high, lateral = (g[k].dropna() for k in ("min_acceleration", "max_acceleration", "max_abs_lateral"))
+        accel = (float(low.min()), float(high.max())) if len(low) and len(high) else None
+        reached = float(lateral.max()) if len(lateral) else None
+        lines.append(f"- {name}: {limits_note(name, bool(operational), reached, accel)}.")
+    return ["The limits of each vehicle and the extremes its passing cells reached:", "", *lines, ""] if lines else []
+
+
+def notes(df: pd.DataFrame) -> list[str]:
+    """Each cell's diagnosis or note (none: no lines)."""
+    found = [f"- {r['preset']} {r['movement']} {apron_label(r['apron'])}: {r['diagnosis']}."
+             for r in df.to_dict("records") if isinstance(r.get("diagnosis"), str)]  # fmt: skip
+    return ["Diagnoses and notes:", "", *found, ""] if found else []
 
 
 def shapely_of(feature: dict):
@@ -162,11 +220,13 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
     lines = [
         "## A real roundabout: turning paths of the design vehicles",
         "",
-        f"Every movement (entry lanelet x exit lanelet that a route connects through the ring) of the rounD"
-        f" roundabout {template['map'].get('dataset', template['map'].get('file'))} (CommonRoad map; {n_movements}"
-        f" movements in the map's lanelet graph), for each design vehicle, with and without the apron lanelets"
-        f" {template['route'].get('apron_lanelets', [])}. **This is the `map_study: {mode}` run**: vehicles"
-        f" {', '.join(grid['vehicles'])}; movements {', '.join(grid['movements'])}; apron"
+        f"Every movement (entry lanelet x exit lanelet that a route connects through the ring, written entry-exit)"
+        f" of the roundabout {template['map'].get('dataset', template['map'].get('file'))} of the rounD dataset"
+        f" [@round2020] (its CommonRoad map [@commonroad2017]; {n_movements} movements in the map's lanelet graph),"
+        f" for each design vehicle, with and without the apron"
+        f" ({lanelet_words(template['route'].get('apron_lanelets', []))}). **This is the `map_study: {mode}` run**:"
+        f" vehicles {', '.join(preset_citation(v) for v in grid['vehicles'])}; movements"
+        f" {', '.join(grid['movements'])}; apron"
         f" {', '.join('with' if a else 'without' for a in grid['apron'])}; N = {grid['intervals']}"
         + (" (`map_study: full` in workflows/config.yaml runs P, SU-30, WB-40, WB-62 and the EU-semitrailer on"
            " every movement)." if mode != "full" else ".")  # fmt: skip
@@ -189,16 +249,21 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         "",
         limits_paragraph(df),
         "",
-        "The turning-path table: minimum time Tf in seconds, " + " / ".join(
-            "with the apron" if a else "without it" for a in sorted(set(df.apron), reverse=True))
-        + " (fails: no valid trajectory, the diagnosis below):",
+        f"Table: The turning-path table of the `{mode}` run: the minimum time Tf (s) of each movement (entry-exit"
+        " lanelet), one column per vehicle and apron setting; fails: no valid trajectory (the diagnosis below).",
         "",
         matrix(df),
         "",
-        "Every cell (`table.csv` has the route's lanelets and offsets too):",
+        "Table: Every cell: how the vehicle may use the apron, the lanelet the goal is on, the result, Tf (s), the"
+        " grid N, the smallest clearance at the nodes and between them (m), how deep (m) and how much (m^2) of the"
+        " swept area lies on the apron, and the limits (m/s^2): *held* at the preset's operational limits with the"
+        " largest lateral acceleration a_lat and the acceleration a reached, or *none* with a_lat against the"
+        " preset's allowed one (`table.csv` has the route's lanelets, offsets and full notes too).",
         "",
-        table(df.to_dict("records"), COLUMNS),
+        table(paper_rows(df), PAPER_COLUMNS),
         "",
+        *preset_limits(df),
+        *notes(df),
         *gap_note(df, template),
     ]
     for path, caption in figures:
@@ -211,7 +276,8 @@ def gap_note(df: pd.DataFrame, template: dict) -> list[str]:
     gaps = df.apron_gap_m.dropna()
     if gaps.empty or float(gaps.min()) <= 1e-3:
         return []
-    return [f"The apron lanelets {template['route'].get('apron_lanelets')} do not touch the corridor's lanes: they lie"
+    apron = lanelet_words(template["route"].get("apron_lanelets", []))
+    return [f"The apron ({apron}) does not touch the corridor's lanes: it lies"
             f" {float(gaps.min()):.2f} m from them (a strip no lanelet covers, which no body may cross), so on this"
             " map the apron cannot be reached, and a cell with it poses the problem of the cell without it.",
             ""]  # fmt: skip

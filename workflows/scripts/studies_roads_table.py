@@ -15,7 +15,7 @@ from studies_common import fmt, parser, plt, table, write_text
 from studies_common import limits_paragraph as common_limits_paragraph
 
 from model.plotting.figures import ENERGY_UNIT, save
-from model.studies.roads import limits_note
+from model.studies.roads import limits_cell, limits_note, preset_citation
 
 
 def load(cells: list[Path]) -> list[dict]:
@@ -69,25 +69,34 @@ def flat(c: dict) -> dict:
         "initial_speed": c.get("initial_speed"),
         "max_abs_lateral_acceleration": t.get("max_abs_lateral_acceleration") if t["valid"] else None,
         "limits": limits_of(c),
+        "min_acceleration": t.get("min_acceleration") if t["valid"] else None,
+        "max_acceleration": t.get("max_acceleration") if t["valid"] else None,
     }
 
 
 def limits_of(c: dict) -> str:
-    """The cell's limits note (model.studies.roads.limits_note): what it was held to and what it reached."""
+    """The cell's limits in a table cell (model.studies.roads.limits_cell): held to the preset's or not, and
+    what it reached (the section's limits paragraph states each preset's limits)."""
     t = c["time"]
+    operational = bool(c.get("operational"))
     if not t["valid"]:
-        return limits_note(c["preset"], bool(c.get("operational")), None) if c.get("operational") else (
-            "kinematic model without operational limits")
-    return limits_note(c["preset"], bool(c.get("operational")), t.get("max_abs_lateral_acceleration"),
+        return limits_cell(c["preset"], operational, None)
+    return limits_cell(c["preset"], operational, t.get("max_abs_lateral_acceleration"),
                        (t.get("min_acceleration"), t.get("max_acceleration")))  # fmt: skip
 
 
 def energy_header(df: pd.DataFrame, ratio: float) -> str:
-    """The energy column's header: J of u1 and u2 without the limits; at them J integrates the jerk j for u1."""
+    """The energy column's header; the caption says what J integrates (``energy_words``)."""
+    return f"J at {ratio:g} T_min"
+
+
+def energy_words(df: pd.DataFrame) -> str:
+    """What J integrates: u1 and u2 without the limits; at them the jerk j for u1."""
     if not df.operational.any():
-        return f"J at {ratio:g} T_min ({ENERGY_UNIT})"
-    what = "1/2 int j^2 + u2^2 dt" if df.operational.all() else "of each cell's controls: j for u1 at the limits"
-    return f"J at {ratio:g} T_min ({what})"
+        return f"1/2 int u1^2 + u2^2 dt ({ENERGY_UNIT})"
+    if df.operational.all():
+        return "1/2 int j^2 + u2^2 dt, the jerk j in m/s^3 for u1"
+    return f"1/2 int of each cell's controls squared ({ENERGY_UNIT}; at the limits the jerk j for u1)"
 
 
 def limits_paragraph(df: pd.DataFrame) -> str:
@@ -215,23 +224,40 @@ def caption(df: pd.DataFrame, aprons: list[float], by_icd: bool, lines: bool, fa
 
 
 def matrix(df: pd.DataFrame) -> str:
-    """Vehicle rows x ICD columns: minimum time without / with the apron, 'no' where infeasible."""
+    """Vehicle and apron rows x ICD columns: the minimum time (s), 'no' where no valid trajectory."""
     icds = sorted(df.icd.unique())
     rows = []
     for name in dict.fromkeys(df.preset):
-        row = {"preset": name}
-        for icd in icds:
-            parts = []
-            for apron in sorted(df.apron.unique()):
+        for apron in sorted(df.apron.unique()):
+            row = {"preset": name, "apron": f"{apron:g}"}
+            for icd in icds:
                 g = df[(df.preset == name) & (df.icd == icd) & (df.apron == apron)]
-                if g.empty:
-                    parts.append("")
-                else:
-                    r = g.iloc[0]
-                    parts.append(fmt(r.t_min, 4) if r.feasible else "no")
-            row[f"{icd:g}"] = " / ".join(parts)
-        rows.append(row)
-    return table(rows, {"preset": "vehicle", **{f"{i:g}": f"ICD {i:g} m" for i in icds}})
+                row[f"{icd:g}"] = "" if g.empty else (fmt(g.iloc[0].t_min, 4) if g.iloc[0].feasible else "no")
+            rows.append(row)
+    return table(rows, {"preset": "vehicle", "apron": "apron (m)", **{f"{i:g}": f"ICD {i:g} m" for i in icds}})
+
+
+def preset_limits(df: pd.DataFrame) -> list[str]:
+    """One line per vehicle (and limits setting): its limits and the extremes its valid cells reached."""
+    lines = []
+    for (name, operational), g in df[df.feasible].groupby(["preset", "operational"], sort=False):
+        low, high = g.min_acceleration.dropna(), g.max_acceleration.dropna()
+        accel = (float(low.min()), float(high.max())) if len(low) and len(high) else None
+        lateral = g.max_abs_lateral_acceleration.dropna()
+        reached = float(lateral.max()) if len(lateral) else None
+        lines.append(f"- {name}: {limits_note(name, bool(operational), reached, accel)}.")
+    if not lines:
+        return []
+    return ["The limits of each vehicle and the extremes its valid cells reached:", "", *lines, ""]
+
+
+def diagnoses(df: pd.DataFrame) -> list[str]:
+    """One line per cell without a valid trajectory: its diagnosis (none: no lines)."""
+    failed = df[~df.feasible].to_dict("records")
+    if not failed:
+        return []
+    items = [f"- {r['preset']}, ICD {r['icd']:g} m, apron {r['apron']:g} m: {r['diagnosis'] or '-'}." for r in failed]
+    return ["The cells without a valid trajectory and their diagnoses:", "", *items, ""]
 
 
 def budgets(grid: dict) -> str:
@@ -244,22 +270,35 @@ def budgets(grid: dict) -> str:
     return f" Budgets per cell: {' and '.join(parts)} (past it, the best validated answer or a refusal)."
 
 
+def cell_rows(df: pd.DataFrame) -> list[dict]:
+    """The cells as the table prints them: lengths to the millimetre, times and J to 4 significant digits."""
+    out = []
+    for r in df.to_dict("records"):
+        out.append(r | {
+            "result": "valid" if r["feasible"] else "FAILED",
+            "apron_used_m": None if pd.isna(r["apron_used_m"]) else f"{r['apron_used_m']:.3f}",
+            "swept_width_m": None if pd.isna(r["swept_width_m"]) else f"{r['swept_width_m']:.3f}",
+        })  # fmt: skip
+    return out
+
+
 def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, ratio: float, caption: str) -> str:
     rb = template["roundabout"]
     leg = rb["legs"][0]
     n_fail = int((~df.feasible).sum())
     cpu = df.seconds.sum()
     process = df.cpu_seconds.sum() if df.cpu_seconds.notna().all() else None
-    aprons = sorted(df.apron.unique())
     lines = [
         "## Design vehicles and roundabout sizes",
         "",
         f"A left turn (the third exit of a four-leg roundabout, right-hand traffic) for each design vehicle,"
         f" inscribed circle diameter and apron. **This is the `road_studies: {mode}` run**: vehicles"
-        f" {', '.join(grid['vehicles'])}; ICD {', '.join(f'{i:g}' for i in grid['icd'])} m; apron"
+        f" {', '.join(preset_citation(v) for v in grid['vehicles'])};"
+        f" ICD {', '.join(f'{i:g}' for i in grid['icd'])} m; apron"
         f" {', '.join(f'{a:g}' for a in grid['apron'])} m; N = {grid['intervals']} intervals"
         + (
-            " (`road_studies: full` in workflows/config.yaml runs every AASHTO preset and the EU-semitrailer at"
+            " (`road_studies: full` in workflows/config.yaml runs every AASHTO preset [@aashto2018] and the"
+            " EU-semitrailer [@directive9653] at"
             " ICD 25 to 55 m)."
             if mode != "full"
             else "."
@@ -284,12 +323,18 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
         "",
         limits_paragraph(df),
         "",
-        "Minimum time in seconds, " + " / ".join(f"apron {a:g} m" for a in aprons) + " (no: no valid trajectory):",
+        f"Table: Minimum time T_min (s) of the left turn, one row per design vehicle and apron width (m), one"
+        f" column per inscribed circle diameter; no: no valid trajectory ({n_fail} such cells).",
         "",
         matrix(df),
         "",
+        f"Table: Every cell of the `{mode}` run: the minimum time T_min (s), the energy-optimal J at {ratio:g}"
+        f" T_min ({energy_words(df)}), how far the time-optimal manoeuvre reaches onto the apron and its swept"
+        " width (m), and its limits (m/s^2): *held* at the preset's operational limits with the largest lateral"
+        " acceleration a_lat and the acceleration a reached, or *none* with a_lat against the preset's allowed one.",
+        "",
         table(
-            df.assign(result=["valid" if f else "FAILED" for f in df.feasible]).to_dict("records"),
+            cell_rows(df),
             {
                 "preset": "vehicle",
                 "icd": "ICD (m)",
@@ -299,11 +344,12 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
                 "energy": energy_header(df, ratio),
                 "apron_used_m": "apron used (m)",
                 "swept_width_m": "swept width (m)",
-                "limits": "limits",
-                "diagnosis": "diagnosis",
+                "limits": "limits (m/s^2)",
             },  # fmt: skip
         ),
         "",
+        *preset_limits(df),
+        *diagnoses(df),
         *(line for part in outlier_lines(df) for line in (part, "")),
         f"![{caption}]({fig})",
         "",

@@ -29,9 +29,10 @@ from model.plotting.roads import draw_roundabout, draw_scale_bar, geometry_patch
 from model.problem.scenario import load_scenario, parse_scenario
 from model.studies.roads import (
     apron_used,
-    limits_note,
+    limits_cell,
     operational_document,
     operational_text,
+    preset_citation,
     reference_preset,
     swept_width,
 )
@@ -199,6 +200,49 @@ def findings(tmin: dict, ok: list[dict], failed: list[dict], spread: float | Non
     )
 
 
+# the tables' number formats: times to 0.01 s, J to 4 significant digits, speeds to 0.01 m/s, lengths to 1 mm
+FORMATS = {"ratio": ".3g", "final_time": ".2f", "energy": "#.4g", "max_speed": ".2f", "mean_speed": ".2f",
+           "speed_share": ".4f", "path_length": ".2f", "apron_used_m": ".3f", "swept_width_m": ".3f",
+           "min_clearance": ".3f"}  # fmt: skip
+
+
+def shown_rows(rows: list[dict], preset: str | None) -> list[dict]:
+    """The solves as the tables print them (``FORMATS``), with their status and limits cell."""
+    out = []
+    for r in rows:
+        cells = {k: format(v, FORMATS[k]) if k in FORMATS and isinstance(v, float) else v for k, v in r.items()}
+        status = "valid" if r["valid"] else f"FAILED: {r['diagnosis'] or r['status']}"
+        lateral = limits_cell(preset, False, r.get("max_abs_lateral_acceleration")) if preset else None
+        out.append(cells | {"ratio": cells["ratio"] or "1", "status": status, "limits": lateral})
+    return out
+
+
+def solve_tables(rows: list[dict], preset: str | None) -> list[str]:
+    """The solves in two captioned tables: time and energy; the path, the apron, the clearance and the limits."""
+    shown = shown_rows(rows, preset)
+    first = {"objective": "objective", "ratio": "Tf / T_min", "final_time": "Tf (s)", "energy": f"J ({ENERGY_UNIT})",
+             "max_speed": "max speed (m/s)", "mean_speed": "mean speed (m/s)", "speed_share": "share of J from u1",
+             "iterations": "iterations", "status": "status"}  # fmt: skip
+    second = {"objective": "objective", "ratio": "Tf / T_min", "path_length": "path (m)",
+              "apron_used_m": "apron used (m)", "swept_width_m": "swept width (m)", "min_clearance": "clearance (m)",
+              **({"limits": "limits (m/s^2)"} if preset else {})}  # fmt: skip
+    return [
+        f"Table: The minimum-time solve and the energy-optimal solves at fixed multiples of its final time: Tf (s),"
+        f" the energy J = 1/2 int u1^2 + u2^2 dt ({ENERGY_UNIT}), the largest and mean speed (m/s), the share of J"
+        " from the speed term, Ipopt's iterations [@ipopt] and the validation.",
+        "",
+        table(shown, first),
+        "",
+        "Table: The same solves on the roundabout: the rear-axle path length, how far the bodies reach onto the"
+        " apron, the swept width in the ring and the smallest clearance (m)"
+        + (f"; limits: the kinematic model (*none*) with its largest lateral acceleration a_lat against the"
+           f" {preset}'s allowed one (m/s^2)." if preset else "."),
+        "",
+        table(shown, second),
+        "",
+    ]
+
+
 def section(ocp, rows: list[dict], fig: Path, intervals: int, spread: float | None = None,
             preset: str | None = None, reference: dict | None = None) -> str:  # fmt: skip
     """The section; ``preset``: whose limits each row is set beside; ``reference``: ``operational_reference``."""
@@ -209,8 +253,10 @@ def section(ocp, rows: list[dict], fig: Path, intervals: int, spread: float | No
     lines = [
         "## Energy against time on a real roundabout",
         "",
-        f"The seed paper compares an energy-optimal with a time-optimal trajectory around a disc. Here the same"
-        f" comparison on a real roundabout: *{ocp.title}* (workflows/scenarios/roads/{ocp.name}.toml; forward"
+        f"The seed paper [@seed] compares an energy-optimal with a time-optimal trajectory around a disc. Here the"
+        f" same comparison on a real roundabout: *{ocp.title}*"
+        + f" ({f'the preset {preset_citation(preset)}; ' if preset else ''}workflows/scenarios/roads/{ocp.name}.toml;"
+        " forward"
         f" driving only, the steering limit of the preset, N = {intervals}). First the minimum time T_min, then"
         " the energy-optimal problem at fixed final times, each started from the previous solution; every solve"
         " validated with the exact rectangles in the exact corridor.",
@@ -220,21 +266,8 @@ def section(ocp, rows: list[dict], fig: Path, intervals: int, spread: float | No
         lines += [f"The minimum-time problem FAILED: {tmin['diagnosis'] or tmin['status']}; no trade-off is computed.",
                   ""]  # fmt: skip
         return "\n".join(lines)
-    cols = {"objective": "objective", "ratio": "Tf / T_min", "final_time": "Tf (s)", "energy": f"J ({ENERGY_UNIT})",
-            "max_speed": "max speed (m/s)", "mean_speed": "mean speed (m/s)", "apron_used_m": "apron used (m)",
-            "path_length": "path (m)", "speed_share": "share of J from u1",
-            "swept_width_m": "swept width (m)", "min_clearance": "clearance (m)", "iterations": "iterations",
-            "status": "status", **({"limits": "limits"} if preset else {})}  # fmt: skip
-    shown = [
-        {
-            **r,
-            "ratio": r["ratio"] or 1.0,
-            "status": "valid" if r["valid"] else f"FAILED: {r['diagnosis'] or r['status']}",
-            "limits": limits_note(preset, False, r.get("max_abs_lateral_acceleration")) if preset else None,
-        }
-        for r in rows
-    ]
-    lines += [table(shown, cols), "", *reference_lines(reference, tmin)]
+    lines += solve_tables(rows, preset)
+    lines += reference_lines(reference, tmin)
     if ok:
         lines += [findings(tmin, ok, failed, spread), ""]
     lines += [
