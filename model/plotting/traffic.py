@@ -22,7 +22,8 @@ from matplotlib.patches import Polygon as PolygonPatch
 from PIL import Image
 
 from model.analysis.bodies import body_corners
-from model.plotting.roads import BODY_COLORS, draw_roundabout, draw_scale_bar
+from model.plotting.figures import FIGURE_WIDTH, direction_arrow
+from model.plotting.roads import BODY_COLORS, FONT, draw_roundabout, draw_scale_bar
 from model.problem.ocp import OCP
 from model.vehicles.body import centred_rectangle
 
@@ -49,7 +50,7 @@ def time_space(ocp: OCP, traffic: Columns, trajectory: Columns, record: Mapping)
     """Positions on the ring from the conflict line against time: the others, the truck's ends, its marks."""
     ra = ocp.road.roundabout
     axis = ra.legs[ocp.road.route.enter].angle
-    fig, ax = plt.subplots(figsize=(8.0, 4.8))
+    fig, ax = plt.subplots(figsize=(FIGURE_WIDTH, 4.6), layout="constrained")
     cx, cy = (np.asarray(traffic[c], float) for c in OTHER_COLUMNS[:2])
     r = np.hypot(cx - ra.center[0], cy - ra.center[1])
     on = (r >= ra.inner_radius - 0.5) & (r <= ra.outer_radius + 0.5)
@@ -77,23 +78,24 @@ def time_space(ocp: OCP, traffic: Columns, trajectory: Columns, record: Mapping)
             label = f"truck {key.replace('cleared', 'entry cleared')}"
             ax.axvline(record[key], color="0.35", ls=style, lw=1.0, label=label)
     ax.axhline(0.0, color="k", lw=0.6)
-    ax.set(xlabel="simulation time (s)", ylabel="position on the ring from the entry's conflict line (m)",
-           title=f"Conflict zone of the truck's entry ({ocp.name}); | = a passage of the line")  # fmt: skip
+    ax.set(xlabel="simulation time (s)", ylabel="position on the ring from\nthe entry's conflict line (m)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
+    ax.legend(fontsize=FONT, loc="lower left", bbox_to_anchor=(0.0, 1.0), ncols=2, frameon=False,
+              title=f"Conflict zone of the truck's entry ({ocp.name}); | = a passage of the line",
+              title_fontsize=FONT + 1, alignment="left")  # fmt: skip
     return fig
 
 
 class Scene:
     """The roundabout drawn once; the vehicles redrawn at each time."""
 
-    def __init__(self, ax: plt.Axes, ocp: OCP, traffic: Columns, trajectory: Columns):
+    def __init__(self, ax: plt.Axes, ocp: OCP, traffic: Columns, trajectory: Columns, reach: float = 32.0):
+        """``reach``: the view, a square this far (m) beyond the ring's outer curb each side."""
         self.ax, self.ocp = ax, ocp
         self.traffic, self.trajectory = traffic, trajectory
         draw_roundabout(ax, self.ocp, label=False)
         ra = self.ocp.road.roundabout
-        reach = ra.outer_radius + 32
+        reach += ra.outer_radius
         ax.set(xlim=(ra.center[0] - reach, ra.center[0] + reach), ylim=(ra.center[1] - reach, ra.center[1] + reach))
         ax.set_aspect("equal")
         ax.set_xticks([]), ax.set_yticks([])
@@ -121,13 +123,47 @@ def snapshots(ocp: OCP, traffic: Columns, trajectory: Columns, record: Mapping) 
     keys = [k for k in ("arrival", "entry", "cleared") if record.get(k) is not None and math.isfinite(record[k])]
     times = [record[k] for k in keys] + [float(trajectory["t"][-1])]
     names = [*keys, "arrived"]
-    fig, axes = plt.subplots(1, len(times), figsize=(4.0 * len(times), 4.2))
-    for ax, t, name in zip(np.atleast_1d(axes), times, names, strict=True):
-        Scene(ax, ocp, traffic, trajectory).at(t)
-        ax.set_title(f"{name.replace('cleared', 'entry cleared')}: t = {t:.1f} s", fontsize=9)
-    fig.suptitle(f"{ocp.name}: the truck (colour, its bodies) among the other vehicles (grey), to scale")
-    fig.tight_layout()
+    cols = 2 if len(times) > 1 else 1
+    rows = math.ceil(len(times) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(FIGURE_WIDTH, 0.5 * FIGURE_WIDTH * rows + 0.5), layout="constrained")
+    axes = np.atleast_1d(axes).ravel()
+    reach = snapshot_reach(ocp, trajectory, times)
+    for ax, t, name in zip(axes, times, names, strict=False):
+        scene = Scene(ax, ocp, traffic, trajectory, reach=reach)
+        scene.at(t)
+        scene.label.set_visible(False)  # the panel's title says the time
+        draw_route(ax, ocp, trajectory)
+        ax.set_title(f"{name.replace('cleared', 'entry cleared')}: t = {t:.1f} s", fontsize=FONT + 1)
+    for ax in axes[len(times):]:
+        ax.set_visible(False)
+    fig.suptitle(f"{ocp.name}: the truck (colour, its bodies) among the other vehicles (grey), to scale;\n"
+                 "its route dotted with arrowheads, from the green dot to the red square",
+                 fontsize=FONT + 1)  # fmt: skip
     return fig
+
+
+def draw_route(ax: plt.Axes, ocp: OCP, trajectory: Columns) -> None:
+    """The truck's route (its rear axle's path) dotted, arrowheads along it, its start and goal marked."""
+    px, py = ocp.vehicle.position
+    x, y = np.asarray(trajectory[px], float), np.asarray(trajectory[py], float)
+    color = body_color(next(iter(ocp.bodies), "vehicle"))
+    ax.plot(x, y, ls=":", color=color, lw=1.0, zorder=4)
+    for where in (0.3, 0.6):
+        direction_arrow(ax, x, y, color, where=where)
+    ax.plot(x[:1], y[:1], "o", color="tab:green", ms=5, zorder=7)
+    ax.plot(x[-1:], y[-1:], "s", color="tab:red", ms=5, zorder=7)
+
+
+def snapshot_reach(ocp: OCP, trajectory: Columns, times, margin: float = 6.0) -> float:
+    """How far beyond the ring's outer curb the snapshots must look to hold the truck at ``times`` (m), at
+    least 8 m: the vehicles large, the ring and the truck in every panel."""
+    ra = ocp.road.roundabout
+    corners = body_corners(ocp, {n: trajectory[n] for n in ocp.vehicle.states})
+    t = np.asarray(trajectory["t"], float)
+    rows = [int(np.argmin(np.abs(t - s))) for s in times]
+    pts = np.concatenate([c[rows].reshape(-1, 2) for c in corners.values()])
+    far = np.max(np.abs(pts - np.asarray(ra.center, float)))
+    return max(8.0, far - ra.outer_radius + margin)
 
 
 def animation(ocp: OCP, traffic: Columns, trajectory: Columns, record: Mapping, path: Path, every: float = 0.5) -> Path:

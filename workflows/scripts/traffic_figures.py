@@ -42,10 +42,10 @@ def main() -> None:
     save(snapshots(ocp, traffic, trajectory, record), args.out / "snapshots")
     animation(ocp, traffic, trajectory, record, args.out / "traffic.gif")
     args.fragment.write_text(
-        f"One run drawn ({cell['cell']}, seed {seed}): the conflict zone in time and space, snapshots"
-        f" and an animation, every vehicle to scale.\n\n![Time-space diagram]({args.link}/time-space.png)\n\n"
-        f"![Snapshots]({args.link}/snapshots.png)\n\n![Animation (the PDF shows its first frame)]"
-        f"({args.link}/traffic.gif)\n"
+        f"One run drawn ({cell['cell']}, seed {seed}): the conflict zone in time and space and snapshots,"
+        f" every vehicle to scale; the run's animation is [{args.link}/traffic.gif]({args.link}/traffic.gif)"
+        f" (not a figure: its frames are the snapshots' scene).\n\n![Time-space diagram]({args.link}/time-space.png)"
+        f"\n\n![Snapshots]({args.link}/snapshots.png)\n"
     )
 
 
