@@ -96,14 +96,15 @@ def test_section_from_two_fake_result_files(section, tmp_path):
                   "--formats", "png", "--out", str(out)])  # fmt: skip
     text = out.read_text()
     assert "Study grid **demo**" in text and "runs per setting 50" in text
-    assert "| 1 | open-loop | 50 | 0% | 8 / 16 |" in text and "| 1 | mpc | 50 | 100% | 0.4 / 0.8 |" in text
+    assert "| 1 | open-loop | 50 | 0% | 8 | 16 |" in text and "| 1 | mpc | 50 | 100% | 0.4 | 0.8 |" in text
+    assert "load average" not in text  # the machine's load is not a result of the study
     assert "MPC ends 20 times closer to the goal than the open-loop replay" in text
     assert "objective / optimum" not in text  # plain energy: the objective is the energy
     assert (tmp_path / "fig" / "errors.png").exists() and (tmp_path / "fig" / "paths.png").exists()
 
 
 @pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed")
-def test_rule_file_plans_one_job_per_setting(tmp_path):
+def test_rule_file_plans_one_job_per_geometry_and_level(tmp_path):
     config = tmp_path / "config.yaml"
     config.write_text(
         "closed_loop_study: tiny\nclosed_loop_studies:\n  tiny:\n    geometries: [s2]\n    levels: [0, 1]\n"
@@ -117,5 +118,8 @@ def test_rule_file_plans_one_job_per_setting(tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     assert "results/closed-loop/tiny/s2/level1/mpc/row.json" in done.stdout
     assert "results/closed-loop/tiny/truck-weighted/level1/mpc/row.json" in done.stdout
-    counts = [line.split() for line in done.stdout.splitlines() if line.startswith("closed_loop_setting")]
-    assert counts and int(counts[0][1]) == 5
+    assert "results/closed-loop/tiny/s2/level0/open-loop/row.json" in done.stdout
+    # one job per geometry x level (the optimum solved once for its controllers): s2 0, s2 1, truck-weighted 1
+    jobs = {line.split()[0] for line in done.stdout.splitlines() if line.startswith("closed_loop_")}
+    assert jobs == {"closed_loop_s2_level0", "closed_loop_s2_level1", "closed_loop_truck_weighted_level1",
+                    "closed_loop_section"}  # fmt: skip

@@ -1,8 +1,8 @@
 """Closed-loop study (issue 13, item 5): MPC versus the Pontryagin optimum, a Monte Carlo over disturbance levels.
 
-One job per setting (geometry x disturbance level x controller, plus the config's extra settings):
-workflows/scripts/closed_loop_runs.py solves the geometry's open-loop optimum and runs K seeded
-closed loops (docs/closed-loop-format.md). The geometries are workflows/scenarios/closed-loop/*.toml
+One job per geometry x disturbance level (its controllers, plus the config's extra settings):
+workflows/scripts/closed_loop_runs.py solves the geometry's open-loop optimum once and runs K seeded
+closed loops of each controller (docs/closed-loop-format.md). The geometries are workflows/scenarios/closed-loop/*.toml
 (a sub-folder: the `scenarios` glob of config.yaml does not reach it); each file's [disturbance] is
 level 1. The study (config closed_loop_study: small, the default inside the rebuild's budget, or
 full) names the grid; the paper's section says which one was run.
@@ -48,22 +48,37 @@ wildcard_constraints:
     cl_controller="|".join(CL_CONTROLLERS),
 
 
-rule closed_loop_setting:
-    input:
-        scenario=f"{CL_SCENARIO_DIR}/{{cl_geometry}}.toml",
-        script=SCRIPTS / "closed_loop_runs.py",
-        code=CL_RUNS_CODE,
-    output:
-        "results/closed-loop/{cl_study}/{cl_geometry}/level{cl_level}/{cl_controller}/row.json",
-    params:
-        runs=lambda wc: CL_GRIDS[wc.cl_study].get("runs", 3),
-        out=lambda wc, output: str(Path(output[0]).parent),
-    log:
-        "results/logs/closed-loop/{cl_study}/{cl_geometry}-level{cl_level}-{cl_controller}.log",
-    shell:
-        "{PYTHON} {input.script} --scenario {input.scenario} --geometry {wildcards.cl_geometry}"
-        " --level {wildcards.cl_level} --controller {wildcards.cl_controller} --runs {params.runs}"
-        " --out {params.out} 2> {log}"
+def cl_groups(settings) -> dict[tuple[str, str], list[str]]:
+    """The settings grouped by (geometry, level): one job solves the optimum once and runs each controller."""
+    groups = {}
+    for g, lv, c in settings:
+        groups.setdefault((g, lv), []).append(c)
+    return groups
+
+
+for (_geometry, _level), _controllers in cl_groups(CL_SETTINGS).items():
+
+    rule:
+        name:
+            f"closed_loop_{re.sub(r'[^0-9A-Za-z]', '_', _geometry)}_level{_level.replace('.', '_')}"
+        input:
+            scenario=f"{CL_SCENARIO_DIR}/{_geometry}.toml",
+            script=SCRIPTS / "closed_loop_runs.py",
+            code=CL_RUNS_CODE,
+        output:
+            [f"{CL_DIR}/{_geometry}/level{_level}/{c}/row.json" for c in _controllers],
+        params:
+            geometry=_geometry,
+            level=_level,
+            controllers=" ".join(_controllers),
+            runs=CL_GRID.get("runs", 3),
+            out=f"{CL_DIR}/{_geometry}/level{_level}" if len(_controllers) > 1 else f"{CL_DIR}/{_geometry}/level{_level}/{_controllers[0]}",
+        log:
+            f"results/logs/closed-loop/{CL_STUDY}/{_geometry}-level{_level}.log",
+        shell:
+            "{PYTHON} {input.script} --scenario {input.scenario} --geometry {params.geometry}"
+            " --level {params.level} --controller {params.controllers} --runs {params.runs}"
+            " --out {params.out} 2> {log}"
 
 
 rule closed_loop_section:

@@ -22,7 +22,7 @@ _globs = [config["scenarios"]] if isinstance(config["scenarios"], str) else list
 SCENARIO_FILES = {Path(f).stem: f for g in _globs for f in sorted(glob(str(repo_path(g))))}
 SCENARIOS = sorted(SCENARIO_FILES)
 PAPER_SCENARIOS = [s for s in config.get("paper_keys", {}) if s in SCENARIO_FILES]
-FORMATS = list(config.get("figure_formats", ["pdf", "png"]))
+FORMATS = list(config.get("figure_formats", ["png"]))
 
 sys.path.insert(0, str(ROOT / "tools"))
 from import_graph import closure  # noqa: E402  (a rule depends on the code its script can import)

@@ -4,8 +4,9 @@ The scenario file's ``[disturbance]`` is the level-1 disturbance; level ``L`` sc
 (``disturbance_at``): speed gain 1 + L (g - 1), steering bias, drift and noise times L, true lengths
 model + L (true - model), the actuator delay rounded to whole samples (L x its samples, halves up).
 Level 0 is the undisturbed, noise-free plant: deterministic, so it runs once whatever ``--runs``.
-The open-loop optimum is solved in-process (the default solve, as ``roundabout simulate``), then
-K closed loops run with seeds seed, seed + 1, ... and a fresh controller each (as ``simulate_runs``).
+The open-loop optimum is solved in-process (the default solve, as ``roundabout simulate``) once for
+every controller named, then per controller K closed loops run with seeds seed, seed + 1, ... and a
+fresh controller each (as ``simulate_runs``).
 
 Writes into ``--out``: the first run's ``closed_loop.csv`` and ``summary.json``
 (docs/closed-loop-format.md), ``runs.csv`` (one line per run, plus its ``objective``: the
@@ -160,15 +161,9 @@ def solve_optimum(scenario: Scenario):
     return scenario.ocp.solve(intervals=scenario.intervals, method=load_method(DEFAULT_SOLVE))
 
 
-def run_setting(path: Path, geometry: str, level: float, controller: str, runs: int, out: Path) -> dict:
-    """Solve, run the closed loops, write the files; return row.json's content."""
-    scenario = load_scenario(path)
-    disturbance = disturbance_at(scenario, level)
-    runs = 1 if disturbance.none else runs
-    sol = solve_optimum(scenario)
-    sol.write(out / "optimum")
-    row = setting(scenario, geometry, level, controller, disturbance)
-    row["optimum"] = {
+def optimum_record(sol) -> dict:
+    """row.json's ``optimum``: the open-loop optimum's status and numbers."""
+    return {
         "status": sol.status,
         "valid": sol.ok,
         "energy": sol.energy,
@@ -176,6 +171,15 @@ def run_setting(path: Path, geometry: str, level: float, controller: str, runs: 
         "final_time": sol.final_time,
         "certified": bool(sol.certificate.get("passed")),
     }
+
+
+def run_setting(scenario: Scenario, sol, geometry: str, level: float, controller: str, runs: int, out: Path) -> dict:
+    """Run one controller's closed loops on the solved optimum, write the files; return row.json's content."""
+    disturbance = disturbance_at(scenario, level)
+    runs = 1 if disturbance.none else runs
+    sol.write(out / "optimum")
+    row = setting(scenario, geometry, level, controller, disturbance)
+    row["optimum"] = optimum_record(sol)
     if not sol.ok:
         row["numbers"] = None
         write_text(out / "row.json", json.dumps(row, indent=2) + "\n")
@@ -194,24 +198,47 @@ def run_setting(path: Path, geometry: str, level: float, controller: str, runs: 
     return row
 
 
+def run_settings(path: Path, geometry: str, level: float, controllers: list[str], runs: int, out: Path) -> list[dict]:
+    """Solve the open-loop optimum once, then each controller's setting into ``out/<controller>``.
+
+    With one controller its files go to ``out`` itself (one setting, one folder).
+    """
+    scenario = load_scenario(path)
+    sol = solve_optimum(scenario)
+    folders = [out] if len(controllers) == 1 else [out / c for c in controllers]
+    return [run_setting(scenario, sol, geometry, level, c, runs, f) for c, f in zip(controllers, folders, strict=True)]
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenario", type=Path, required=True, help="TOML with the level-1 [disturbance]")
     ap.add_argument("--geometry", help="the setting's geometry name (default: the file's stem)")
     ap.add_argument("--level", type=float, required=True)
-    ap.add_argument("--controller", choices=["open-loop", "tracking", "mpc"], required=True)
+    ap.add_argument(
+        "--controller",
+        nargs="+",
+        choices=["open-loop", "tracking", "mpc"],
+        required=True,
+        help="one or more; the optimum is solved once for all of them",
+    )
     ap.add_argument("--runs", type=int, default=3)
-    ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="the setting's folder (one controller), or the folder of one sub-folder per controller",
+    )
     args = ap.parse_args(argv)
-    row = run_setting(
+    rows = run_settings(
         args.scenario, args.geometry or args.scenario.stem, args.level, args.controller, args.runs, args.out
     )
-    n = row["numbers"] or {}
-    print(
-        f"{row['geometry']} level {row['level']:g} {row['controller']}: {n.get('runs')} runs, "
-        f"reach rate {n.get('reach_rate')}, position error mean {n.get('position_error_mean')}",
-        file=sys.stderr,
-    )
+    for row in rows:
+        n = row["numbers"] or {}
+        print(
+            f"{row['geometry']} level {row['level']:g} {row['controller']}: {n.get('runs')} runs, "
+            f"reach rate {n.get('reach_rate')}, position error mean {n.get('position_error_mean')}",
+            file=sys.stderr,
+        )
 
 
 if __name__ == "__main__":
