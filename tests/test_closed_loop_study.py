@@ -89,7 +89,8 @@ def test_section_from_two_fake_result_files(section, tmp_path):
     for controller, error in (("open-loop", 8.0), ("mpc", 0.4)):
         p = tmp_path / controller / "row.json"
         p.parent.mkdir()
-        p.write_text(json.dumps(fake_row(controller, 1.0, error, 1.2)))
+        machine = {"cpus": 2, "load_before": 2.7, "load_after": 2.9}  # recorded by the runs, never reported
+        p.write_text(json.dumps(fake_row(controller, 1.0, error, 1.2) | {"machine": machine}))
         paths.append(p)
     out = tmp_path / "80-closed-loop.md"
     section.main(["--rows", *map(str, paths), "--study", "demo", "--figures", str(tmp_path / "fig"),

@@ -26,19 +26,31 @@ from model.plotting.figures import ENERGY_UNIT, PALETTE, apply_style, draw_obsta
 
 CONTROLLERS = ("open-loop", "tracking", "mpc")
 COLORS = {"open-loop": PALETTE[3], "tracking": PALETTE[2], "mpc": PALETTE[0]}
-TABLE = {  # header -> how to write the cell from a row
+# two tables per geometry, one value per cell: header -> how to write the cell from a row
+ACCURACY = {
     "level": lambda r: f"{r['level']:g}",
     "controller": lambda r: r["controller"],
     "runs": lambda r: str(r["numbers"]["runs"]),
     "reached": lambda r: f"{r['numbers']['reach_rate']:.0%}",
-    "position error mean / worst (m)": lambda r: pair(r, "position_error"),
-    "heading error mean / worst (rad)": lambda r: pair(r, "heading_error"),
-    "runs within position tol. / heading tol. / no failed step": lambda r: criteria_cell(r),
-    "energy / optimum mean / worst": lambda r: pair(r, "energy_ratio", 4),
-    "objective / optimum mean / worst": lambda r: pair(r, "objective_ratio", 4),
+    "position error mean (m)": lambda r: fmt(r["numbers"].get("position_error_mean")),
+    "worst (m)": lambda r: fmt(r["numbers"].get("position_error_worst")),
+    "heading error mean (rad)": lambda r: fmt(r["numbers"].get("heading_error_mean")),
+    "worst (rad)": lambda r: fmt(r["numbers"].get("heading_error_worst")),
+    "within position tol.": lambda r: criterion(r, "position"),
+    "within heading tol.": lambda r: criterion(r, "heading"),
+    "no failed step": lambda r: criterion(r, "steps"),
+}
+EFFORT = {
+    "level": lambda r: f"{r['level']:g}",
+    "controller": lambda r: r["controller"],
+    "energy / optimum mean": lambda r: fmt(r["numbers"].get("energy_ratio_mean"), 4),
+    "worst": lambda r: fmt(r["numbers"].get("energy_ratio_worst"), 4),
+    "objective / optimum mean": lambda r: fmt(r["numbers"].get("objective_ratio_mean"), 4),
+    "objective worst": lambda r: fmt(r["numbers"].get("objective_ratio_worst"), 4),
     "runs with clearance < 0": lambda r: fmt(r["numbers"]["violations"]),
     "min clearance (m)": lambda r: fmt(r["numbers"]["min_clearance"], 3),
-    "step mean / max (ms)": lambda r: ms_pair(r),
+    "step mean (ms)": lambda r: milliseconds(r["numbers"]["step_seconds_mean"]),
+    "step max (ms)": lambda r: milliseconds(r["numbers"]["step_seconds_max"]),
     "realtime factor": lambda r: fmt(r["numbers"]["realtime_factor"], 2),
     "failed steps": lambda r: str(r["numbers"]["failed_steps"]),
 }
@@ -51,23 +63,20 @@ def fmt(x, digits: int = 3) -> str:
     return str(x) if isinstance(x, int) else f"{x:.{digits}g}"
 
 
-def pair(row: dict, key: str, digits: int = 3) -> str:
-    n = row["numbers"]
-    return f"{fmt(n.get(key + '_mean'), digits)} / {fmt(n.get(key + '_worst'), digits)}"
-
-
-def ms_pair(row: dict) -> str:
-    n = row["numbers"]
-    mean, worst = n["step_seconds_mean"], n["step_seconds_max"]
-    return f"{fmt(None if mean is None else 1e3 * mean, 2)} / {fmt(None if worst is None else 1e3 * worst, 2)}"
-
-
-def criteria_cell(row: dict) -> str:
-    """How many runs meet each part of the goal criterion, e.g. '3 / 0 / 1 of 3' ('-' where unknown)."""
-    c = row.get("criteria")
-    if not c:
+def milliseconds(seconds: float | None) -> str:
+    """A step time in milliseconds: whole ones from 10 ms, else 2 significant digits; '-' for missing."""
+    if seconds is None or not math.isfinite(seconds):
         return "-"
-    return " / ".join("-" if c[k] is None else str(c[k]) for k in ("position", "heading", "steps")) + f" of {c['runs']}"
+    value = 1e3 * seconds
+    return f"{value:.0f}" if value >= 10 else f"{value:.2g}"
+
+
+def criterion(row: dict, part: str) -> str:
+    """How many of the runs meet one part of the goal criterion (position, heading, steps): '2 of 3'."""
+    c = row.get("criteria")
+    if not c or c.get(part) is None:
+        return "-"
+    return f"{c[part]} of {c['runs']}"
 
 
 def run_summaries(folder: Path) -> list[dict]:
@@ -161,9 +170,9 @@ def settings_text(rows: list[dict], study: str) -> list[str]:
 
 
 def columns(first: dict) -> dict:
-    """The table's columns: the objective's ratio only when it is not the plain energy (weights, time)."""
+    """The effort table's columns: the objective's ratio only when it is not the plain energy (weights, time)."""
     plain = first["objective"] == "energy" and not first.get("weights")
-    return {k: v for k, v in TABLE.items() if not (plain and k.startswith("objective"))}
+    return {k: v for k, v in EFFORT.items() if not (plain and k.startswith("objective"))}
 
 
 def head(geometry: str, first: dict) -> str:
@@ -194,12 +203,32 @@ def goal_text(tol: dict) -> str:
     )
 
 
+def pipe_table(rows: list[dict], cols: dict) -> list[str]:
+    """A pipe table: one row per closed-loop setting, one cell per column."""
+    head_ = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    return head_ + ["| " + " | ".join(cell(r) for cell in cols.values()) + " |" for r in rows]
+
+
 def table(rows: list[dict], geometry: str) -> list[str]:
+    """A geometry's head line and its two captioned tables: accuracy, then cost and computing effort."""
     mine = [r for r in of(rows, geometry) if r["numbers"]]
     first = (mine or of(rows, geometry))[0]
-    cols = columns(first)
-    lines = [head(geometry, first), "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    lines += ["| " + " | ".join(cell(r) for cell in cols.values()) + " |" for r in mine]
+    lines = [
+        head(geometry, first),
+        "",
+        f"Table: {geometry}, accuracy: per disturbance level and controller, the runs, the share that reached the"
+        " goal, the final position error (m) and heading error (rad), mean and worst over the runs, and how many"
+        " runs meet each part of the goal criterion.",
+        "",
+        *pipe_table(mine, ACCURACY),
+        "",
+        f"Table: {geometry}, cost and effort: the energy (and, for a weighted objective, the objective) of the"
+        " applied controls over the open-loop optimum's, mean and worst; the runs whose clearance went below zero"
+        " and the smallest clearance (m); one controller call's wall-clock time (ms), mean and largest; the"
+        " realtime factor (largest step over the sample time) and the failed steps.",
+        "",
+        *pipe_table(mine, columns(first)),
+    ]
     failed = [r for r in of(rows, geometry) if not r["numbers"]]
     lines += [f"\n(level {r['level']:g}, {r['controller']}: the open-loop solve failed)" for r in failed]
     return [*lines, ""]
@@ -307,23 +336,16 @@ def closeness(g: str, top: float, ol: dict, tr: dict | None, mpc: dict) -> str:
 
 
 def compute(g: str, rows: list[dict]) -> str:
-    """MPC's step times, realtime factor and failed steps over the geometry, and the machine's load."""
+    """MPC's realtime factor and failed steps over the geometry."""
     mine = [r for r in of(rows, g) if r["controller"] == "mpc" and r["numbers"]]
     if not mine:
         return ""
     failed = sum(r["numbers"]["failed_steps"] for r in mine)
     steps = sum(r["numbers"].get("steps") or 0 for r in mine)
-    loads = [r["machine"][k] for r in mine if r.get("machine") for k in ("load_before", "load_after")]
-    cpus = next((r["machine"]["cpus"] for r in mine if r.get("machine")), None)
-    load = (
-        f" while the machine's load average was {fmt(min(loads), 2)} to {fmt(max(loads), 2)} on {cpus} cores"
-        if loads
-        else ""
-    )
     return (
         f"MPC's worst realtime factor on **{g}** is {fmt(max(r['numbers']['realtime_factor'] for r in mine), 2)} "
-        f"(sample {mine[0]['sample_time']:g} s){load}; {failed} of its {steps} steps failed or hit Ipopt's "
-        "wall-time budget and followed the previous plan (a failed step counts as not reaching the goal)."
+        f"(sample {mine[0]['sample_time']:g} s); {failed} of its {steps} steps failed or hit the wall-time budget of"
+        " Ipopt [@ipopt] and followed the previous plan (a failed step counts as not reaching the goal)."
     )
 
 
