@@ -116,3 +116,26 @@ def test_a_road_figure_prints_its_time_panels_at_7_pt_and_marks_start_goal_and_d
     assert {"start (rear axle)", "goal (rear axle)"} <= labels
     assert sum(a.arrow_patch is not None for a in plan.texts) >= 2, "no direction arrowheads (besides north)"
     close(fig)
+
+
+def test_the_map_figure_frames_the_ring_names_movements_by_direction_and_keeps_its_legend_off_the_map():
+    from model.plotting.maps import island, map_figure
+    from model.scene.lanelet_map import dataset_file, read_map
+
+    lanelet_map = read_map(dataset_file("rounD/DEU_Kackertstrasse-1"))
+    route = {"from_lanelet": 90, "to_lanelet": 102, "start_offset": 11.9, "goal_offset": -5.6}
+    box = {"type": "Polygon", "coordinates": [[[100, -70], [104, -70], [104, -60], [100, -60], [100, -70]]]}
+    cell = {"cell": "c", "preset": "P", "movement": "90-102", "route": route, "valid": True, "final_time": 9.0,
+            "swept_path": {"features": [{"geometry": box}]}, "apron_use": "trailer"}  # fmt: skip
+    fig = map_figure(lanelet_map, [dict(cell, apron=True), dict(cell, cell="d", apron=False)], "P")
+    ax = fig.axes[0]
+    assert len(fig.axes) == 1, "two panels sweeping the same area are drawn once"
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    hx0, hy0, hx1, hy1 = island(lanelet_map).bounds
+    assert x0 < hx0 and hx1 < x1 and y0 < hy0 and hy1 < y1, "the frame clips the ring"
+    texts = [t.get_text() for t in fig.findobj(plotting.plt.Text)]
+    assert any(t.startswith("from ") and " to " in t for t in texts)
+    assert not any("90" in t or "102" in t for t in texts), "a lanelet id in the figure"
+    assert ax.get_legend() is None and fig.legends, "the legend belongs below the map"
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)

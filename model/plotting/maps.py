@@ -80,3 +80,122 @@ def map_limits(geometries: Iterable, margin: float = 8.0) -> tuple[tuple[float, 
     """x and y limits around the union of shapely geometries, ``margin`` m wider on every side."""
     x0, y0, x1, y1 = shapely.union_all(list(geometries)).bounds
     return (x0 - margin, x1 + margin), (y0 - margin, y1 + margin)
+
+
+# --------------------------------------------------------------------------- the study's figure
+
+COMPASS = ("E", "NE", "N", "NW", "W", "SW", "S", "SE")
+MAX_HEIGHT = 6.2  # in: at most the PDF's 16 cm figure height, so that 8 pt text prints at 7 pt or more
+
+
+def island(lanelet_map: LaneletMap) -> shapely.Polygon | None:
+    """The central island (with the apron a border lanelet may draw round it): the largest hole of the map's
+    lanelets' union; None without a hole."""
+    merged = shapely.union_all([lanelet_map.polygon(i).buffer(0.05) for i in lanelet_map.ids])
+    holes = [shapely.Polygon(ring) for poly in getattr(merged, "geoms", [merged]) for ring in poly.interiors]
+    return max(holes, key=lambda h: h.area) if holes else None
+
+
+def map_frame(lanelet_map: LaneletMap, geometries: Iterable, ring: float = 14.0, margin: float = 4.0):
+    """x and y limits holding ``geometries`` and the whole ring: the island grown by ``ring`` m."""
+    parts = list(geometries)
+    hole = island(lanelet_map)
+    if hole is not None:
+        parts.append(hole.buffer(ring))
+    return map_limits(parts, margin)
+
+
+def bearing(point, centre) -> str:
+    """The compass direction (E, NE, N, ...) of ``point`` seen from ``centre`` (+y is north)."""
+    angle = np.degrees(np.arctan2(point[1] - centre[1], point[0] - centre[0])) % 360.0
+    return COMPASS[int(((angle + 22.5) % 360.0) // 45.0)]
+
+
+def cell_route(lanelet_map: LaneletMap, route: dict):
+    """A study cell's ``route`` table as a MapRoute (its start, goal and centre line)."""
+    from model.scene.lanelet_map import MapRoute
+
+    keys = ("from_lanelet", "to_lanelet", "start_offset", "goal_offset", "apron_use")
+    given = {k: route[k] for k in keys if k in route}
+    return MapRoute(lanelet_map, apron_lanelets=tuple(route.get("apron_lanelets", ())), **given)
+
+
+def movement_name(lanelet_map: LaneletMap, route: dict) -> str:
+    """A movement by its legs' directions from the island's centre: "from S to NE" (no lanelet ids)."""
+    hole = island(lanelet_map)
+    r = cell_route(lanelet_map, route)
+    centre = np.asarray(hole.centroid.coords[0]) if hole is not None else np.mean(r.line.points, axis=0)
+    return f"from {bearing(r.start()[:2], centre)} to {bearing(r.goal()[:2], centre)}"
+
+
+def draw_route(ax: plt.Axes, lanelet_map: LaneletMap, route: dict, color) -> None:
+    """The route's centre line dotted with arrowheads, its start (green dot) and goal (red square)."""
+    from model.plotting.figures import direction_arrow
+
+    r = cell_route(lanelet_map, route)
+    s = np.linspace(r.start_offset, r.goal_s, 200)
+    xy = r.line.point(s)
+    ax.plot(*xy.T, ls=":", color="black", lw=0.9, zorder=5)
+    for where in (0.3, 0.6, 0.85):
+        direction_arrow(ax, xy[:, 0], xy[:, 1], color, where=where)
+    ax.plot(*xy[0], "o", color="tab:green", ms=6, mec="white", zorder=7)
+    ax.plot(*xy[-1], "s", color="tab:red", ms=6, mec="white", zorder=7)
+
+
+def _swept_of(cell: dict) -> list:
+    return [shapely.geometry.shape(f["geometry"]) for f in cell["swept_path"]["features"]] if cell.get("valid") else []
+
+
+def same_swept(a: list[dict], b: list[dict], tol: float = 0.01) -> bool:
+    """Whether two panels' cells sweep the same area (symmetric difference under ``tol`` of it)."""
+    ua = shapely.union_all([g for c in a for g in _swept_of(c)] or [shapely.Polygon()])
+    ub = shapely.union_all([g for c in b for g in _swept_of(c)] or [shapely.Polygon()])
+    return ua.symmetric_difference(ub).area <= tol * max(ua.area, ub.area, 1e-9)
+
+
+def map_figure(lanelet_map: LaneletMap, cells: list[dict], preset: str) -> plt.Figure:
+    """One vehicle's movements on the map: a panel per apron setting (one when the settings sweep the same
+    area), each movement's swept path, its route with start, goal and direction, named by its legs'
+    directions; the framing holds the whole ring; the legend below the map; failures listed by name."""
+    from model.plotting.figures import FIGURE_WIDTH
+    from model.plotting.roads import FONT, draw_north, draw_scale_bar
+
+    mine = [c for c in cells if c["preset"] == preset]
+    panels = {a: [c for c in mine if bool(c["apron"]) == a] for a in sorted({bool(c["apron"]) for c in mine})[::-1]}
+    merged = len(panels) == 2 and same_swept(*panels.values())
+    if merged:
+        panels = {True: panels[True]}
+    names = {c["cell"]: movement_name(lanelet_map, c["route"]) for c in mine}
+    colours = dict(zip(sorted(set(names.values())), plt.get_cmap("tab10").colors, strict=False))
+    xlim, ylim = map_frame(lanelet_map, [g for c in mine for g in _swept_of(c)])
+    aspect = (ylim[1] - ylim[0]) / (xlim[1] - xlim[0])
+    panel = min(FIGURE_WIDTH / len(panels), (MAX_HEIGHT - 1.8) / aspect)  # the PDF's height cap: 16 cm
+    fig, axes = plt.subplots(1, len(panels), figsize=(max(panel * len(panels), 4.5), panel * aspect + 1.8),
+                             squeeze=False, layout="constrained")  # fmt: skip
+    for ax, (apron, group) in zip(axes[0], panels.items(), strict=True):
+        handles = draw_lanelets(ax, lanelet_map)
+        failed = []
+        for c in sorted(group, key=lambda c: names[c["cell"]]):
+            colour, name = colours[names[c["cell"]]], names[c["cell"]]
+            if c.get("valid"):
+                draw_swept(ax, _swept_of(c), colour, f"{name}: $T_f$ = {c['final_time']:.1f} s")
+                draw_route(ax, lanelet_map, c["route"], colour)
+            else:
+                failed.append(f"{name} ({c.get('status')})")
+        ax.set(xlim=xlim, ylim=ylim, aspect="equal", xticks=[], yticks=[])
+        ax.spines[:].set(visible=True, color="0.6", lw=0.6)
+        draw_scale_bar(ax)
+        draw_north(ax)
+        use = next((c.get("apron_use", "none") for c in group), "none")
+        title = ("with or without the apron (the same swept paths)" if merged
+                 else f"with the apron (use: {use})" if apron else "without the apron")  # fmt: skip
+        ax.set_title(title, fontsize=FONT + 1)
+        ax.set_xlabel("fails (not drawn): " + (", ".join(failed) or "none"), fontsize=FONT)
+    marks = [plt.Line2D([], [], marker="o", ls="", color="tab:green", label="start"),
+             plt.Line2D([], [], marker="s", ls="", color="tab:red", label="goal"),
+             plt.Line2D([], [], ls=":", color="black", label="route (arrowheads: direction)")]  # fmt: skip
+    swept = {h.get_label(): h for ax in axes[0] for h in ax.get_legend_handles_labels()[0]}  # each movement once
+    fig.legend(handles=[*handles, *swept.values(), *marks], loc="outside lower center",
+               ncols=3, fontsize=FONT, frameon=False)  # fmt: skip
+    fig.suptitle(f"{preset}: swept paths of the movements that pass", fontsize=FONT + 1)
+    return fig
