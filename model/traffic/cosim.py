@@ -48,6 +48,8 @@ BRAKING_RADIUS = 50.0  # m: other vehicles this close to a truck body count for 
 STILL_SPEED = 0.1  # m/s: below this the truck stands still (entry_wait)
 ARRIVE_GAP = 0.1  # m: the truck has arrived when its reference point is this near its plan path's end
 TIME_DIGITS = 6
+CONNECT_WAIT = 0.02  # s between tries to connect to a starting SUMO
+CONNECT_TRIES = 3000  # a minute in all, traci's own default (60 tries, 1 s apart)
 
 
 @dataclass
@@ -96,8 +98,14 @@ def start_sumo(sumo: Sumo, folder: Path, routes: str = "routes.rou.xml") -> obje
     cmd = [sumo.sumo, "-c", str(folder / "run.sumocfg")]
     if routes != "routes.rou.xml":
         cmd += ["--route-files", str(folder / routes)]
-    with contextlib.redirect_stdout(io.StringIO()):  # traci prints " Retrying in 1 seconds" while SUMO starts
-        traci.start(cmd, stdout=subprocess.DEVNULL)
+    # traci.start waits 1 s between its tries to connect while SUMO loads, a second or more per start and four
+    # starts a run (the drive, its replay, the runs without the truck and free flow); polling every
+    # CONNECT_WAIT seconds finds SUMO as soon as it listens
+    port = traci.main.getFreeSocketPort()
+    proc = subprocess.Popen([*cmd, "--remote-port", str(port)], stdout=subprocess.DEVNULL)
+    with contextlib.redirect_stdout(io.StringIO()):  # traci prints " Retrying in ... seconds" while SUMO starts
+        traci.main.connect(port, CONNECT_TRIES, "localhost", proc, CONNECT_WAIT, label="default")
+    traci.switch("default")
     return traci
 
 
