@@ -139,3 +139,31 @@ def test_the_map_figure_frames_the_ring_names_movements_by_direction_and_keeps_i
     assert ax.get_legend() is None and fig.legends, "the legend belongs below the map"
     assert smallest_print_font(fig) >= MIN_FONT_PT
     close(fig)
+
+
+def closed_loop_rows() -> list[dict]:
+    rows = []
+    for g, tol in (("s2", 0.02), ("truck", 0.91)):
+        for level in (0.0, 1.0):
+            for k, c in enumerate(("open-loop", "tracking", "mpc")):
+                err = 10.0 ** (-4 + 2 * level - k)
+                numbers = {"position_error_mean": err, "position_error_worst": 2 * err,
+                           "heading_error_mean": err, "heading_error_worst": 3 * err}  # fmt: skip
+                rows.append({"geometry": g, "level": level, "controller": c, "numbers": numbers,
+                             "goal_tolerance": {"position": tol, "angle": 0.05}})  # fmt: skip
+    return rows
+
+
+def test_the_error_figure_draws_levels_as_separate_markers_not_lines_and_its_legend_below():
+    from model.plotting.closed_loop import errors_figure
+
+    colors = {"open-loop": "tab:red", "tracking": "tab:green", "mpc": "tab:blue"}
+    fig = errors_figure(closed_loop_rows(), colors)
+    for ax in fig.axes:
+        joined = [ln for ln in ax.get_lines() if ln.get_linestyle() not in ("None", "", " ") and len(ln.get_xdata()) > 1
+                  and len(set(np.round(np.asarray(ln.get_ydata(), float), 12))) > 1]  # fmt: skip
+        assert joined == [], "levels joined by a line"
+        assert list(ax.get_xticks()) == [0, 1], "one tick per level"
+    assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)

@@ -90,3 +90,54 @@ def _title(ocp: OCP, summary: Mapping) -> str:
 
 
 __all__ = ["closed_loop_figure"]
+
+
+# --------------------------------------------------------------------------- final errors against the level
+
+CONTROLLER_ORDER = ("open-loop", "tracking", "mpc")
+ERROR_ROWS = (("position_error", "position", "final position error (m)"),
+              ("heading_error", "angle", "final heading error (rad)"))  # fmt: skip
+
+
+def _error_panel(ax: plt.Axes, rows: list[dict], key: str, tol_key: str, colors: Mapping[str, tuple]) -> None:
+    """Markers at each level (offset per controller), the mean and a bar up to the worst run; no lines: the
+    levels are separate experiments, not a continuum."""
+    levels = sorted({r["level"] for r in rows if r["numbers"]})
+    width = 0.6 / len(CONTROLLER_ORDER)
+    for k, c in enumerate(CONTROLLER_ORDER):
+        pts = sorted((r for r in rows if r["controller"] == c and r["numbers"]), key=lambda r: r["level"])
+        if not pts:
+            continue
+        x = np.array([levels.index(r["level"]) for r in pts]) + (k - 1) * width
+        mean = np.array([max(r["numbers"][f"{key}_mean"] or 0.0, 1e-9) for r in pts])
+        worst = np.array([max(r["numbers"][f"{key}_worst"] or 0.0, 1e-9) for r in pts])
+        ax.errorbar(x, mean, yerr=[0 * mean, worst - mean], fmt="o", ls="none", capsize=3, color=colors[c], label=c)
+    tol = next((r["goal_tolerance"].get(tol_key) for r in rows if r["numbers"]), None)
+    if tol:
+        ax.axhline(tol, color="0.4", ls="--", lw=1, label="goal tolerance")
+        ax.annotate(f"{tol:.2g}", (-0.58, tol), va="bottom", ha="left", fontsize=8, color="0.3")  # left of the data
+    ax.set(yscale="log", xticks=range(len(levels)), xticklabels=[f"{lv:g}" for lv in levels],
+           xlim=(-0.6, len(levels) - 0.4), xlabel="disturbance level (-)")  # fmt: skip
+
+
+def errors_figure(rows: list[dict], colors: Mapping[str, tuple]) -> plt.Figure:
+    """Final position error (top) and heading error (bottom) per disturbance level, one column per geometry,
+    one marker per controller (mean, bar to the worst run), each tolerance dashed; one legend below.
+
+    ``rows``: closed_loop_section's rows (keys geometry, level, controller, numbers, goal_tolerance).
+    """
+    from model.plotting.figures import FIGURE_WIDTH
+
+    apply_style()
+    names = list(dict.fromkeys(r["geometry"] for r in rows))
+    shown = [g for g in names if len({r["level"] for r in rows if r["geometry"] == g}) > 1] or names
+    fig, axes = plt.subplots(2, len(shown), figsize=(FIGURE_WIDTH, 5.0), squeeze=False, sharex="col",
+                             layout="constrained")  # fmt: skip
+    for j, g in enumerate(shown):
+        mine = [r for r in rows if r["geometry"] == g]
+        for i, (key, tol_key, ylabel) in enumerate(ERROR_ROWS):
+            _error_panel(axes[i, j], mine, key, tol_key, colors)
+            axes[i, j].set(ylabel=ylabel if j == 0 else None, title=g if i == 0 else None)
+    handles = {h.get_label(): h for ax in axes.ravel() for h in ax.get_legend_handles_labels()[0]}
+    fig.legend(handles=list(handles.values()), loc="outside lower center", ncols=4, frameon=False)
+    return fig
