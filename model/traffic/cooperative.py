@@ -1,29 +1,67 @@
-"""Connected vehicles that keep clear of the truck: the SUMO side of the cooperative mode.
+"""Connected vehicles that keep clear of the truck: the SUMO side of the roundabout management.
 
 The truck announces the windows of ``model.traffic.windows`` (plan time, turned into clock time by
-the truck's progress: at its plan's pace from plan time ``s`` on, window [a, b] is
-[now + a - s, now + b - s]). Every step, each other vehicle's path ahead (the rest of its lane and
-the first lanes of the edges left on its route, from SUMO's lane shapes) is intersected with each
-announced area (a vehicle already in an area the truck has still to pass is left alone: held there, it
-would stand in the truck's way); where ``keep_clear_speed`` says it would meet the truck there, the vehicle gets
-that speed (``traci.vehicle.setSpeed``, SUMO's own deceleration limits apply), the lowest over the
-windows; a vehicle no window concerns any more is handed back to SUMO's driver (``setSpeed -1``).
+the truck's actual progress, ``clock_windows``: from its plan time ``s`` and progress rate now, the
+rate rising at its slope to the plan's pace). Each step, each other vehicle's path ahead (the rest of
+its lane and the first lanes of the edges left on its route, from SUMO's lane shapes) is intersected
+with each announced area (a vehicle already in an area the truck has still to pass is left alone:
+held there, it would stand in the truck's way); where ``keep_clear_speed`` says it would meet the
+truck there, the vehicle gets that speed (``traci.vehicle.setSpeed``, SUMO's own deceleration limits
+apply), the lowest over the windows; a vehicle no window concerns any more is handed back to SUMO's
+driver (``setSpeed -1``). ``Cooperator`` does this for the vehicles a policy lets it hold.
+
+The ``cooperative`` driver's policy (``PriorityRequest``, issue 45): the truck yields as the
+autopilot does and asks for priority only when it would otherwise wait (slowing for or standing at
+its line), only if every vehicle that keeps its plan's pace from being safe can be held (``blockers``:
+one already in the entry's area cannot), and only once the time it has lost (its clock time since it
+appeared less its plan time, plus what regaining its plan's pace from its rate now costs) is at least
+what the request would cost the vehicles it holds (``hold_cost``: each held vehicle's later arrival
+at the area, at its speed now): a rent-or-buy rule, which on that estimate never loses more than
+twice the better of waiting and asking. A granted request holds only the vehicles whose paths meet
+the truck in its entry leg's area, and each only until the truck's window there closes (the windows
+at the truck's actual progress); with no request the run is the autopilot's, with no speed set. The
+``reservation`` driver (``model.traffic.reservation``) is the first-come-first-served baseline on the
+same mechanics.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
+import numpy as np
 import shapely
 from shapely.ops import substring
 
 from model.problem.ocp import OCP
-from model.traffic.windows import Window, conflict_areas, occupancy_windows
+from model.problem.scenario import Scenario
+from model.traffic.autopilot import MARGIN_HORIZON, PREDICTION_MARGIN
+from model.traffic.windows import Window, clock_windows, conflict_areas, occupancy_windows
 
 KEEP_CLEAR_MARGIN = 1.0  # s kept free before and after each of the truck's windows
 REACH = 80.0  # m of a vehicle's path ahead that is looked at
 HOLD_BUFFER = 1.5  # m: a held vehicle stops this far outside the area (safety_distance 1 m and 0.5 m more)
-COMMIT_RATE = 0.5  # before its give-way line the truck announces only while it drives at least this x its pace
+SLOW_SPEED = 1.0  # m/s: a vehicle slower than this is taken to reach the area at this speed (``hold_cost``)
+
+
+class Progress(Protocol):
+    """What the management reads of the truck's driver (``model.traffic.autopilot.Autopilot``)."""
+
+    s: float  # plan time the truck has reached
+    rate: float  # its progress rate, plan seconds per second
+    rate_slope: float  # how fast the rate can rise, 1/s
+    give_way: float  # plan time of its give-way line
+    scenario: Scenario  # its scenario (the safety distance)
+
+    def instants(self, step: float) -> np.ndarray: ...  # the checked instants of a decision
+
+    def near(self, others: list, tau: np.ndarray) -> list: ...  # the vehicles that can come near
+
+    def predicted(self, others: list, tau: np.ndarray) -> np.ndarray: ...  # their predicted corners
+
+    def clearances(self, s: np.ndarray, theirs: np.ndarray) -> np.ndarray: ...  # least distance per instant
 
 
 @dataclass
@@ -62,36 +100,68 @@ class Cooperator:
         self.windows = occupancy_windows(self.ocp, self.plan_at, self.duration, self.step, grow=self.buffer)
         self.areas = {a.leg: a.polygon.buffer(self.buffer) for a in conflict_areas(self.ocp.road.roundabout)}
 
-    def announced(self, now: float, s: float) -> list[Window]:
-        """The windows still ahead of plan time ``s``, in clock time (the truck at its plan's pace from now)."""
-        return [Window(w.leg, now + max(w.start - s, 0.0), now + w.end - s) for w in self.windows if w.end > s]
+    def announced(self, now: float, s: float, rate: float = 1.0, slope: float = math.inf) -> list[Window]:
+        """The windows still ahead of plan time ``s`` in clock time, from the truck's progress (``clock_windows``;
+        the defaults: at its plan's pace from now)."""
+        return clock_windows(self.windows, now, s, rate, slope)
 
-    def step_traffic(self, traci, now: float, s: float, truck: str = "truck",
-                     announce: bool = True) -> dict[str, float]:  # fmt: skip
-        """Set the speeds of the vehicles that would meet the truck in an area; release the others.
+    def asks(self, traci, now: float, windows: list[Window], truck: str = "truck",
+             holds: Callable[[str], bool] | None = None) -> dict[str, float]:  # fmt: skip
+        """The speed each vehicle would be asked for (``keep_clear_speed``, the lowest over ``windows``).
 
-        ``announce`` False (the truck waiting at its line: ``committed``): no window, every vehicle released.
-        Returns every ``setSpeed`` of this step (vehicle id -> m/s; -1 for a vehicle handed back to SUMO).
+        ``holds``: vehicle id -> whether it may be held (default: every vehicle); a vehicle already in an
+        area of ``windows`` is never held (held there, it would stand in the truck's way).
         """
-        windows = self.announced(now, s) if announce else []
         ahead = shapely.union_all([self.areas[leg] for leg in {w.leg for w in windows}])
         speeds = {}
         for vid in traci.vehicle.getIDList():
-            if vid == truck or ahead.contains(shapely.Point(traci.vehicle.getPosition(vid))):
-                continue  # a vehicle in an area the truck has still to pass drives on (held, it would block it)
-            path = path_ahead(traci, vid, shape=self._shape(traci))
+            if vid == truck or (holds is not None and not holds(vid)):
+                continue
+            if ahead.contains(shapely.Point(traci.vehicle.getPosition(vid))):
+                continue
+            path = path_ahead(traci, vid, shape=self.shapes(traci))
             if path is None:
                 continue
             speed, length = traci.vehicle.getSpeed(vid), traci.vehicle.getLength(vid)
-            asks = [a for w in windows if (a := self._ask(path, w, speed, length, now, traci, vid)) is not None]
-            if asks:
-                speeds[vid] = min(asks)
+            asked = [a for w in windows if (a := self._ask(path, w, speed, length, now, traci, vid)) is not None]
+            if asked:
+                speeds[vid] = min(asked)
+        return speeds
+
+    def command(self, traci, speeds: dict[str, float]) -> dict[str, float]:
+        """Set ``speeds`` and hand every vehicle held before and not now back to SUMO; every ``setSpeed`` sent."""
         sent = speeds | {vid: -1.0 for vid in sorted(set(self.commanded) - set(speeds))}
         apply_commands(traci, sent)
-        self.commanded = speeds
+        self.commanded = dict(speeds)
         return sent
 
-    def _shape(self, traci):
+    def step_traffic(self, traci, now: float, s: float, truck: str = "truck", announce: bool = True,
+                     rate: float = 1.0, slope: float = math.inf,
+                     holds: Callable[[str], bool] | None = None) -> dict[str, float]:  # fmt: skip
+        """Set the speeds of the vehicles that would meet the truck in an area; release the others.
+
+        ``announce`` False: no window, every vehicle released. ``rate``, ``slope``: the truck's progress
+        (``announced``); ``holds``: which vehicles may be held (``asks``). Returns every ``setSpeed`` of this
+        step (vehicle id -> m/s; -1 for a vehicle handed back to SUMO).
+        """
+        windows = self.announced(now, s, rate, slope) if announce else []
+        return self.command(traci, self.asks(traci, now, windows, truck, holds) if windows else {})
+
+    def hold_cost(self, traci, now: float, speeds: dict[str, float], legs: set[int] | None = None) -> float:
+        """Seconds the vehicles asked for ``speeds`` would lose: per vehicle its arrival at the area at the speed
+        asked less its arrival at its speed now (at least ``SLOW_SPEED``), the area the first of ``legs``' (default:
+        every leg's) along its path."""
+        areas = [a for leg, a in self.areas.items() if legs is None or leg in legs]
+        loss = 0.0
+        for vid, asked in speeds.items():
+            path = path_ahead(traci, vid, shape=self.shapes(traci))
+            entries = [e[0] for a in areas if path is not None and (e := area_entry(path, a))]
+            distance = min(entries, default=0.0)
+            own = distance / max(traci.vehicle.getSpeed(vid), SLOW_SPEED)
+            loss += max(distance / max(asked, 1e-3) - own, 0.0)
+        return loss
+
+    def shapes(self, traci):
         """SUMO's lane shapes, asked once per lane (they do not change)."""
 
         def shape(lane: str) -> list:
@@ -111,10 +181,79 @@ class Cooperator:
                                 traci.vehicle.getAllowedSpeed(vid))  # fmt: skip
 
 
-def committed(s: float, rate: float, give_way: float) -> bool:
-    """Whether the truck announces: past its give-way line (plan time ``give_way``), or before it at a pace
-    ``rate`` of at least ``COMMIT_RATE`` (a truck slowing to stop at its line, or standing, holds no one)."""
-    return s >= give_way or rate >= COMMIT_RATE
+@dataclass
+class PriorityRequest:
+    """The ``cooperative`` driver's management: priority asked for only when waiting costs more than asking.
+
+    Parameters
+    ----------
+    cooperator : Cooperator
+        The announcement and the speeds it asks.
+    enter : int
+        The truck's entry leg: only the vehicles that would meet it in that leg's conflict area are held
+        (the ones that make it wait at its line; on the rest of the ring SUMO's vehicles give way to the
+        circulating truck or follow it by their own rules).
+    appeared : float or None
+        Clock time of the truck's appearance (set at the first step).
+    granted : bool
+        Whether the request has been made: from then on the truck's windows are announced until it has
+        passed them all.
+    """
+
+    cooperator: Cooperator
+    enter: int
+    appeared: float | None = None
+    granted: bool = False
+
+    def lost(self, now: float, pilot: Progress) -> float:
+        """Seconds the truck has lost and cannot but lose: clock time since it appeared less the plan time it has
+        reached (``pilot.s`` is at the end of the step that starts at ``now``), plus what getting back to its
+        plan's pace costs from its rate now, (1 - rate)^2 / (2 slope)."""
+        if self.appeared is None:
+            self.appeared = now
+        restart = (1.0 - min(max(pilot.rate, 0.0), 1.0)) ** 2 / (2.0 * pilot.rate_slope)
+        return now + self.cooperator.step - self.appeared - pilot.s + restart
+
+    def step(self, traci, now: float, pilot: Progress, others: list | None = None,
+             truck: str = "truck") -> dict[str, float]:  # fmt: skip
+        """One step: request priority if it is time to, hold the vehicles a granted request concerns.
+
+        Before the truck's give-way line (or standing at it) the request is decided afresh each step: the
+        truck is slowing or standing, every vehicle that keeps its plan's pace from being safe
+        (``blockers`` of the predicted ``others``) is one that can be held, and the time lost so far is at
+        least ``Cooperator.hold_cost`` of the hold. Past the line the decision at the line stays until the
+        truck has left the entry's area. Returns every ``setSpeed`` of this step (``Cooperator.command``).
+        """
+        coop = self.cooperator
+        windows = [w for w in coop.announced(now, pilot.s, pilot.rate, pilot.rate_slope) if w.leg == self.enter]
+        lost = self.lost(now, pilot)
+        if not windows:
+            return coop.command(traci, {})
+        speeds = coop.asks(traci, now, windows, truck)
+        if pilot.s <= pilot.give_way + 1e-9:  # slowing for, or standing at, its line
+            waiting = pilot.rate < 1.0 and bool(speeds)
+            self.granted = (waiting and blockers(pilot, others or [], coop.step) <= set(speeds)
+                            and lost >= coop.hold_cost(traci, now, speeds, {self.enter}))  # fmt: skip
+        return coop.command(traci, speeds if self.granted else {})
+
+
+def blockers(pilot: Progress, others: list, step: float) -> set[str]:
+    """The vehicles that keep the truck's plan pace from being safe now: SUMO ids of the predicted ``others``.
+
+    The profile is the autopilot's ``rate 1`` (the rate rising at its slope to the plan's pace); a
+    vehicle blocks it if its predicted rectangle comes nearer the truck's bodies than the safety distance
+    plus the prediction margin at an instant after now (``Autopilot.net_gap``'s measure, per vehicle).
+    """
+    tau = pilot.instants(step)
+    near = pilot.near(others, tau)
+    if not near:
+        return set()
+    theirs = pilot.predicted(near, tau)
+    rate = np.clip(1.0, pilot.rate - pilot.rate_slope * tau, pilot.rate + pilot.rate_slope * tau)
+    s = pilot.s + np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tau))])
+    need = pilot.scenario.traffic.safety_distance + PREDICTION_MARGIN * np.minimum(tau[1:], MARGIN_HORIZON)
+    return {str(o.key).removeprefix("traffic ") for k, o in enumerate(near)
+            if np.any(pilot.clearances(s, theirs[k : k + 1])[1:] < need)}  # fmt: skip
 
 
 def path_ahead(traci, vid: str, reach: float = REACH, shape=None) -> shapely.LineString | None:

@@ -29,7 +29,7 @@ import numpy as np
 from model.nlp.imports import settled_heap
 from model.problem.scenario import Scenario
 from model.traffic.autopilot import LEADER_DECEL, LINE_SLACK, YAW_WINDOW, Autopilot, predict
-from model.traffic.cooperative import Cooperator, apply_commands, committed
+from model.traffic.cooperative import apply_commands
 from model.traffic.network import (
     config_xml,
     entry_end_radius,
@@ -41,6 +41,7 @@ from model.traffic.network import (
     via_lane_shape,
     write_network,
 )
+from model.traffic.reservation import traffic_manager
 from model.traffic.sumo import Sumo
 from model.traffic.tracking import Tracker, reference_of
 
@@ -170,7 +171,7 @@ def replay(sumo: Sumo, folder: Path, poses: dict[float, tuple], t_last: float, s
 
 def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: str = "routes.rou.xml",
                     junction_rule: bool = False, entry_rule: bool = False,
-                    follow_rule: bool = True, cooperate: bool = False) -> Pass:  # fmt: skip
+                    follow_rule: bool = True, cooperate: bool | str = False) -> Pass:  # fmt: skip
     """The autopilot's pass: each step, predict the others, choose the progress, move ``truck`` there.
 
     The loop is the contract's replay loop with the poses made online, so replaying ``DIR/sumo``
@@ -180,9 +181,11 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     entry half (``Autopilot(entry_rule=True)``), alone or with the exit half; off by default.
     ``follow_rule``: refuse an entry that makes a circulating follower brake above ``FOLLOWER_DECEL``
     (``Autopilot.follower_braking``, the merge point the end of SUMO's internal entry lane); on by default.
-    ``cooperate``: the cooperative mode, the other vehicles connected (``model.traffic.cooperative``): from
-    the truck's appearance on, each step announces its windows in the ring's conflict areas and sets the
-    speeds that keep the others out of them; the autopilot's own checks stay as they are.
+    ``cooperate``: a managed driver, the other vehicles connected: True or "cooperative" (the priority
+    request of ``model.traffic.cooperative.PriorityRequest``), "reservation" (first come, first served,
+    ``model.traffic.reservation``); from the truck's appearance on, each step the management sets the speeds
+    of the vehicles it holds out of the truck's windows (``Pass.commands``); the autopilot's own checks stay
+    as they are.
     """
 
     traffic, v, road = scenario.traffic, scenario.ocp.vehicle, scenario.ocp.road
@@ -202,7 +205,8 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
     pilot = Autopilot(scenario, plan, geo["front"], line_radius=line, junctions=junctions, exit_lanes=lanes,
                       entry_rule=entry_rule, follow_rule=follow_rule, merge_point=merge,
                       leader_decel=(truck_limits(scenario) or {"decel": LEADER_DECEL})["decel"])  # fmt: skip
-    coop = Cooperator(scenario.ocp, plan.at, plan.duration, traffic.step) if cooperate else None
+    kind = "cooperative" if cooperate is True else cooperate
+    manager = traffic_manager(kind, scenario, plan, geo["front"]) if kind else None
     tracker = Tracker(scenario.ocp, reference_of(scenario.ocp, plan.t, plan.columns))
     # the plan's solve leaves large object graphs: collect them now and keep the survivors out of the
     # collector's scans while driving, so that no decision pays for a full collection (measured: 1.7 CPU s)
@@ -222,10 +226,8 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
                     others = [predict(r, *_earlier(seen.get(r[1], []), r[0])) for r in last]
                     name, _ = pilot.decide(others, traffic.step, exiting)
                     out.decisions.append(name)
-                    if coop is not None:
-                        announce = committed(pilot.s, pilot.rate, pilot.give_way)
-                        if sent := coop.step_traffic(traci, traci.simulation.getTime(), pilot.s, announce=announce):
-                            out.commands[t_next] = sent
+                    if manager is not None and (sent := manager.step(traci, traci.simulation.getTime(), pilot, others)):
+                        out.commands[t_next] = sent
                     held = _track(pilot, tracker, out, now, geo["front"])
                     x, y, a = front_pose(v, tracker.state(), geo["front"])
                     traci.vehicle.moveToXY("truck", "", -1, x, y, a, keepRoute=2)

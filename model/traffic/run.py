@@ -36,7 +36,8 @@ from model.vehicles.body import centred_rectangle
 
 TRAFFIC_COLUMNS = ("t", "id", "type", "x", "y", "heading", "speed", "length", "width")  # names: contract columns
 SAME_FOR_ALL = ("longitudinal_limits", "sumo_vtype")  # summary keys equal in every run: summary.json only
-DRIVERS = ("autopilot", "sumo", "cooperative")  # cooperative: the autopilot among connected vehicles
+DRIVERS = ("autopilot", "sumo", "cooperative", "reservation")  # the last two: the autopilot among connected vehicles
+MANAGED = ("cooperative", "reservation")  # the drivers that set the other vehicles' speeds (commands.csv)
 
 
 def other_corners(row: tuple) -> np.ndarray:
@@ -100,8 +101,9 @@ def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int
         scored = replay(sumo, sumo_dir, poses, driven.end, traffic.step)
     else:
         rules = {"junction_rule": junction_rule, "entry_rule": entry_rule, "follow_rule": follow_rule}
-        driven = autopilot_drive(scenario, sumo, sumo_dir, plan, **rules, cooperate=driver == "cooperative")
-        if driver == "cooperative":  # the speeds set on the others, for the replay (docs/traffic-format.md)
+        managed = driver if driver in MANAGED else False
+        driven = autopilot_drive(scenario, sumo, sumo_dir, plan, **rules, cooperate=managed)
+        if managed:  # the speeds set on the others, for the replay (docs/traffic-format.md)
             (sumo_dir / "commands.csv").write_text(commands_text(driven.commands))
         free = autopilot_drive(scenario, sumo, sumo_dir, plan, "routes_free_flow.rou.xml")
         cols = states_of(scenario, driven) if driven.states else {}
@@ -255,5 +257,5 @@ def run_traffic(scenario: Scenario, sumo: Sumo, stage: Path, driver: str, runs: 
     return results[0]
 
 
-__all__ = ["DRIVERS", "TRAFFIC_COLUMNS", "aggregate", "encounter", "entry_wait", "limits_summary", "one_run",
+__all__ = ["DRIVERS", "MANAGED", "TRAFFIC_COLUMNS", "aggregate", "encounter", "entry_wait", "limits_summary", "one_run",
            "other_corners", "run_traffic", "trajectory_text"]  # fmt: skip

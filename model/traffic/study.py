@@ -299,6 +299,23 @@ def others_measures(cells: Sequence[Mapping]) -> dict:
     return out
 
 
+def others_delay(run: Mapping) -> float | None:
+    """Seconds the other vehicles lost because of the truck in one run (None if not measured).
+
+    Their summed SUMO time loss (``others_time_loss``) less the same vehicles' loss in the same seed's
+    traffic replayed without the truck to the same end (``others_time_loss_without_truck``); negative when
+    they lost less with the truck (SUMO's drivers are random: the truck's insertion changes their draws).
+    """
+    loss, alone = run.get("others_time_loss"), run.get("others_time_loss_without_truck")
+    return None if loss is None or alone is None else float(loss - alone)
+
+
+def everyone_delay(run: Mapping) -> float | None:
+    """Everyone's delay in one run, s: the truck's delay plus ``others_delay`` (None if either is missing)."""
+    others = others_delay(run)
+    return None if others is None or run.get("delay") is None else float(run["delay"] + others)
+
+
 def _median(values: Sequence[float]) -> float | None:
     return float(np.median(values)) if len(values) else None
 
@@ -308,5 +325,6 @@ def _mean(values: Sequence[float]) -> float | None:
 
 
 __all__ = ["FORMULA_MIN_DRIVERS", "MLE_MIN_DRIVERS", "RUN_KEYS", "cell_document", "cell_name", "conflicting_demand",
-           "free_line_time", "gap_estimates", "group_measures", "merged", "others_measures", "others_record",
-           "parse_cell", "read_columns", "run_record", "truck_centres", "truck_offers"]  # fmt: skip
+           "everyone_delay", "free_line_time", "gap_estimates", "group_measures", "merged", "others_delay",
+           "others_measures", "others_record", "parse_cell", "read_columns", "run_record", "truck_centres",
+           "truck_offers"]  # fmt: skip

@@ -121,3 +121,58 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
     """The maximal runs [a, b) of True in ``flags``."""
     edges = np.diff(np.concatenate([[0], flags.astype(int), [0]]))
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+
+
+def progress_time(ahead: float, rate: float, slope: float) -> float:
+    """Seconds the truck needs for ``ahead`` seconds of plan time from its actual progress.
+
+    Parameters
+    ----------
+    ahead : float
+        Plan seconds still to go (<= 0: none).
+    rate : float
+        The truck's progress rate now (plan seconds per second, in [0, 1]).
+    slope : float
+        How fast the rate can rise, 1/s (``Autopilot.rate_slope``); inf: at the plan's pace at once.
+
+    Returns
+    -------
+    float
+        The time to cover ``ahead`` with the rate rising from ``rate`` at ``slope`` to 1 (the plan's pace)
+        and staying there: the earliest the truck can get there from where it is.
+    """
+    if ahead <= 0.0:
+        return 0.0
+    rate = min(max(rate, 0.0), 1.0)
+    if not math.isfinite(slope) or rate >= 1.0:
+        return ahead / max(rate, 1.0)
+    ramp = (1.0 - rate) / slope  # seconds to reach the plan's pace
+    covered = rate * ramp + 0.5 * slope * ramp**2
+    if ahead >= covered:
+        return ramp + (ahead - covered)
+    return (-rate + math.sqrt(rate * rate + 2.0 * slope * ahead)) / slope
+
+
+def clock_windows(windows: list[Window], now: float, s: float, rate: float = 1.0,
+                  slope: float = math.inf) -> list[Window]:  # fmt: skip
+    """The plan-time ``windows`` still ahead of plan time ``s`` in clock time, from the truck's actual progress.
+
+    Parameters
+    ----------
+    windows : list of Window
+        Plan-time windows (``occupancy_windows``).
+    now : float
+        Clock time, s.
+    s : float
+        The truck's plan time now (where it is along its plan).
+    rate, slope : float
+        Its progress rate now and how fast that can rise (``progress_time``); the defaults announce at
+        the plan's pace from ``s`` on.
+
+    Returns
+    -------
+    list of Window
+        Each window whose end is ahead of ``s``: [now + progress_time(start - s), now + progress_time(end - s)].
+    """
+    return [Window(w.leg, now + progress_time(w.start - s, rate, slope), now + progress_time(w.end - s, rate, slope))
+            for w in windows if w.end > s]  # fmt: skip

@@ -21,10 +21,11 @@ from studies_common import parser, plt, table, write_text
 
 from model.plotting.figures import save
 from model.traffic.gaps import HCM_CRITICAL_GAP, HCM_FOLLOW_UP, adams_delay, gap_capacity, hcm_capacity
-from model.traffic.study import FORMULA_MIN_DRIVERS, group_measures, others_measures
+from model.traffic.study import FORMULA_MIN_DRIVERS, everyone_delay, group_measures, others_delay, others_measures
 
 DRIVER_STYLE = {"autopilot": {"color": "#1f6fb4", "marker": "o"}, "sumo": {"color": "#d2691e", "marker": "s"},
-                "cooperative": {"color": "#2e8b57", "marker": "^"}}  # fmt: skip
+                "cooperative": {"color": "#2e8b57", "marker": "^"},
+                "reservation": {"color": "#8b2e7a", "marker": "v"}}  # fmt: skip
 
 
 def rounded(rows: list[dict], digits: int = 9) -> list[dict]:
@@ -61,10 +62,13 @@ HARDER = 0.1  # m/s^2: braking caused counted as harder than without the truck b
 
 
 def everyone(runs: list[dict]) -> list[float]:
-    """Per run the truck's delay plus the time the others lost because of it (their loss less the loss without it)."""
-    keys = ("delay", "others_time_loss", "others_time_loss_without_truck")
-    return [r["delay"] + r["others_time_loss"] - r["others_time_loss_without_truck"] for r in runs
-            if all(r.get(k) is not None for k in keys)]  # fmt: skip
+    """Per run the truck's delay plus the others' loss because of it (``model.traffic.study.everyone_delay``)."""
+    return [e for r in runs if (e := everyone_delay(r)) is not None]
+
+
+def others(runs: list[dict]) -> list[float]:
+    """Per run the time the others lost because of the truck (``model.traffic.study.others_delay``)."""
+    return [o for r in runs if (o := others_delay(r)) is not None]
 
 
 def flat(c: dict) -> dict:
@@ -80,6 +84,7 @@ def flat(c: dict) -> dict:
     violations = sum(bool(r.get("road_violation")) for r in runs)
     d_mean, d_half = mean_ci(delay)
     e_mean, e_half = mean_ci(everyone(runs))
+    o_mean, o_half = mean_ci(others(runs))
     return {"vehicle": c["vehicle"], "rate": c["rate"], "driver": c["driver"], "runs": n,
             "demand_vph": 3600 * c["demand_q"], "arrived": arrived, "arrived_text": of(arrived, n),
             "collided": collided, "collided_text": of(collided, n), "road_violations": violations,
@@ -89,6 +94,7 @@ def flat(c: dict) -> dict:
             "harder": harder, "harder_text": of(harder, n),
             "delay_median": float(np.median(delay)) if delay else None, "delay_mean": d_mean, "delay_ci": d_half,
             "delay_text": pm(d_mean, d_half), "entry_wait": mean_ci(values(runs, "entry_wait"))[0],
+            "others": o_mean, "others_ci": o_half, "others_text": pm(o_mean, o_half),
             "everyone": e_mean, "everyone_ci": e_half, "everyone_text": pm(e_mean, e_half),
             "realtime_factor": max(values(runs, "realtime_factor"), default=None)}  # fmt: skip
 
@@ -105,22 +111,34 @@ def everyone_rows(cells: list[dict]) -> list[dict]:
 
 CELL = {"vehicle": "vehicle", "rate": "flow entering per other leg (veh/h)", "driver": "driver"}
 SAFETY_COLUMNS = CELL | {
-    "arrived_text": "arrived (runs / runs)", "collided_text": "with a collision (runs / runs)",
+    "arrived_text": "arrived (runs / runs)",
+    "collided_text": "with a collision (runs / runs)",
     "min_distance": "least distance to another vehicle (m)",
+    "violations_text": "leaving the road (runs / runs)",
+}
+BRAKING_COLUMNS = CELL | {
     "max_braking": "strongest braking caused (m/s²)", "max_braking_without": "same runs without the truck (m/s²)",
-    "harder_text": "braking harder than without the truck (runs / runs)",
-    "violations_text": "leaving the road (runs / runs)"}  # fmt: skip
+    "harder_text": "braking harder than without the truck (runs / runs)"}  # fmt: skip
 DELAY_COLUMNS = CELL | {
-    "demand_vph": "conflicting demand at the truck's entry (veh/h)", "delay_median": "truck's delay, median (s)",
-    "delay_text": "truck's delay, mean ± 95 % CI (s)", "entry_wait": "truck stood before the line, mean (s)"}
+    "demand_vph": "conflicting demand at the truck's entry (veh/h)",
+    "delay_median": "truck's delay, median (s)",
+    "delay_text": "truck's delay, mean ± 95 % CI (s)",
+    "entry_wait": "truck stood before the line, mean (s)",
+}
 GAP_COLUMNS = {"who": "drivers at the line", "drivers": "drivers (offers used)", "rejected": "rejected gaps",
                "raff_text": "t_c Raff ± bootstrap SE (s)", "mle_text": "t_c max. likelihood ± SE (s)",
                "mle_sd": "spread of the drivers' t_c (s, log-normal SD)", "follow_up": "t_f (s)",
                "line_time_free": "line to entry without a rejected gap, median (s)"}  # fmt: skip
-CARS_COLUMNS = {"rate": "flow entering per other leg (veh/h)", "leg": "entry leg",
-                "vc_pcph": "conflicting flow v_c (pc/h, measured)", "observed": "cars at the line",
-                "line_wait": "measured wait at the line (s, mean)", "adams_delay": "Adams E[W] (s)",
-                "capacity_pcph": "gap capacity, Siegloch (pc/h)", "hcm_capacity_pcph": "HCM 6th ed. capacity (pc/h)"}
+CARS_COLUMNS = {
+    "rate": "flow entering per other leg (veh/h)",
+    "leg": "entry leg",
+    "vc_pcph": "conflicting flow v_c (pc/h, measured)",
+    "observed": "cars at the line",
+    "line_wait": "measured wait at the line (s, mean)",
+    "adams_delay": "Adams E[W] (s)",
+    "capacity_pcph": "gap capacity, Siegloch (pc/h)",
+    "hcm_capacity_pcph": "HCM 6th ed. capacity (pc/h)",
+}
 TRUCK_COLUMNS = {"vehicle": "vehicle", "driver": "driver", "rate": "flow entering per other leg (veh/h)",
                  "vc_pcph": "conflicting flow v_c (pc/h, measured)", "observed": "runs entered",
                  "line_wait": "measured wait at the line (s, mean)", "adams_delay": "Adams E[W], own t_c (s)",
@@ -181,17 +199,24 @@ def findings(cars: dict) -> str:
     """One sentence on the cars' critical gap against the HCM's and their waits against Adams' delay."""
     if cars["critical_gap"] is None:
         return "No critical gap of SUMO's cars could be estimated on this grid (no rejected gap, or too few drivers)."
-    est = (f"SUMO's cars: t_c = {pm(cars['mle'], cars['mle_se'])} s by maximum likelihood"
-           if cars["mle"] is not None else f"SUMO's cars: Raff's t_c = {cars['raff']:.3g} s")
+    est = (
+        f"SUMO's cars: t_c = {pm(cars['mle'], cars['mle_se'])} s by maximum likelihood"
+        if cars["mle"] is not None
+        else f"SUMO's cars: Raff's t_c = {cars['raff']:.3g} s"
+    )
     pairs = [(r["line_wait"], r["adams_delay"]) for r in cars["cells"] if r.get("line_wait") is not None
              and r.get("adams_delay") is not None]  # fmt: skip
     waits = ""
     if pairs:
         measured, adams = float(np.mean([w for w, _ in pairs])), float(np.mean([a for _, a in pairs]))
-        waits = (f"; over {len(pairs)} flow-and-leg cells their mean measured wait is {measured:.2f} s against Adams'"
-                 f" {adams:.2f} s (measured minus Adams {measured - adams:+.2f} s)")
-    return (f"**Result.** {est} from {cars['drivers']} drivers and {cars['rejected']} rejected gaps, against the"
-            f" HCM's passenger-car t_c of {HCM_CRITICAL_GAP:.2f} s{waits}.")
+        waits = (
+            f"; over {len(pairs)} flow-and-leg cells their mean measured wait is {measured:.2f} s against Adams'"
+            f" {adams:.2f} s (measured minus Adams {measured - adams:+.2f} s)"
+        )
+    return (
+        f"**Result.** {est} from {cars['drivers']} drivers and {cars['rejected']} rejected gaps, against the"
+        f" HCM's passenger-car t_c of {HCM_CRITICAL_GAP:.2f} s{waits}."
+    )
 
 
 def section(tables: dict[str, str], mode: str, grid: dict, figure_path: str, extra: str, result: str) -> str:
@@ -206,26 +231,30 @@ truck's trailer is reconstructed and off-tracks as it would) and the `cooperativ
 among connected vehicles that are held out of the ring's areas while the truck occupies them). Every
 distance is between exact rectangles; a failed run is counted, never dropped.
 
-Grid run: **{mode}** (vehicles {', '.join(grid['vehicles'])}; {', '.join(f'{r:g}' for r in grid['rates'])} veh/h per
-leg; drivers {', '.join(grid['drivers'])}; {grid['runs']} seeds from {grid['seed']}). A larger grid's results are
+Grid run: **{mode}** (vehicles {", ".join(grid["vehicles"])}; {", ".join(f"{r:g}" for r in grid["rates"])} veh/h per
+leg; drivers {", ".join(grid["drivers"])}; {grid["runs"]} seeds from {grid["seed"]}). A larger grid's results are
 committed as benchmarks/traffic-study.md (its header names the grid and the command that wrote it; the full grid's:
 `snakemake -c2 --config traffic_study=full -- benchmarks/traffic-study.md`).
 
-Table: Safety per vehicle, flow and driver (over the runs). Distances between exact rectangles. Braking
-caused: the strongest deceleration of another vehicle within 50 m of the truck, beside the same seeds' traffic
-replayed without the truck (SUMO's cars brake up to 4.5 m/s² at the entries on their own); a run brakes
-harder when the first exceeds the second by more than {HARDER} m/s².
+Table: Safety per vehicle, flow and driver (over the runs): arrivals, collisions, the least distance between
+exact rectangles, runs in which a body left the road.
 
-{tables['safety']}
+{tables["safety"]}
+
+Table: Braking caused per vehicle, flow and driver: the strongest deceleration of another vehicle within 50 m
+of the truck, beside the same seeds' traffic replayed without the truck (SUMO's cars brake up to 4.5 m/s² at
+the entries on their own); a run brakes harder when the first exceeds the second by more than {HARDER} m/s².
+
+{tables["braking"]}
 
 Table: The truck's delay per vehicle, flow and driver: travel time less the same driver's without other traffic.
 
-{tables['delay']}
+{tables["delay"]}
 
 Table: Everyone's delay (s, mean ± 95 % CI over n runs, Student's t), the drivers on the same seeds: the truck's
 delay plus the others' summed SUMO time loss less the same vehicles' loss without the truck over the same span.
 
-{tables['everyone']}
+{tables["everyone"]}
 
 **Gap acceptance.** Every driver at an entry is observed, SUMO's passenger cars at their legs as
 well as the truck at its own: a driver is at the line from when its front comes within 10 m of the
@@ -243,7 +272,7 @@ rear in), a lower bound.
 
 Table: Critical gaps (s) of the drivers at the line.
 
-{tables['gaps']}
+{tables["gaps"]}
 
 **Against traffic engineering.** Adams' delay [@adams1936] E[W] = (exp(q t_c) - 1 - q t_c) / q is the mean wait
 of a driver arriving at random at a Poisson stream of rate q who needs a gap t_c (the estimate above,
@@ -257,12 +286,12 @@ the entries, so no capacity is measured.
 
 Table: SUMO's cars per flow and entry leg: measured waits against Adams, Siegloch's capacity against the HCM's.
 
-{tables['cars']}
+{tables["cars"]}
 
 Table: The truck's waits at its line against Adams' delay with its own critical gap (from {FORMULA_MIN_DRIVERS}
 entries with a rejected gap among them) and with the cars' critical gap.
 
-{tables['truck']}
+{tables["truck"]}
 
 {result}
 
@@ -278,7 +307,7 @@ def main() -> None:
     ap.add_argument("--mode", required=True)
     ap.add_argument("--vehicles", nargs="+", required=True)
     ap.add_argument("--rates", type=float, nargs="+", required=True)
-    ap.add_argument("--drivers", nargs="+", default=["autopilot", "sumo", "cooperative"])
+    ap.add_argument("--drivers", nargs="+", default=["autopilot", "sumo", "cooperative", "reservation"])
     ap.add_argument("--runs", type=int, required=True)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--figure-link", required=True, help="the figure's path as the paper links it")
@@ -289,7 +318,8 @@ def main() -> None:
     rows = [flat(c) for c in cells]
     args.out.mkdir(parents=True, exist_ok=True)
     pd.DataFrame(rows).drop(columns=[k for k in rows[0] if k.endswith("_text")] if rows else []).to_csv(
-        args.out / "table.csv", index=False)
+        args.out / "table.csv", index=False
+    )
     cars = others_measures(cells)
     measures = groups(cells, cars["critical_gap"])
     gap_rows = [gap_row("SUMO's passenger cars, every entry", cars)]
@@ -298,11 +328,17 @@ def main() -> None:
     (args.out / "measures.json").write_text(json.dumps({"cars": cars} | {f"{v}/{d}": g for (v, d), g in
                                                                            measures.items()}, indent=2))  # fmt: skip
     figure(cars, measures, args.out / "comparison")
-    grid = {"vehicles": args.vehicles, "rates": args.rates, "runs": args.runs, "seed": args.seed,
-            "drivers": args.drivers}
+    grid = {
+        "vehicles": args.vehicles,
+        "rates": args.rates,
+        "runs": args.runs,
+        "seed": args.seed,
+        "drivers": args.drivers,
+    }
     extra = args.extra.read_text() if args.extra else ""
     drivers = sorted({c["driver"] for c in cells})
-    tables = {"safety": table(rows, SAFETY_COLUMNS), "delay": table(rows, DELAY_COLUMNS),
+    tables = {"safety": table(rows, SAFETY_COLUMNS), "braking": table(rows, BRAKING_COLUMNS),
+              "delay": table(rows, DELAY_COLUMNS),
               "gaps": table(gap_rows, GAP_COLUMNS),
               "everyone": table(everyone_rows(cells), {"vehicle": "vehicle", "rate": "flow per other leg (veh/h)",
                                                        **{d: f"{d} (s)" for d in drivers}}),

@@ -1,0 +1,103 @@
+"""The cooperative driver's management (issue 45, point 5): windows at the truck's actual progress, and a
+priority request only when the truck waits, from vehicles that can be held, once waiting costs more than asking."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+from model.traffic.cooperative import Cooperator, PriorityRequest
+from model.traffic.windows import Window, clock_windows, progress_time
+
+
+def test_progress_time_ramps_the_rate_up_at_its_slope_to_the_plans_pace():
+    assert progress_time(3.0, rate=1.0, slope=0.5) == pytest.approx(3.0)  # at the plan's pace
+    assert progress_time(3.0, rate=0.0, slope=math.inf) == pytest.approx(3.0)  # the old announcement
+    # from standing at 0.5 /s: 2 s to reach the pace, covering 1 plan second, then 1 more second per plan second
+    assert progress_time(3.0, rate=0.0, slope=0.5) == pytest.approx(4.0)
+    assert progress_time(0.25, rate=0.0, slope=0.5) == pytest.approx(1.0)  # 0.25 = 0.5 * 0.5 * t^2 at t = 1 s
+    assert progress_time(-1.0, rate=0.0, slope=0.5) == 0.0
+
+
+def test_clock_windows_of_a_standing_truck_open_later_than_at_the_plans_pace():
+    windows = [Window(0, 2.0, 5.0), Window(1, 4.0, 7.0), Window(2, 0.0, 1.0)]
+    paced = clock_windows(windows, now=10.0, s=1.0)
+    standing = clock_windows(windows, now=10.0, s=1.0, rate=0.0, slope=0.5)
+    assert [w.leg for w in paced] == [0, 1]  # the window behind plan time 1 s is gone
+    assert paced[0] == Window(0, 11.0, 14.0)
+    assert standing[0] == Window(0, 12.0, 15.0)  # 1 plan second takes 2 s from standing, then the pace
+    assert all(a.start < b.start and a.end < b.end for a, b in zip(paced, standing, strict=True))
+
+
+@dataclass
+class StubCooperator(Cooperator):
+    """A ``Cooperator`` without SUMO: fixed asks and hold cost; the commands it would send are kept."""
+
+    fixed: dict[str, float] = field(default_factory=dict)
+    cost: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.windows = [Window(0, 1.0, 4.0), Window(1, 3.0, 6.0)]
+        self.areas = {}
+
+    def asks(self, traci, now, windows, truck="truck", holds=None):
+        return dict(self.fixed) if any(w.leg == 0 for w in windows) else {}
+
+    def hold_cost(self, traci, now, speeds, legs=None):
+        return self.cost
+
+    def command(self, traci, speeds):
+        sent = speeds | {vid: -1.0 for vid in sorted(set(self.commanded) - set(speeds))}
+        self.commanded = dict(speeds)
+        return sent
+
+
+@dataclass
+class StubPilot:
+    """The autopilot's progress; no vehicle predicted near (``blockers`` finds none)."""
+
+    s: float
+    rate: float
+    rate_slope: float = 0.5
+    give_way: float = 2.0
+
+    def instants(self, step):
+        return np.array([0.0, step, 0.5])
+
+    def near(self, others, tau):
+        return []
+
+
+def request(fixed: dict[str, float], cost: float) -> PriorityRequest:
+    coop = StubCooperator(ocp=None, plan_at=None, duration=8.0, step=0.1, fixed=fixed, cost=cost)
+    return PriorityRequest(coop, enter=0, appeared=0.0)
+
+
+def test_a_truck_at_its_plans_pace_holds_no_one():
+    manager = request({"car": 3.0}, cost=0.0)
+    assert manager.step(None, now=1.0, pilot=StubPilot(s=1.1, rate=1.0)) == {}
+    assert not manager.granted
+
+
+def test_a_waiting_truck_asks_only_once_it_has_lost_what_the_hold_costs():
+    manager = request({"car": 3.0}, cost=1.5)
+    assert manager.step(None, now=1.0, pilot=StubPilot(s=0.6, rate=0.4)) == {}  # lost 0.5 s < 1.5 s
+    assert manager.step(None, now=2.0, pilot=StubPilot(s=0.6, rate=0.0)) == {"car": 3.0}  # lost 1.5 s
+    assert manager.granted
+
+
+def test_a_granted_request_stays_past_the_line_and_releases_when_the_entry_area_is_passed():
+    manager = request({"car": 3.0}, cost=0.0)
+    assert manager.step(None, now=1.0, pilot=StubPilot(s=1.0, rate=0.5)) == {"car": 3.0}
+    assert manager.step(None, now=2.0, pilot=StubPilot(s=3.0, rate=1.0)) == {"car": 3.0}  # past the line at pace
+    assert manager.step(None, now=3.0, pilot=StubPilot(s=4.5, rate=1.0)) == {"car": -1.0}  # entry area passed
+    assert manager.step(None, now=3.1, pilot=StubPilot(s=4.6, rate=1.0)) == {}
+
+
+def test_a_request_that_would_hold_no_one_is_not_made():
+    manager = request({}, cost=0.0)
+    assert manager.step(None, now=5.0, pilot=StubPilot(s=0.5, rate=0.0)) == {}
+    assert not manager.granted
