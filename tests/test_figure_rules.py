@@ -167,3 +167,32 @@ def test_the_error_figure_draws_levels_as_separate_markers_not_lines_and_its_leg
     assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
     assert smallest_print_font(fig) >= MIN_FONT_PT
     close(fig)
+
+
+def test_the_wheelbase_figure_normalises_both_panels_by_the_same_reference():
+    from model.plotting.studies import wheelbase_figure
+
+    rows = [{"sweep": "a", "d": d, "kind": kind, "ok": True, "final_time": 1.0 + d, "objective": 2.0 * (1.0 + d)}
+            for d in (0.5, 1.0, 2.0) for kind in ("time", "energy")]  # fmt: skip
+    fig = wheelbase_figure(pd.DataFrame(rows))
+    time_line, energy_line = fig.axes[0].get_lines()[0], fig.axes[1].get_lines()[0]
+    assert list(time_line.get_xdata()) == list(energy_line.get_xdata()) == [0.5, 1.0, 2.0]
+    assert np.allclose(time_line.get_ydata(), energy_line.get_ydata())  # J = 2 Tmin: the same ratios
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)
+
+
+def test_the_time_controls_figure_titles_each_run_labels_its_quantity_and_keeps_one_legend_below():
+    from model.plotting.studies import time_controls_figure
+
+    t = np.linspace(0.0, 1.0, 41)
+    tr = pd.DataFrame({"t": t, "u1": np.ones_like(t), "u2": 0.35 * np.sign(np.sin(9 * t))})
+    bounds = {"u1": (-1.0, 1.0), "u2": (-0.35, 0.35)}
+    runs = [(f"run-{k}", tr, bounds, {"u2": [{"t0": 0.4, "t1": 0.5}]} if k else {}) for k in range(3)]
+    fig = time_controls_figure(runs)
+    shown = [ax for ax in fig.axes if ax.get_visible()]
+    assert [ax.get_title(loc="left").split()[0] for ax in shown] == ["run-0", "run-1", "run-2"]
+    assert all(ax.get_legend() is None for ax in shown) and fig.legends
+    assert "bound" in shown[0].get_ylabel()
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)

@@ -1,0 +1,91 @@
+"""Figures of the studies whose scripts draw inline today (studies_wheelbase.py, studies_time.py), drawn by the
+paper's rules (model.plotting.rules): quantities with units, legends off the data, text >= 7 pt at print.
+
+``wheelbase_figure`` plots the minimum time and the energy at fixed Tf against the wheelbase, both panels
+relative to the same reference per sweep (its middle d and the value there), not each panel's own median.
+``time_controls_figure`` draws each time-optimal solve's controls divided by their bounds, a panel per solve
+titled by it, the y axis the quantity, one legend for all, chattering windows shaded.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.patches import Patch
+from matplotlib.ticker import FormatStrFormatter, NullFormatter
+
+from model.plotting.figures import FIGURE_WIDTH, PALETTE, apply_style
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+
+def wheelbase_figure(frame: pd.DataFrame) -> plt.Figure:
+    """Minimum time (left) and energy at fixed Tf (right) against the wheelbase d, one line per sweep, both
+    relative to the same reference: the sweep's middle wheelbase d_ref (its median d over all its rows) and the
+    value there; a sweep without a solved value at d_ref is left out of that panel.
+
+    ``frame``: wheelbase.csv (sweep, d, kind "time"/"energy", ok, final_time, objective).
+    """
+    apply_style()
+    fig, axes = plt.subplots(1, 2, figsize=(FIGURE_WIDTH, 3.0), sharex=True, layout="constrained")
+    panels = ((axes[0], "time", "final_time", r"$T_{min}(d)\,/\,T_{min}(d_{ref})$ (-)"),
+              (axes[1], "energy", "objective", r"$J(d)\,/\,J(d_{ref})$ at fixed $T_f$ (-)"))  # fmt: skip
+    for k, (label, grp) in enumerate(frame.groupby("sweep", sort=False)):
+        d_ref = float(np.median(np.unique(grp["d"])))
+        for ax, kind, col, _ in panels:
+            g = grp[(grp["kind"] == kind) & grp["ok"].astype(bool)].sort_values("d")
+            ref = g.loc[np.isclose(g["d"], d_ref), col]
+            if len(ref):
+                ax.plot(g["d"] / d_ref, g[col] / float(ref.iloc[0]), "o-", ms=4, color=PALETTE[k],
+                        label=f"{label} ($d_{{ref}}$ = {d_ref:g} m)")  # fmt: skip
+    for ax, _, _, ylabel in panels:
+        ax.axhline(1.0, color="0.6", lw=0.6)
+        ax.set(xscale="log", xlabel=r"$d\,/\,d_{ref}$ (-)", ylabel=ylabel)
+        ax.set_xticks([0.5, 0.8, 1.0, 1.25, 2.0])
+        ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+    handles = {h.get_label(): h for ax in axes for h in ax.get_legend_handles_labels()[0]}
+    fig.legend(handles=list(handles.values()), loc="outside lower center", ncols=3, frameon=False)
+    return fig
+
+
+def time_controls_figure(
+    runs: Sequence[tuple[str, pd.DataFrame, Mapping[str, tuple[float, float]], Mapping[str, list[dict]]]],
+) -> plt.Figure:
+    """Each time-optimal solve's controls divided by their upper bounds, a panel per solve, two columns.
+
+    ``runs``: (name, trajectory with t, u1, u2; bounds name -> (lo, hi); chattering windows name -> list of
+    {"t0", "t1"}) per solve. A control is not drawn inside its chattering windows, which are shaded.
+    """
+    apply_style()
+    rows = math.ceil(len(runs) / 2)
+    fig, axes = plt.subplots(rows, 2, figsize=(FIGURE_WIDTH, 1.35 * rows + 0.7), squeeze=False, layout="constrained")
+    colors = {"u1": PALETTE[0], "u2": PALETTE[1]}
+    for ax, (name, tr, bounds, windows) in zip(axes.ravel(), runs, strict=False):
+        t = tr["t"].to_numpy()
+        for c, color in colors.items():
+            mask = np.zeros(len(t), bool)
+            for w in windows.get(c, ()):
+                mask |= (t >= w["t0"]) & (t <= w["t1"])
+                ax.axvspan(w["t0"], w["t1"], color="0.85", lw=0)
+            ax.plot(t, np.where(mask, np.nan, tr[c].to_numpy() / bounds[c][1]), color=color)
+        u1, u2 = bounds["u1"][1], bounds["u2"][1]
+        ax.set_title(f"{name} ($u_1$ bound {u1:g} m/s, $u_2$ {u2:g} rad/s)", fontsize=8, loc="left")
+        ax.set(ylim=(-1.15, 1.15), yticks=(-1, 0, 1))
+    for ax in axes.ravel()[len(runs):]:
+        ax.set_visible(False)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("$u$ / bound (-)")
+    for ax in axes.ravel():
+        if ax.get_visible():
+            ax.set_xlabel("t (s)")
+    handles = [plt.Line2D([], [], color=colors["u1"], label="speed $u_1$ / its bound"),
+               plt.Line2D([], [], color=colors["u2"], label="steering rate $u_2$ / its bound"),
+               Patch(color="0.85", label="chattering window (not drawn)")]  # fmt: skip
+    fig.legend(handles=handles, loc="outside lower center", ncols=3, frameon=False)
+    return fig
