@@ -73,7 +73,8 @@ def one_scenario(tmp_path_factory):
     """A real build of one scenario's figures, in a temporary working folder."""
     work = tmp_path_factory.mktemp("pipeline")
     shutil.copytree(SCENARIOS, work / "scenarios")  # a copy: the edit test touches it
-    config = {"scenarios": str(work / "scenarios" / "*.toml")}
+    # PDF figures are the config switch's (the default draws PNG only): the build writes both
+    config = {"scenarios": str(work / "scenarios" / "*.toml"), "figure_formats": "[pdf,png]"}
     run = snakemake(work, "-c2", "results/figures/s1/solution.png", config=config)
     assert run.returncode == 0, run.stderr[-3000:]
     return work, config
