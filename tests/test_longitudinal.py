@@ -268,3 +268,51 @@ def test_the_final_time_is_at_most_an_independent_casadi_references(tmp_path, je
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     reference = _casadi_reference(summary["intervals"], jerk)
     assert summary["final_time"] <= reference * (1 + 1e-4)
+
+
+@pytest.mark.parametrize("cls", [Truck, Tricycle, Unicycle, TractorTrailer])
+def test_one_rule_names_the_integrated_states_and_the_pose_states(cls):
+    base = cls()
+    assert base.roles.integrated == () and base.integrated_states == () and base.pose_states == base.states
+    assert Longitudinal(base).integrated_states == ("v",) and Longitudinal(base, jerk=True).integrated_states == (
+        "v",
+        "a",
+    )
+    for ext in (Longitudinal(base), Longitudinal(base, jerk=True)):
+        assert ext.pose_states == base.states  # a start fixes these; v (and a) are free unless stated
+
+
+def test_the_ends_complete_the_pose_the_same_way_everywhere():
+    from model.problem.ocp import end_pose
+
+    ext = Longitudinal(TractorTrailer(), jerk=True)
+    goal = end_pose(ext, {"x": 1.0, "y": 2.0, "theta": 0.5}, {"x": 0.0, "phi": 0.3, "theta1": 0.1, "v": 4.0})
+    assert goal == {"x": 1.0, "y": 2.0, "theta": 0.5, "phi": 0.0, "theta1": 0.5, "v": 0.0, "a": 0.0}
+    assert end_pose(ext, {"theta": 0.5, "v": 3.0, "theta1": 0.2})["v"] == 3.0  # what an end states wins
+    assert end_pose(ext, {"theta": 0.5, "v": 3.0, "theta1": 0.2})["theta1"] == 0.2
+    # a start must fix every pose state, never v or a
+    doc = _doc(jerk="jerk = [-1.0, 1.0]")
+    del doc["initial"]["v"]
+    assert parse_scenario(doc).ocp.initial.get("v") is None
+    del doc["initial"]["phi"]
+    assert "initial.phi" in _bad(doc)
+
+
+def test_a_route_leaves_v_and_a_to_the_file_and_the_pose_checks_ignore_them():
+    from model.analysis.bounds import pose_clearances
+
+    doc = tomllib_loads(Path(__file__).resolve().parents[1] / "examples" / "roundabout-semitrailer-operational.toml")
+    ocp = parse_scenario(doc).ocp
+    assert set(ocp.vehicle.integrated_states) <= set(ocp.vehicle.states)
+    gaps = pose_clearances(ocp)
+    moved = dict(ocp.final) | dict.fromkeys(ocp.vehicle.integrated_states, 7.0)
+    ocp.final = moved  # v and a are part of no pose: the same clearances
+    assert pose_clearances(ocp) == gaps
+    doc["final"] = {"x": 1.0}
+    assert "final.x" in _bad(doc)  # the route sets the pose
+
+
+def tomllib_loads(path: Path) -> dict:
+    import tomllib
+
+    return tomllib.loads(path.read_text())

@@ -45,7 +45,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from model.analysis.bodies import clearances
-from model.problem.ocp import OCP
+from model.problem.ocp import OCP, end_pose
 from model.scene.roundabout import apron_allowed, sweep
 from model.vehicles import Body, Vehicle
 
@@ -212,11 +212,9 @@ def pose_clearances(ocp: OCP) -> dict:
     """
     v, r = ocp.vehicle, ocp.vehicle.roles
     out = {}
-    for where, values in (("start", ocp.initial), ("goal", ocp.final)):
+    for where, values, rest in (("start", ocp.initial, None), ("goal", ocp.final, ocp.initial)):
         free_trailer = any(t not in values for t in r.trailers)
-        full = {**({r.steering: 0.0} if r.steering else {}), **dict.fromkeys(r.trailers, values.get(r.heading, 0.0))}
-        full |= dict(values)
-        states = {s: np.array([float(full.get(s, 0.0))]) for s in v.states}  # v, a: no pose
+        states = {s: np.array([float(val)]) for s, val in end_pose(v, values, rest).items()}
         fixed = {b: body for b, body in ocp.bodies.items() if not (free_trailer and b == "trailer")}
         view = SimpleNamespace(vehicle=v, bodies=fixed, road=ocp.road)
         out[where] = {b: float(c[0]) for b, c in clearances(view, states).items()}
@@ -330,8 +328,11 @@ def wound_length(a: np.ndarray, b: np.ndarray, radius: float, angle: float) -> f
     radius = min(radius, ra, rb)
     ta, tb = math.acos(radius / ra) if ra > 0 else 0.0, math.acos(radius / rb) if rb > 0 else 0.0
     if angle > ta + tb:
-        return math.sqrt(max(ra * ra - radius * radius, 0.0)) + math.sqrt(max(rb * rb - radius * radius, 0.0)) \
+        return (
+            math.sqrt(max(ra * ra - radius * radius, 0.0))
+            + math.sqrt(max(rb * rb - radius * radius, 0.0))
             + radius * (angle - ta - tb)
+        )
     return math.sqrt(max(ra * ra + rb * rb - 2 * ra * rb * math.cos(angle), 0.0))
 
 
@@ -428,13 +429,17 @@ def tight_reasons(bounds: Mapping) -> list[str]:
     fit = bounds["ring_fit"]
     if fit is not None and fit["margin"] < TIGHT_MARGIN:
         what = "leaves" if fit["fits"] else "does not fit the ring: short by"
-        reasons.append(f"the steady circulating turn {what} {abs(fit['margin']):.3g} m "
-                       f"(outer margin {fit['outer_margin']:.3g} m, inner {fit['inner_margin']:.3g} m, "
-                       f"{fit['inner_body']})")
+        reasons.append(
+            f"the steady circulating turn {what} {abs(fit['margin']):.3g} m "
+            f"(outer margin {fit['outer_margin']:.3g} m, inner {fit['inner_margin']:.3g} m, "
+            f"{fit['inner_body']})"
+        )
     lane = bounds["lane"]
     if lane is not None and lane["margin"] < TIGHT_MARGIN:
-        reasons.append(f"the {lane['lane']} is {lane['lane_width']:g} m for a {lane['body_width']:g} m wide "
-                       f"{lane['body']} ({lane['margin']:.3g} m to spare)")
+        reasons.append(
+            f"the {lane['lane']} is {lane['lane_width']:g} m for a {lane['body_width']:g} m wide "
+            f"{lane['body']} ({lane['margin']:.3g} m to spare)"
+        )
     return reasons
 
 

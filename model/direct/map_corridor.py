@@ -37,13 +37,14 @@ from model.analysis.validation import interval_clearances, one_step_columns
 from model.direct.bodies import TIGHT_COVER_SLACK, _pose_point, disc_count
 from model.direct.options import TranscriptionOptions
 from model.direct.solution import Solution
-from model.direct.solve import Start, finish, load_start, paused_gc, time_left, wall_time_options
+from model.direct.solve import Start, expired, finish, load_start, paused_gc, wall_time_options
 from model.direct.transcription import build_model
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import run_ipopt
 from model.problem.ocp import OCP
 from model.scene.curvilinear import Frame, conservative, disc_extents, frame, lateral_extents
 from model.scene.geometry import clearance
+from model.vehicles import integrated_speed
 
 MARGIN = 0.5  # m added to each disc's radius for the window of ``conservative``
 OPEN_END = 15.0  # m: how far the strips' corridor continues beyond the route's end edges (``open_ends``)
@@ -379,19 +380,18 @@ def centre_line_start(ocp: OCP, intervals: int, st: Strips, speed_fraction: floa
     theta = np.unwrap(np.arctan2(t[:, 1], t[:, 0]))
     theta += ocp.initial[r.heading] - theta[0]
     kappa = np.gradient(theta, s)
-    values = {r.x: p[:, 0], r.y: p[:, 1], r.heading: theta, r.speed: np.full(intervals + 1, (s1 - s0) / tf)}
+    times = np.linspace(0.0, tf, intervals + 1)
+    values = {r.x: p[:, 0], r.y: p[:, 1], r.heading: theta}
+    values |= integrated_speed(v, np.full(intervals + 1, (s1 - s0) / tf), times, {}, {})  # v; a, j = 0
     if r.steering is not None:
         d = v.parameter_values().get("wheelbase", 1.0)
         phi = np.clip(np.arctan(d * kappa), *ocp.bounds.get(r.steering, (-1.0, 1.0)))
         values[r.steering] = phi
-        values[r.steering_rate] = np.gradient(phi, np.linspace(0, tf, intervals + 1))
+        values[r.steering_rate] = np.gradient(phi, times)
     for trailer in r.trailers:
         values[trailer] = theta.copy()
-    for rate in (r.acceleration, r.jerk):  # longitudinal dynamics: the constant speed's rates
-        if rate is not None:
-            values[rate] = np.zeros(intervals + 1)
     values = {k: a for k, a in values.items() if k in v.states + v.controls}
-    return Start(values=values, final_time=tf, times=np.linspace(0.0, tf, intervals + 1))
+    return Start(values=values, final_time=tf, times=times)
 
 
 def exact_clearance(ocp: OCP, columns: dict[str, np.ndarray], dense: bool = False) -> float:
@@ -467,8 +467,7 @@ def solve_map(ocp: OCP, intervals: int = 60, iterations: int = 8, tol: float = 0
     s_fixed = projections(ocp, start.values, st, between)
     result = Result()
     for k in range(iterations):
-        left = time_left(deadline, clock)
-        if k and left is not None and left <= 0.0:
+        if k and expired(deadline, clock):  # a solve begun before the deadline runs (at least MIN_WALL_TIME)
             break
         timed = wall_time_options(dict(options or {}), deadline, MIN_WALL_TIME, clock)
         it, s_new = _strip_solve(ocp, intervals, st, s_fixed, start, trust, relax, timed, curved, arclength, between,

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from model.errors import InputError
+from model.problem.ocp import end_pose
 from model.problem.tables import is_number, no_unknown, number
 from model.scene.geometry import clearance
 from model.scene.lanelet_map import MapRoute, dataset_file, read_map
@@ -139,7 +140,7 @@ def check_poses(route: MapRoute, vehicle: Vehicle, bodies: dict[str, Body], init
     InputError
         ``route.start_offset`` or ``route.goal_offset``, with the body and by how far it leaves the corridor.
     """
-    for key, state in (("start_offset", initial), ("goal_offset", _goal_state(vehicle, initial, final))):
+    for key, state in (("start_offset", initial), ("goal_offset", end_pose(vehicle, final, initial))):
         for name, gap in pose_clearances(route, vehicle, bodies, state).items():
             if gap < 0:
                 where = "start" if key == "start_offset" else "goal"
@@ -147,23 +148,14 @@ def check_poses(route: MapRoute, vehicle: Vehicle, bodies: dict[str, Body], init
                                  f"(move the {where} along the route)")  # fmt: skip
 
 
-def _goal_state(vehicle: Vehicle, initial: dict[str, float], final: dict[str, float]) -> dict[str, float]:
-    r = vehicle.roles
-    state = {**initial, **({r.steering: 0.0} if r.steering else {}), **final}
-    for trailer in r.trailers:
-        state[trailer] = final.get(trailer, state[r.heading])  # in line at the goal unless given
-    return state
-
-
 def pose_clearances(route: MapRoute, vehicle: Vehicle, bodies: dict[str, Body],
                     state: dict[str, float]) -> dict[str, float]:  # fmt: skip
-    """Signed clearance (m, >= 0 inside) of each body's rectangle in its corridor at one state."""
+    """Signed clearance (m, >= 0 inside) of each body's rectangle in its corridor at one state (what it leaves
+    free completed as ``end_pose`` says: the steering 0, the trailers in line, v and a 0)."""
     poses = vehicle.body_poses()
-    columns = {k: np.array([v]) for k, v in state.items() if is_number(v)}
+    columns = {k: np.array([v]) for k, v in end_pose(vehicle, state).items() if is_number(v)}
     out = {}
     for name, body in bodies.items():
-        used = {str(s) for e in poses[name] for s in e.free_symbols}  # a free v or a (longitudinal) is not a pose
-        columns |= {k: np.zeros(1) for k in vehicle.states if k not in columns and k not in used}
         x, y, heading = vehicle.state_function(list(poses[name]))(columns)
         out[name] = clearance(route.corridor(name), body.corners(x[0], y[0], heading[0]))
     return out

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -154,10 +155,8 @@ class OCP:
             if not lo <= val <= hi:
                 raise InputError(f"{where}.{key}", f"{val} lies outside bounds [{lo}, {hi}]")
         if require_all:
-            r = self.vehicle.roles
-            free = {r.speed, r.acceleration} if r.acceleration is not None else set()  # integrated: free if absent
-            for key in self.vehicle.states:
-                if key not in values and key not in free:
+            for key in self.vehicle.pose_states:  # the integrated states (v, a) are free unless stated
+                if key not in values:
                     raise InputError(f"{where}.{key}", "missing: every state must be fixed at t = 0")
 
     def _check_obstacles(self) -> None:
@@ -275,3 +274,38 @@ class OCP:
         if self.map_route is not None:
             raise InputError("map", "simulating map scenarios or deriving their Pontryagin system is not implemented "
                              "yet (docs/map-corridor.md); roundabout solve solves them")  # fmt: skip
+
+
+def end_pose(
+    vehicle: Vehicle, values: Mapping[str, float], rest: Mapping[str, float] | None = None
+) -> dict[str, float]:
+    """Every state at one end of a problem as a check of the pose there needs it (the bodies' rectangles).
+
+    An end fixes what it states; what it leaves free takes, for the check: the steering angle 0, each trailer in
+    line with the reference heading, the longitudinal dynamics' states (``Vehicle.integrated_states``, free at
+    either end unless stated and part of no pose) 0, and any other state its value in ``rest``. The one place
+    that says so for the road bounds (``model.analysis.bounds``), the map pose check (``model.problem.maps``)
+    and what builds on them.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The model whose states are completed.
+    values : mapping
+        The end's stated values (``[initial]`` or ``[final]`` after a route set its pose): they win.
+    rest : mapping, optional
+        Values of the states no rule fills (the goal's: the start's); without it such a state is left out.
+
+    Returns
+    -------
+    dict
+        State name -> value, every state of ``vehicle`` that ``values``, the rules or ``rest`` give.
+    """
+    r = vehicle.roles
+    full = {k: val for k, val in (rest or {}).items() if k in vehicle.states}
+    full |= dict.fromkeys(vehicle.integrated_states, 0.0)
+    if r.steering is not None:
+        full[r.steering] = 0.0
+    if r.heading is not None and r.heading in values:
+        full |= dict.fromkeys(r.trailers, values[r.heading])
+    return full | dict(values)

@@ -66,16 +66,15 @@ def _legs(items: Any) -> list[Leg]:
     return legs
 
 
-
 def road_boundary_values(
     road: Road | MapRoute, initial: dict[str, float], final: dict[str, float], vehicle: Vehicle
 ) -> tuple[dict, dict]:
     """[initial] and [final] of a routed scenario (a roundabout's or a map's): the route's poses (the
-    vehicle's position and heading, steering 0, the trailers in line at the start) plus the steering
-    and trailer headings (and with longitudinal dynamics v and a) where given."""
+    vehicle's position and heading, steering 0, the trailers in line at the start) plus the steering,
+    the trailer headings and the longitudinal dynamics' states (``Vehicle.integrated_states``: v, a) where
+    given; those left out of [final], and v and a left out of [initial], are free."""
     r = vehicle.roles
-    integrated = (r.speed, r.acceleration) if r.acceleration is not None else ()  # longitudinal dynamics' states
-    free = tuple(s for s in (r.steering, *r.trailers, *integrated) if s in vehicle.states)  # a route leaves these
+    free = tuple(s for s in (r.steering, *r.trailers) if s in vehicle.states) + vehicle.integrated_states
     for where, values in (("initial", initial), ("final", final)):
         for key in values:
             if key not in vehicle.states:

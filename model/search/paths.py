@@ -28,6 +28,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from model.vehicles import integrated_speed
+
 if TYPE_CHECKING:
     from model.vehicles import Vehicle
 
@@ -513,35 +515,6 @@ def path_guess(
     return {name: out[name] for name in (*vehicle.states, *vehicle.controls)}
 
 
-SPEED_RAMP = 0.25  # of the duration: the share at each end over which a guess's speed blends into a stated end speed
-
-
-def integrated_speed(
-    vehicle: Vehicle, speed: np.ndarray, t: np.ndarray, initial: Mapping[str, float], final: Mapping[str, float]
-) -> dict[str, np.ndarray]:
-    """The longitudinal states and control of a guess (``roles.speed`` v, ``roles.acceleration`` a, ``roles.jerk`` j).
-
-    ``speed``: the signed speed along the guess at the node times ``t``. Where ``initial`` or ``final``
-    states v, the guess's speed blends linearly into it over SPEED_RAMP of the duration at that end; at
-    each change of direction it passes through 0 within SPEED_RAMP / 2 of the duration either side; a and
-    j are the derivatives (an approximate start: the transcription makes them consistent).
-    """
-    r = vehicle.roles
-    speed = np.asarray(speed, dtype=float)
-    span = max(float(t[-1] - t[0]), 1e-9)
-    cusps = [(t[k] + t[k + 1]) / 2 for k in np.flatnonzero(np.sign(speed[:-1]) * np.sign(speed[1:]) < 0)]
-    v = speed * np.clip(
-        np.min([np.abs(t - c) / (0.5 * SPEED_RAMP * span) for c in cusps], axis=0) if cusps else 1.0, 0.0, 1.0
-    )
-    for values, end, ramp in ((initial, 0, t - t[0]), (final, -1, t[-1] - t)):
-        if r.speed in values:
-            v = v + np.clip(1 - ramp / (SPEED_RAMP * span), 0.0, 1.0) * (values[r.speed] - speed[end])
-    out = {r.speed: v, r.acceleration: np.gradient(v, t)}
-    if r.jerk is not None:
-        out[r.jerk] = np.gradient(out[r.acceleration], t)
-    return out
-
-
 def _path_controls(
     vehicle: Vehicle, states: dict[str, np.ndarray], smp: dict[str, np.ndarray], speed: np.ndarray, t: np.ndarray
 ) -> dict[str, np.ndarray]:
@@ -688,4 +661,5 @@ def reeds_shepp_time(start: Pose, goal: Pose, rho: float | None, u1max: float) -
     return reeds_shepp(start, goal, rho).length / u1max
 
 
-__all__ = ["Path", "dubins", "min_turning_radius", "path_guess", "reeds_shepp", "reeds_shepp_time", "sample"]
+__all__ = ["Path", "dubins", "integrated_speed", "min_turning_radius", "path_guess", "reeds_shepp", "reeds_shepp_time",
+           "sample"]  # fmt: skip

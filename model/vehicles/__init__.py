@@ -23,7 +23,7 @@ Bodies (``Body``) and named parameter presets (``preset``, ``PRESETS``) live bes
 
 from model.vehicles.base import Roles, Vehicle, expression, sym
 from model.vehicles.body import Body, Cover
-from model.vehicles.longitudinal import Longitudinal
+from model.vehicles.longitudinal import Longitudinal, integrated_speed
 from model.vehicles.presets import PRESETS, OperationalLimits, operational_limits, preset
 from model.vehicles.tractor_trailer import TractorTrailer
 from model.vehicles.tricycle import Tricycle
@@ -53,5 +53,6 @@ __all__ = [
     "preset",
     "operational_limits",
     "expression",
+    "integrated_speed",
     "sym",
 ]

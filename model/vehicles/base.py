@@ -67,6 +67,17 @@ class Roles:
         return (self.x, self.y)
 
     @property
+    def integrated(self) -> tuple[str, ...]:
+        """The states that longitudinal dynamics add, in order: the speed (with ``acceleration`` set), then the
+        acceleration (with ``jerk`` set); () while the speed is a control.
+
+        One rule for them everywhere (docs/dynamics-format.md): free at either end unless a scenario states them,
+        and part of no pose (no body's position or heading depends on them).
+        """
+        driven = (("speed", "acceleration"), ("acceleration", "jerk"))
+        return tuple(getattr(self, state) for state, by in driven if getattr(self, by) is not None)
+
+    @property
     def turning(self) -> str | None:
         """The control that turns the vehicle: the steering rate, else the turn rate (None: neither)."""
         return self.steering_rate if self.steering_rate is not None else self.turn_rate
@@ -140,6 +151,17 @@ class Vehicle:
     def position(self) -> tuple[str, str]:
         """The reference point's position states, ``roles.position``."""
         return self.roles.position
+
+    @property
+    def integrated_states(self) -> tuple[str, ...]:
+        """The longitudinal dynamics' states (``roles.integrated``: v, and a with a jerk limit); () without them."""
+        return tuple(s for s in self.roles.integrated if s in self.states)
+
+    @property
+    def pose_states(self) -> tuple[str, ...]:
+        """Every state but ``integrated_states``, in state order: what a start fixes (the position, the headings,
+        the steering angle and any other state of the model)."""
+        return tuple(s for s in self.states if s not in self.roles.integrated)
 
     def parameters(self) -> dict[str, float]:
         """Numeric values of the model's parameters, keyed by symbol name."""

@@ -152,4 +152,3 @@ def centred_rectangle(
     half_l, half_w = length / 2, width / 2
     local = np.array([[-half_l, -half_w], [half_l, -half_w], [half_l, half_w], [-half_l, half_w]])
     return place_points(local, x, y, heading)
-
