@@ -35,6 +35,7 @@ from __future__ import annotations
 import functools
 import math
 import operator
+from dataclasses import dataclass
 
 import numpy as np
 import pyomo.environ as pyo
@@ -136,11 +137,13 @@ def _add_disc(
         x, y = centre(t)
         return pyo.sqrt((x - cx) ** 2 + (y - cy) ** 2) + slack["island"](t) >= inner + r
 
+    lanes = [_lane_numbers(rb, leg, lane) for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit"))]
+
     def corridor(_m, t):
         x, y = centre(t)
         pieces = [rb.outer_radius - r - pyo.sqrt((x - cx) ** 2 + (y - cy) ** 2)]
-        for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit")):
-            pieces += [_lane_margin(rb, leg, lane, x, y, r, k), _fillet_margin(rb, leg, lane, x, y, r, k)]
+        for numbers in lanes:
+            pieces += [_lane_margin(numbers, x, y, r, k), _fillet_margin(numbers, x, y, r, k)]
         return _smooth_max(pieces, k) + slack["corridor"](t) >= math.log(len(pieces)) / k
 
     m.add_component(f"{tag}_island", pyo.Constraint(m.tau, rule=island))
@@ -334,37 +337,71 @@ def _centre_variables(m: pyo.ConcreteModel, tag: str, position, rb):
     return lambda t: (x[t], y[t])
 
 
-def _lane_margin(rb, leg: int, lane: str, x, y, r: float, k: float = SHARPNESS):
-    """Smooth minimum of a disc's margins in the lane's strip: centre line, outer edge, and from the centre to its end.
+@dataclass(frozen=True)
+class LaneNumbers:
+    """A route lane's geometry as Python floats, computed once per disc family rather than per node (a
+    numpy scalar times a Pyomo expression goes through numpy's ufunc machinery, several times slower).
 
-    Without ``along >= r`` the strip would continue through the centre and past the opposite curb.
+    ``axis``, ``normal``: the leg's unit vectors; ``side``: ``lane_side``; ``end``: the leg's end along its
+    axis; ``fillet``: the fillet circle's centre and radius; ``rays``: (sign, dx, dy) of the fillet sector's
+    two sides (unit directions from its centre, signed towards the corner).
     """
-    g = rb.legs[leg]
-    along, across = _lane_frame(rb, leg, lane, x, y)
-    margins = [across - r, g.lane_width - across - r, along - r, rb.outer_radius + g.length - along - r]
-    return -_smooth_max([-mi for mi in margins], k)
+
+    center: tuple[float, float]
+    axis: tuple[float, float]
+    normal: tuple[float, float]
+    side: float
+    width: float
+    end: float
+    fillet: tuple[float, float, float]
+    rays: tuple[tuple[float, float, float], ...]
 
 
-def _fillet_margin(rb, leg: int, lane: str, x, y, r: float, k: float = SHARPNESS):
-    """Smooth minimum of a disc's margins in a lane's fillet corner (see the module docstring)."""
-    f = fillet_geometry(rb, leg, lane)
-    fx, fy = f["center"]
+def _lane_numbers(rb, leg: int, lane: str) -> LaneNumbers:
+    """``LaneNumbers`` of a leg's lane."""
+    g, f = rb.legs[leg], fillet_geometry(rb, leg, lane)
     corner = np.asarray(f["corner"]) - f["center"]
-    margins = [pyo.sqrt((x - fx) ** 2 + (y - fy) ** 2) - f["radius"] - r]
+    rays = []
     for tangent in (f["edge_point"], f["curb_point"]):  # the sector's two sides, rays from F
         d = np.asarray(tangent) - f["center"]
         d = d / np.hypot(*d)
         sign = 1.0 if d[0] * corner[1] - d[1] * corner[0] > 0 else -1.0  # the corner's side of the ray
-        margins.append(sign * (d[0] * (y - fy) - d[1] * (x - fx)))
-    margins.append(_lane_frame(rb, leg, lane, x, y)[1] - r)
+        rays.append((sign, float(d[0]), float(d[1])))
+    return LaneNumbers(
+        center=(float(rb.center[0]), float(rb.center[1])),
+        axis=(float(g.axis[0]), float(g.axis[1])),
+        normal=(float(g.normal[0]), float(g.normal[1])),
+        side=float(lane_side(rb, lane)),
+        width=float(g.lane_width),
+        end=float(rb.outer_radius + g.length),
+        fillet=(float(f["center"][0]), float(f["center"][1]), float(f["radius"])),
+        rays=tuple(rays),
+    )
+
+
+def _lane_margin(lane: LaneNumbers, x, y, r: float, k: float = SHARPNESS):
+    """Smooth minimum of a disc's margins in the lane's strip: centre line, outer edge, and from the centre to its end.
+
+    Without ``along >= r`` the strip would continue through the centre and past the opposite curb.
+    """
+    along, across = _lane_frame(lane, x, y)
+    margins = [across - r, lane.width - across - r, along - r, lane.end - along - r]
     return -_smooth_max([-mi for mi in margins], k)
 
 
-def _lane_frame(rb, leg: int, lane: str, x, y):
+def _fillet_margin(lane: LaneNumbers, x, y, r: float, k: float = SHARPNESS):
+    """Smooth minimum of a disc's margins in a lane's fillet corner (see the module docstring)."""
+    fx, fy, radius = lane.fillet
+    margins = [pyo.sqrt((x - fx) ** 2 + (y - fy) ** 2) - radius - r]
+    margins += [sign * (dx * (y - fy) - dy * (x - fx)) for sign, dx, dy in lane.rays]
+    margins.append(_lane_frame(lane, x, y)[1] - r)
+    return -_smooth_max([-mi for mi in margins], k)
+
+
+def _lane_frame(lane: LaneNumbers, x, y):
     """(along, across): the point's distance along the leg's axis and across it into the lane (0 on the centre line)."""
-    g = rb.legs[leg]
-    dx, dy = x - rb.center[0], y - rb.center[1]
-    return g.axis[0] * dx + g.axis[1] * dy, lane_side(rb, lane) * (g.normal[0] * dx + g.normal[1] * dy)
+    dx, dy = x - lane.center[0], y - lane.center[1]
+    return lane.axis[0] * dx + lane.axis[1] * dy, lane.side * (lane.normal[0] * dx + lane.normal[1] * dy)
 
 
 def _saturate(margin):
