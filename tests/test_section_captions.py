@@ -228,7 +228,7 @@ def test_map_tables_are_captioned_and_lanelets_never_read_as_citations():
     grid = {"vehicles": ["EU-semitrailer"], "movements": ["90-102"], "apron": [True, False], "intervals": 100}
     text = map_study_table.section(df, "small", grid, template, 20, [(Path("x.png"), "a figure")])
     matrix, cells_caption = captions_of_tables(text)
-    assert "entry-exit" in matrix and "m^2" in cells_caption
+    assert "entry-exit" in matrix and "(m²)" in cells_caption
     cells_fit_their_headers(text)
     assert "| 23.1 | fails |" in text and "| 23.09 | 100 | 0.014 | 0.012 |" in text
     assert not re.search(r"\[\d+(, \d+)*\]", text)  # "[50]" reads as a citation: "lanelet 50"

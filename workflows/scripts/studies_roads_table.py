@@ -93,9 +93,9 @@ def energy_header(df: pd.DataFrame, ratio: float) -> str:
 def energy_words(df: pd.DataFrame) -> str:
     """What J integrates: u1 and u2 without the limits; at them the jerk j for u1."""
     if not df.operational.any():
-        return f"1/2 int u1^2 + u2^2 dt ({ENERGY_UNIT})"
+        return f"½∫(u1² + u2²) dt, {ENERGY_UNIT}"
     if df.operational.all():
-        return "1/2 int j^2 + u2^2 dt, the jerk j in m/s^3 for u1"
+        return "½∫(j² + u2²) dt, the jerk j in m/s³ for u1"
     return f"1/2 int of each cell's controls squared ({ENERGY_UNIT}; at the limits the jerk j for u1)"
 
 
@@ -330,7 +330,7 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
         "",
         f"Table: Every cell of the `{mode}` run: the minimum time T_min (s), the energy-optimal J at {ratio:g}"
         f" T_min ({energy_words(df)}), how far the time-optimal manoeuvre reaches onto the apron and its swept"
-        " width (m), and its limits (m/s^2): *held* at the preset's operational limits with the largest lateral"
+        " width (m), and its limits (m/s²): *held* at the preset's operational limits with the largest lateral"
         " acceleration a_lat and the acceleration a reached, or *none* with a_lat against the preset's allowed one.",
         "",
         table(
@@ -344,7 +344,7 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
                 "energy": energy_header(df, ratio),
                 "apron_used_m": "apron used (m)",
                 "swept_width_m": "swept width (m)",
-                "limits": "limits (m/s^2)",
+                "limits": "limits (m/s²)",
             },  # fmt: skip
         ),
         "",

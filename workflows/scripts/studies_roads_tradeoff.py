@@ -225,10 +225,10 @@ def solve_tables(rows: list[dict], preset: str | None) -> list[str]:
              "iterations": "iterations", "status": "status"}  # fmt: skip
     second = {"objective": "objective", "ratio": "Tf / T_min", "path_length": "path (m)",
               "apron_used_m": "apron used (m)", "swept_width_m": "swept width (m)", "min_clearance": "clearance (m)",
-              **({"limits": "limits (m/s^2)"} if preset else {})}  # fmt: skip
+              **({"limits": "limits (m/s²)"} if preset else {})}  # fmt: skip
     return [
         f"Table: The minimum-time solve and the energy-optimal solves at fixed multiples of its final time: Tf (s),"
-        f" the energy J = 1/2 int u1^2 + u2^2 dt ({ENERGY_UNIT}), the largest and mean speed (m/s), the share of J"
+        f" the energy J = ½∫(u1² + u2²) dt ({ENERGY_UNIT}), the largest and mean speed (m/s), the share of J"
         " from the speed term, Ipopt's iterations [@ipopt] and the validation.",
         "",
         table(shown, first),
@@ -236,7 +236,7 @@ def solve_tables(rows: list[dict], preset: str | None) -> list[str]:
         "Table: The same solves on the roundabout: the rear-axle path length, how far the bodies reach onto the"
         " apron, the swept width in the ring and the smallest clearance (m)"
         + (f"; limits: the kinematic model (*none*) with its largest lateral acceleration a_lat against the"
-           f" {preset}'s allowed one (m/s^2)." if preset else "."),
+           f" {preset}'s allowed one (m/s²)." if preset else "."),
         "",
         table(shown, second),
         "",
