@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -101,3 +102,27 @@ def test_a_request_that_would_hold_no_one_is_not_made():
     manager = request({}, cost=0.0)
     assert manager.step(None, now=5.0, pilot=StubPilot(s=0.5, rate=0.0)) == {}
     assert not manager.granted
+
+
+def test_swept_areas_are_the_part_of_each_legs_area_the_truck_covers():
+    """Straight in along leg 0 and parked in the ring: leg 0's swept area holds the truck's path across the curb,
+    not the ring upstream of its entry (where a circulating car can still be held), and is inside leg 0's area."""
+    import shapely
+
+    from model.problem.scenario import load_scenario
+
+    ocp = load_scenario(Path(__file__).resolve().parents[1] / "examples" / "traffic-roundabout.toml").ocp
+
+    def straight(s):  # from x = -40 m at 5 m/s, stopping with the rear axle at x = -22 m (front in the ring)
+        s = np.minimum(np.atleast_1d(np.asarray(s, float)), 3.6)
+        return {"x": -40.0 + 5.0 * s, "y": 0 * s, "theta": 0 * s, "phi": 0 * s}
+
+    whole = Cooperator(ocp, straight, duration=4.0, step=0.1)
+    swept = Cooperator(ocp, straight, duration=4.0, step=0.1, swept=True)
+    ra = ocp.road.roundabout
+    mid = (ra.inner_radius + ra.outer_radius) / 2
+    upstream = shapely.Point(mid * math.cos(math.radians(140.0)), mid * math.sin(math.radians(140.0)))
+    assert whole.areas[0].contains(upstream) and not swept.areas[0].contains(upstream)
+    assert swept.areas[0].contains(shapely.Point(-ra.outer_radius + 0.5, 0.0))  # the truck's front in the ring
+    assert swept.areas[0].difference(whole.areas[0]).area < 1e-9
+    assert swept.areas[2].is_empty  # never near the far leg

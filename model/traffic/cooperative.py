@@ -38,7 +38,7 @@ from shapely.ops import substring
 from model.problem.ocp import OCP
 from model.problem.scenario import Scenario
 from model.traffic.autopilot import MARGIN_HORIZON, PREDICTION_MARGIN
-from model.traffic.windows import Window, clock_windows, conflict_areas, occupancy_windows
+from model.traffic.windows import Window, clock_windows, conflict_areas, footprint, occupancy_windows
 
 KEEP_CLEAR_MARGIN = 1.0  # s kept free before and after each of the truck's windows
 REACH = 80.0  # m of a vehicle's path ahead that is looked at
@@ -83,6 +83,10 @@ class Cooperator:
     buffer : float
         ``HOLD_BUFFER``: the areas a vehicle is held out of are the conflict areas grown by this (the truck's
         windows are its rectangles grown by it too), so that a held vehicle stands clear of the truck.
+    swept : bool
+        Whether each area is cut down to the ground the truck's rectangles, grown by ``buffer``, cover along
+        its plan (``footprint``): a vehicle is then held only out of the part of a leg's area the truck
+        uses, and one in the rest of it (e.g. circulating toward the truck's entry) can still be held.
     """
 
     ocp: OCP
@@ -91,6 +95,7 @@ class Cooperator:
     step: float
     margin: float = KEEP_CLEAR_MARGIN
     buffer: float = HOLD_BUFFER
+    swept: bool = False
     windows: list[Window] = field(init=False)
     areas: dict[int, shapely.Polygon] = field(init=False)
     commanded: dict[str, float] = field(init=False, default_factory=dict)
@@ -99,6 +104,9 @@ class Cooperator:
     def __post_init__(self):
         self.windows = occupancy_windows(self.ocp, self.plan_at, self.duration, self.step, grow=self.buffer)
         self.areas = {a.leg: a.polygon.buffer(self.buffer) for a in conflict_areas(self.ocp.road.roundabout)}
+        if self.swept:
+            ground = footprint(self.ocp, self.plan_at, self.duration, self.step, grow=self.buffer)
+            self.areas = {leg: area.intersection(ground) for leg, area in self.areas.items()}
 
     def announced(self, now: float, s: float, rate: float = 1.0, slope: float = math.inf) -> list[Window]:
         """The windows still ahead of plan time ``s`` in clock time, from the truck's progress (``clock_windows``;

@@ -3,11 +3,11 @@
 After Dresner and Stone's autonomous intersection management (2008): each vehicle reserves the
 conflict areas it will occupy, in the order of its arrival at its entry; a request that conflicts
 with an earlier reservation is refused and the vehicle slows or waits. Here the truck and the
-connected cars share the ring's conflict areas (``model.traffic.windows.conflict_areas``); a vehicle
-arrives when its front comes within ``ARRIVAL_DISTANCE`` of the ring (the conflict areas grown by
-``HOLD_BUFFER``, along its path), the distance at which ``model.traffic.gaps`` puts a driver at its
-line; the truck's arrival is the plan time at which its front bumper comes within that distance
-of the outer curb.
+connected cars share the ring's conflict areas (``model.traffic.windows.conflict_areas``, each cut down
+to the ground the truck covers in it, ``Cooperator(swept=True)``); a vehicle arrives when its front
+comes within ``ARRIVAL_DISTANCE`` of the ring (the ring roadway grown by ``HOLD_BUFFER``, along its
+path), the distance at which ``model.traffic.gaps`` puts a driver at its line; the truck's arrival
+is the plan time at which its front bumper comes within that distance of the outer curb.
 
 - A car that arrived before the truck holds its reservation: it is never held, and the truck's
   autopilot yields to it as it yields to any vehicle (its own checks, unchanged).
@@ -31,6 +31,7 @@ import shapely
 from model.problem.ocp import OCP
 from model.problem.scenario import Scenario
 from model.traffic.cooperative import Cooperator, PriorityRequest, Progress, area_entry, path_ahead
+from model.traffic.windows import conflict_areas
 
 ARRIVAL_DISTANCE = 10.0  # m: a vehicle arrives at its entry when its front comes this near the ring
 
@@ -88,7 +89,8 @@ class Reservation:
     ring: shapely.Geometry = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        self.ring = shapely.union_all(list(self.cooperator.areas.values()))
+        coop = self.cooperator
+        self.ring = shapely.union_all([a.polygon for a in conflict_areas(coop.ocp.road.roundabout)]).buffer(coop.buffer)
 
     def note_arrivals(self, traci, now: float, truck: str = "truck") -> None:
         """Record the clock time of each car's arrival: its front within ``distance`` of the ring along its path,
@@ -143,7 +145,7 @@ def traffic_manager(kind: str, scenario: Scenario, plan, front: float) -> Priori
     PriorityRequest or Reservation
         Its ``step(traci, now, pilot)`` sets the other vehicles' speeds each step.
     """
-    coop = Cooperator(scenario.ocp, plan.at, plan.duration, scenario.traffic.step)
+    coop = Cooperator(scenario.ocp, plan.at, plan.duration, scenario.traffic.step, swept=True)
     if kind == "reservation":
         return Reservation(coop, arrival_time(scenario.ocp, plan.at, plan.duration, front))
     if kind == "cooperative":

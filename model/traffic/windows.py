@@ -117,6 +117,32 @@ def occupancy_windows(ocp: OCP, plan_at, duration: float, step: float, grow: flo
     return sorted(windows, key=lambda w: (w.start, w.leg))
 
 
+def footprint(ocp: OCP, plan_at, duration: float, step: float, grow: float = 0.0) -> shapely.Geometry:
+    """The ground the truck's exact rectangles cover along its plan, grown by ``grow`` metres.
+
+    Parameters
+    ----------
+    ocp : OCP
+        The truck's problem (its bodies).
+    plan_at : callable
+        Plan time(s) -> dict of state columns.
+    duration : float
+        The plan's final time, s.
+    step : float
+        The sampling step of plan time, s.
+    grow : float
+        Metres by which each rectangle is grown (``shapely.buffer``).
+
+    Returns
+    -------
+    shapely.Geometry
+        The union of every body's rectangle at every sample (plan times 0, step, ..., ``duration``).
+    """
+    s = np.append(np.arange(0.0, duration, step), duration)
+    rectangles = [shapely.polygons(c) for c in body_corners(ocp, plan_at(s)).values()]
+    return shapely.union_all([shapely.buffer(r, grow) if grow else r for r in rectangles])
+
+
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
     """The maximal runs [a, b) of True in ``flags``."""
     edges = np.diff(np.concatenate([[0], flags.astype(int), [0]]))

@@ -5,7 +5,9 @@ template workflows/scenarios/traffic/<vehicle>.toml with `rate` veh/h from every
 drawing one run (the first vehicle's highest-rate autopilot cell, its first seed), one job for the
 table, the critical gaps (the truck's and SUMO's cars' at every entry), the Adams and HCM comparisons and the
 section. The grid is config traffic_study: small (the default, inside the rebuild's budget) or full (both
-vehicles, every rate to 1200 veh/h, 20 seeds; its results are committed as benchmarks/traffic-study.md).
+vehicles, every rate to 1200 veh/h, 20 seeds; its results are committed as benchmarks/traffic-study.md), or
+management (the autopilot, cooperative and reservation drivers at 450 and 700 veh/h: rule traffic_management,
+benchmarks/traffic-management.md).
 """
 
 TR_STUDY = config.get("traffic_study", "small")
@@ -111,3 +113,21 @@ rule traffic_benchmark:
     shell:
         "{PYTHON} {SCRIPTS}/traffic_benchmark.py --study {params.study} --section {input.section}"
         " --table {input.csv} --cells {input.cells} --md {output.md} --csv {output.csv}"
+
+
+# Roundabout management on everyone's delay (issue 45, point 5), on demand, never by the default build:
+#   snakemake -c2 --config traffic_study=management -- benchmarks/traffic-management.md
+# writes benchmarks/traffic-management.md (per cell the truck's, the others' and everyone's delay, safety, the
+# vehicles held; per seed everyone's delay of each driver) from the grid's cells and their runs' commands.csv.
+rule traffic_management:
+    input:
+        cells=expand(f"{TR_DIR}/cells/{{cell}}.json", cell=TR_CELLS),
+        runs=expand(f"{TR_DIR}/runs/{{cell}}", cell=TR_CELLS),
+        script=SCRIPTS / "traffic_management.py",
+    output:
+        md="benchmarks/traffic-management.md",
+    params:
+        study=TR_STUDY,
+    shell:
+        "{PYTHON} {input.script} --study {params.study} --cells {input.cells} --runs-root {TR_DIR}/runs"
+        " --md {output.md}"

@@ -227,9 +227,12 @@ traffic [@sumo2018] (docs/traffic-format.md): every other leg sends a random (Po
 the given rate, exits shared equally, no U-turns. The drivers on the same seeds: the project's
 `autopilot` (its plan's path, with a speed profile chosen against the predicted vehicles), SUMO's
 own driver model moving a vehicle of the truck's length (the baseline; SUMO has no trailers, so its
-truck's trailer is reconstructed and off-tracks as it would) and the `cooperative` mode (the autopilot
-among connected vehicles that are held out of the ring's areas while the truck occupies them). Every
-distance is between exact rectangles; a failed run is counted, never dropped.
+truck's trailer is reconstructed and off-tracks as it would), the `cooperative` mode (the autopilot
+among connected vehicles; it asks the vehicles about to meet it in its entry's area to keep out of the
+part it occupies, only while it would otherwise wait and once its lost time exceeds what the hold costs
+them) and the `reservation` baseline (first come, first served on the ring's areas after Dresner and
+Stone's intersection management [@dresner2008]: cars arriving after the truck keep out of its areas
+while it occupies them). Every distance is between exact rectangles; a failed run is counted, never dropped.
 
 Grid run: **{mode}** (vehicles {", ".join(grid["vehicles"])}; {", ".join(f"{r:g}" for r in grid["rates"])} veh/h per
 leg; drivers {", ".join(grid["drivers"])}; {grid["runs"]} seeds from {grid["seed"]}). A larger grid's results are
