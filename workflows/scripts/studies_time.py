@@ -5,10 +5,10 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-import numpy as np
-from studies_common import fmt, parser, plt, save, solved, table, write_json, write_text
+from studies_common import fmt, parser, save, solved, table, write_json, write_text
 
 from model.analysis.arcs import arc_structure
+from model.plotting.studies import time_controls_figure
 from model.problem.costs import Time
 from model.studies.roads import limits_note
 from model.studies.sweeps import progress
@@ -69,28 +69,14 @@ def regularise(res, name: str) -> list[dict]:
 
 
 def figure(results: dict, out: Path) -> None:
-    """Controls of each time-optimal solve; chattering windows shaded and labelled, not drawn."""
-    names = [n for n, r in results.items() if r is not None]
-    fig, axes = plt.subplots(len(names), 1, figsize=(7, 1.9 * len(names)), squeeze=False)
-    for ax, name in zip(axes[:, 0], names, strict=True):
-        res = results[name]
-        tr, arcs = res.trajectory, arc_structure(res)
-        for c, style in (("u1", "-"), ("u2", "-")):
-            lo, hi = res.ocp.bounds[c]
-            u = tr[c].to_numpy() / hi
-            mask = np.zeros(len(tr), bool)
-            for w in arcs["chattering"][c]:
-                mask |= (tr.t >= w["t0"]).to_numpy() & (tr.t <= w["t1"]).to_numpy()
-            ax.plot(tr.t, np.where(mask, np.nan, u), style, label=f"{c} / {hi:g}")
-        for c in ("u1", "u2"):
-            for w in arcs["chattering"][c]:
-                ax.axvspan(w["t0"], w["t1"], color="0.85")
-                ax.text((w["t0"] + w["t1"]) / 2, 0, f"{c} chattering", ha="center", fontsize=7)
-        ax.set_ylabel(name, fontsize=8)
-        ax.set_ylim(-1.15, 1.15)
-        ax.legend(fontsize=7, loc="upper right")
-    axes[-1, 0].set_xlabel("t [s]")
-    save(fig, out / "controls")
+    """Controls of each time-optimal solve over its bounds, chattering windows shaded and not drawn
+    (model.plotting.studies.time_controls_figure)."""
+    runs = []
+    for name, res in results.items():
+        if res is not None:
+            windows = arc_structure(res)["chattering"]
+            runs.append((name, res.trajectory, {c: res.ocp.bounds[c] for c in ("u1", "u2")}, windows))
+    save(time_controls_figure(runs), out / "controls")
 
 
 def limits_lines(rows: list[dict]) -> list[str]:
@@ -103,8 +89,9 @@ def limits_lines(rows: list[dict]) -> list[str]:
         f"kept as it is; set beside the operational limits of the {REFERENCE_PRESET}, the AASHTO single-unit truck "
         "nearest to this d = 5 m truck (docs/dynamics-format.md; the road sections run it at those limits):",
         "",
-        *(f"- `{r['name']}`: {limits_note(REFERENCE_PRESET, False, r['max_abs_lateral_acceleration'])}."
-          for r in real),  # fmt: skip
+        *(
+            f"- `{r['name']}`: {limits_note(REFERENCE_PRESET, False, r['max_abs_lateral_acceleration'])}." for r in real
+        ),  # fmt: skip
         "",
     ]
 

@@ -5,9 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pandas as pd
-from studies_common import parser, plt, save, scenario, table, write_text
+from studies_common import parser, save, scenario, table, write_text
 
 from model.plotting.figures import ENERGY_UNIT
+from model.plotting.studies import wheelbase_figure
 from model.studies.sweeps import as_energy, progress, row, solve_best, with_wheelbase
 
 # sweep name -> (time scenario, energy scenario, fixed Tf for the energy solves, wheelbases)
@@ -57,18 +58,8 @@ def _infeasible(label: str, d: float, tf: float) -> dict:
 
 
 def figure(frame: pd.DataFrame, out: Path) -> None:
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
-    for label, grp in frame.groupby("sweep"):
-        for ax, kind, col in ((axes[0], "time", "final_time"), (axes[1], "energy", "objective")):
-            g = grp[(grp.kind == kind) & grp.ok]
-            scale = g.d / g.d.median() if len(g) else g.d
-            ax.plot(scale, g[col] / g[col].median(), "o-", label=label)
-    axes[0].set_title("minimum time / its median")
-    axes[1].set_title("energy at fixed Tf / its median")
-    for ax in axes:
-        ax.set_xlabel("d / median d")
-        ax.legend(fontsize=8)
-    save(fig, out / "wheelbase")
+    """Both panels relative to the same reference per sweep (model.plotting.studies.wheelbase_figure)."""
+    save(wheelbase_figure(frame), out / "wheelbase")
 
 
 def section(frame: pd.DataFrame, fig: Path) -> str:
