@@ -45,8 +45,9 @@ COLUMNS = {
 # the section's cell table: the columns of COLUMNS that fit a page (the lanelets used and the full limits note are
 # in table.csv and table.md), the limits in a table cell's length
 PAPER_COLUMNS = {k: v for k, v in COLUMNS.items() if k not in ("lanelets_used", "limits", "diagnosis")} | {
-    "limits_cell": "limits (m/s²)"
-} | {"to_lanelet": "goal on lanelet", "apron_area_m2": "apron area (m²)"}
+    "to_lanelet": "goal on lanelet",
+    "apron_area_m2": "apron area (m²)",
+}
 # the section's number formats: times to 0.01 s, clearances to the millimetre, depths to 1 cm, areas to 0.1 m^2
 FORMATS = {"final_time": ".2f", "min_clearance": ".3f", "min_clearance_dense": ".3f", "apron_used_m": ".2f",
            "apron_area_m2": ".1f"}  # fmt: skip
@@ -255,10 +256,9 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         matrix(df),
         "",
         "Table: Every cell: how the vehicle may use the apron, the lanelet the goal is on, the result, Tf (s), the"
-        " grid N, the smallest clearance at the nodes and between them (m), how deep (m) and how much (m²) of the"
-        " swept area lies on the apron, and the limits (m/s²): *held* at the preset's operational limits with the"
-        " largest lateral acceleration a_lat and the acceleration a reached, or *none* with a_lat against the"
-        " preset's allowed one (`table.csv` has the route's lanelets, offsets and full notes too).",
+        " grid N, the smallest clearance at the nodes and between them (m), and how deep (m) and how much (m²) of"
+        " the swept area lies on the apron; each vehicle's limits and what its cells reached are listed below"
+        " (`table.csv` has each cell's limits, the route's lanelets and offsets too).",
         "",
         table(paper_rows(df), PAPER_COLUMNS),
         "",
