@@ -12,9 +12,9 @@ ROAD_STUDY_DIR = "results/studies/roads"
 ROAD_OPERATIONAL = "--operational" if config.get("road_studies_operational", True) else "--no-operational"
 
 PAPER_SECTIONS += [
-    "results/sections/72-turning-circle.md",
+    "results/sections/S7-turning-circle.md",
     "results/sections/74-design-vehicles.md",
-    "results/sections/76-road-tradeoff.md",
+    "results/sections/S8-road-tradeoff.md",
 ]
 PAPER_FIGURES += [
     f"{ROAD_STUDY_DIR}/turning/turning.png",
@@ -35,7 +35,7 @@ rule road_study_turning:
     output:
         json=f"{ROAD_STUDY_DIR}/turning/turning.json",
         figures=expand(f"{ROAD_STUDY_DIR}/turning/turning.{{ext}}", ext=FORMATS),
-        section="results/sections/72-turning-circle.md",
+        section="results/sections/S7-turning-circle.md",
     log:
         "results/logs/studies/roads-turning.log",
     shell:
@@ -108,7 +108,7 @@ rule road_study_tradeoff:
     output:
         csv=f"{ROAD_STUDY_DIR}/tradeoff/tradeoff.csv",
         figures=expand(f"{ROAD_STUDY_DIR}/tradeoff/tradeoff.{{ext}}", ext=FORMATS),
-        section="results/sections/76-road-tradeoff.md",
+        section="results/sections/S8-road-tradeoff.md",
     params:
         ratios=ROAD_TRADEOFF.get("ratios", [1.1, 1.25, 1.5, 2.0]),
     log:

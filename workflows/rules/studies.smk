@@ -9,7 +9,7 @@ CONVERGENCE = ["s2-case1:100,200,400,800", "time-s2:100,200,400", "s1:100,200,40
 PAPER_SECTIONS += [
     "results/sections/60-time-optimal.md",
     "results/sections/61-pareto.md",
-    "results/sections/62-wheelbase.md",
+    "results/sections/S6-wheelbase.md",
     "results/sections/S2-convergence.md",
     "results/sections/S3-indirect.md",
 ]
@@ -62,7 +62,7 @@ rule study_wheelbase:
     output:
         csv="results/studies/wheelbase/wheelbase.csv",
         fig="results/studies/wheelbase/wheelbase.png",
-        section="results/sections/62-wheelbase.md",
+        section="results/sections/S6-wheelbase.md",
     log:
         "results/logs/studies/wheelbase.log",
     shell:
