@@ -47,7 +47,7 @@ ROLE_UNITS = {"heading": "rad", "steering": "rad", "speed": "m/s", "steering_rat
 ENERGY_UNIT = "m²/s + rad²/s"
 # The PDF prints a figure 0.88 of the 16.4 cm text width (5.68 in; model.plotting.rules): drawn at most
 # this wide, the style's smallest text (8 pt) prints at 7 pt or more.
-FIGURE_WIDTH = 6.2  # in
+FIGURE_WIDTH = 6.0  # in
 
 
 def tex(name: str) -> str:

@@ -11,6 +11,7 @@ angle and (for a trailer) the articulation angle over time with their bounds. ``
 from __future__ import annotations
 
 import math
+import re
 import textwrap
 from collections.abc import Mapping
 
@@ -57,6 +58,7 @@ PANEL_LABELS = {
 }
 KMH = 3.6  # km/h per m/s
 FONT = 8.0  # pt: the road figure is FIGURE_WIDTH wide, so its text prints at >= 7 pt (model.plotting.rules)
+MAX_HEIGHT = 6.2  # in: within the PDF's 16 cm figure height, so that the width sets the print scale
 
 
 # --------------------------------------------------------------------------- shapes as patches
@@ -329,8 +331,8 @@ def road_figure(
     (x0, x1), (y0, y1) = plan_limits(ocp, cols)
     plan_width = 3.7
     rows = _panel_names(ocp, cols)
-    least = max(4.0, 1.0 * len(rows))  # about an inch per time panel, so that their labels do not overlap
-    height = max(least, 0.9 * plan_width * (y1 - y0) / (x1 - x0) + 1.6)
+    least = max(4.0, 0.8 * len(rows) + 1.2)  # per time panel room for its title, and the heading
+    height = min(max(least, 0.9 * plan_width * (y1 - y0) / (x1 - x0) + 1.6), MAX_HEIGHT)
     fig = plt.figure(figsize=(FIGURE_WIDTH, height), layout="constrained")
     grid = fig.add_gridspec(len(rows), 2, width_ratios=(plan_width, FIGURE_WIDTH - plan_width))
     ax = fig.add_subplot(grid[:, 0])
@@ -351,14 +353,12 @@ def road_figure(
 
 
 def heading_text(title: str, note: str = "", width: int = 100) -> str:
-    """The figure's title and note, each line wrapped to ``width`` characters (the figure's width at 8 pt);
-    a line with TeX math is kept whole when wrapping would split a formula."""
+    """The figure's title and note, each line wrapped to ``width`` characters (the figure's width at 8 pt),
+    never inside a TeX formula (its spaces held by a placeholder while wrapping)."""
     lines = [title, *note.splitlines()] if note else [title]
-    out = []
-    for line in lines:
-        wrapped = textwrap.wrap(line, width) or [""]
-        out += wrapped if all(w.count("$") % 2 == 0 for w in wrapped) else [line]
-    return "\n".join(out)
+    held = [re.sub(r"\$[^$]*\$", lambda m: m.group(0).replace(" ", "\x00"), line) for line in lines]
+    wrapped = [w for line in held for w in (textwrap.wrap(line, width) or [""])]
+    return "\n".join(wrapped).replace("\x00", " ")
 
 
 def draw_start_goal(ax: plt.Axes, ocp: OCP, cols: Mapping[str, np.ndarray]) -> None:
@@ -471,8 +471,9 @@ def _time_panels(fig: plt.Figure, grid, ocp: OCP, cols: Mapping[str, np.ndarray]
         for b in ocp.bounds.get(name, ()):
             if np.isfinite(b):
                 ax.axhline(scale * b, color="0.45", lw=0.7, ls="--")
-        head, _, last = text.rpartition(" ")  # two short lines: "steering rate" over "$u_2$ (deg/s)"
-        ax.set_ylabel(f"{head}\n{last}" + (f" ({unit})" if unit else "") if head else text, fontsize=FONT)
+        head, _, last = text.rpartition(" ")  # the name as the panel's title, "$u_2$ (deg/s)" on the axis
+        ax.set_title(head or text, loc="left", fontsize=FONT, pad=2)
+        ax.set_ylabel(last + (f" ({unit})" if unit else "") if head else f"({unit})", fontsize=FONT)
         ax.tick_params(labelsize=FONT)
         if i < len(rows) - 1:
             ax.tick_params(labelbottom=False)
