@@ -88,6 +88,7 @@ def test_a_waiting_truck_asks_only_once_it_has_lost_what_the_hold_costs():
     assert manager.step(None, now=1.0, pilot=StubPilot(s=0.6, rate=0.4)) == {}  # lost 0.5 s < 1.5 s
     assert manager.step(None, now=2.0, pilot=StubPilot(s=0.6, rate=0.0)) == {"car": 3.0}  # lost 1.5 s
     assert manager.granted
+    assert manager.reasons == {"the hold costs more than the time lost": 1, "asked": 1}
 
 
 def test_a_granted_request_stays_past_the_line_and_releases_when_the_entry_area_is_passed():
@@ -102,6 +103,7 @@ def test_a_request_that_would_hold_no_one_is_not_made():
     manager = request({}, cost=0.0)
     assert manager.step(None, now=5.0, pilot=StubPilot(s=0.5, rate=0.0)) == {}
     assert not manager.granted
+    assert manager.reasons == {"no vehicle to hold": 1}
 
 
 def test_swept_areas_are_the_part_of_each_legs_area_the_truck_covers():

@@ -204,14 +204,19 @@ class PriorityRequest:
     appeared : float or None
         Clock time of the truck's appearance (set at the first step).
     granted : bool
-        Whether the request has been made: from then on the truck's windows are announced until it has
-        passed them all.
+        Whether the request stands (decided afresh each step before the line; past it, kept until the
+        truck has left the entry's area).
+    reasons : dict
+        The steps in which the truck waited before its line, counted by the first rule that refused the
+        request ("no vehicle to hold", "a blocker cannot be held", "the hold costs more than the time lost"),
+        or "asked".
     """
 
     cooperator: Cooperator
     enter: int
     appeared: float | None = None
     granted: bool = False
+    reasons: dict[str, int] = field(default_factory=dict)  # steps the truck waited, by what its request said
 
     def lost(self, now: float, pilot: Progress) -> float:
         """Seconds the truck has lost and cannot but lose: clock time since it appeared less the plan time it has
@@ -239,10 +244,22 @@ class PriorityRequest:
             return coop.command(traci, {})
         speeds = coop.asks(traci, now, windows, truck)
         if pilot.s <= pilot.give_way + 1e-9:  # slowing for, or standing at, its line
-            waiting = pilot.rate < 1.0 and bool(speeds)
-            self.granted = (waiting and blockers(pilot, others or [], coop.step) <= set(speeds)
-                            and lost >= coop.hold_cost(traci, now, speeds, {self.enter}))  # fmt: skip
+            self.granted = pilot.rate < 1.0 and self.decide(traci, now, pilot, others or [], speeds, lost)
         return coop.command(traci, speeds if self.granted else {})
+
+    def decide(self, traci, now: float, pilot: Progress, others: list, speeds: dict[str, float],
+               lost: float) -> bool:  # fmt: skip
+        """Whether a waiting truck asks now; the step counted in ``reasons`` under the first rule that says no."""
+        if not speeds:
+            reason = "no vehicle to hold"
+        elif not blockers(pilot, others, self.cooperator.step) <= set(speeds):
+            reason = "a blocker cannot be held"
+        elif lost < self.cooperator.hold_cost(traci, now, speeds, {self.enter}):
+            reason = "the hold costs more than the time lost"
+        else:
+            reason = "asked"
+        self.reasons[reason] = self.reasons.get(reason, 0) + 1
+        return reason == "asked"
 
 
 def blockers(pilot: Progress, others: list, step: float) -> set[str]:

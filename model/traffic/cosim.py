@@ -70,6 +70,7 @@ class Pass:
     commands: dict[float, dict[str, float]] = field(default_factory=dict)  # cooperative: t -> id -> setSpeed value
     vtype: dict[str, object] = field(default_factory=dict)  # the truck's vType as SUMO used it (``vtype_of``)
     tracking: list[float] = field(default_factory=list)  # autopilot: per step, the reference point's miss of the plan's
+    management: dict[str, int] = field(default_factory=dict)  # cooperative: waiting steps by its request's reason
 
 
 def write_sumo_files(scenario: Scenario, folder: Path, sumo: Sumo, seed: int) -> None:
@@ -246,6 +247,7 @@ def autopilot_drive(scenario: Scenario, sumo: Sumo, folder: Path, plan, routes: 
         finally:
             traci.close()
     out.end = max(out.truck) if out.truck else t_end
+    out.management = dict(getattr(manager, "reasons", {}))
     out.decision_seconds = pilot.decision_seconds
     out.decision_cpu_seconds = pilot.decision_cpu_seconds
     return out

@@ -118,6 +118,8 @@ def one_run(scenario: Scenario, sumo: Sumo, folder: Path, driver: str, seed: int
         cpu = max(driven.decision_cpu_seconds, default=0.0)
         summary |= {"solve_cpu_seconds_max": cpu, "realtime_factor_cpu": cpu / traffic.step}
         summary["decisions"] = {name: driven.decisions.count(name) for name in sorted(set(driven.decisions))}
+        if driven.management:  # the cooperative driver: the steps it waited, by what its priority request said
+            summary["management"] = driven.management
     summary["wall_seconds"] = wall
     return summary, cols, scored.rows
 

@@ -49,7 +49,7 @@ MLE_MIN_DRIVERS = 10  # fewer drivers give no maximum-likelihood estimate (Raff'
 FORMULA_MIN_DRIVERS = 5  # fewer drivers give Raff's crossing but no t_c for Adams' delay and the capacity
 RUN_KEYS = ("arrived", "ok", "delay", "travel_time", "free_flow_time", "entry_wait", "collisions", "min_distance",
             "min_clearance", "max_braking_caused", "max_braking_without_truck", "others_time_loss",
-            "others_time_loss_without_truck", "realtime_factor", "road_violation")  # fmt: skip
+            "others_time_loss_without_truck", "realtime_factor", "road_violation", "management")  # fmt: skip
 
 
 def cell_name(vehicle: str, rate: float, driver: str) -> str:

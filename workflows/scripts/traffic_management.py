@@ -16,6 +16,7 @@ import argparse
 import csv
 import json
 import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,15 @@ DELAY_COLUMNS = {
     "truck": "truck's delay, mean (s)", "others": "others' delay, mean (s)",
     "everyone": "everyone's delay, mean ± 95 % CI (s)", "difference": "everyone's minus the autopilot's, mean (s)",
 }  # fmt: skip
+
+
+REASONS = {"asked": "asked (s)", "no vehicle to hold": "no vehicle to hold (s)",
+           "a blocker cannot be held": "a blocker cannot be held (s)",
+           "the hold costs more than the time lost": "hold costs more than the time lost (s)"}  # fmt: skip
+
+
+REASON_COLUMNS = {"vehicle": "vehicle", "rate": "flow entering per other leg (veh/h)", "driver": "driver",
+                  **REASONS, "entry_wait": "stood before the line (s)"}  # fmt: skip
 
 
 def held(folder: Path) -> int | None:
@@ -89,6 +99,17 @@ def cell_row(cell: dict, baseline: dict | None, runs_root: Path | None) -> dict:
     }  # fmt: skip
 
 
+def reason_row(cell: dict) -> dict:
+    """The seconds the cell's trucks waited before their line, summed over the runs, by what the request said."""
+    template = Path(cell["template"]) if Path(cell["template"]).is_absolute() else ROOT / cell["template"]
+    step = tomllib.loads(template.read_text())["traffic"].get("step", 0.1)
+    row = {"vehicle": cell["vehicle"], "rate": cell["rate"], "driver": cell["driver"]}
+    for r in cell["runs"]:
+        for reason, steps in (r.get("management") or {}).items():
+            row[reason] = row.get(reason, 0.0) + steps * step
+    return row | {"entry_wait": sum(r.get("entry_wait") or 0.0 for r in cell["runs"])}
+
+
 def seed_rows(cells: list[dict]) -> tuple[list[dict], dict[str, str]]:
     """Per vehicle, rate and seed: everyone's delay of each driver (s); and the table's columns."""
     drivers = sorted({c["driver"] for c in cells}, key=lambda d: (d != BASELINE, d))
@@ -107,6 +128,7 @@ def document(study: str, cells: list[dict], runs_root: Path | None) -> str:
     base = {(c["vehicle"], c["rate"]): c for c in cells if c["driver"] == BASELINE}
     rows = [cell_row(c, base.get((c["vehicle"], c["rate"])), runs_root) for c in cells]
     per_seed, seed_columns = seed_rows(cells)
+    reasons = [reason_row(c) for c in cells if c["driver"] == "cooperative"]
     runs = sum(len(c["runs"]) for c in cells)
     cpu = sum(c.get("cpu_seconds", 0.0) for c in cells)
     return f"""# Roundabout management on everyone's delay: grid "{study}" (issue 45, point 5)
@@ -128,6 +150,11 @@ Table: Delays per vehicle, flow and driver (s), and everyone's delay against the
 seeds (mean of the per-seed differences; negative: the driver lowers it).
 
 {table(rows, DELAY_COLUMNS)}
+
+Table: Why the cooperative driver asked or did not (seconds the truck waited before its line with its rate below the
+plan's pace, summed over the runs, by the first rule that refused the request; stood: its entry wait, summed).
+
+{table(reasons, REASON_COLUMNS)}
 
 Table: Everyone's delay per seed (s): the drivers on the same SUMO seed.
 
