@@ -128,21 +128,41 @@ def direction_notes(r: Result) -> str:
     return " ".join(notes)
 
 
+def geometry_of(name: str) -> str:
+    """The scenario a case belongs to (``s2-case3`` -> ``s2``): the cases of one geometry differ in Tf only."""
+    return name.split("-case")[0]
+
+
+def later_cases(paper: list[str]) -> list[str]:
+    """The paper scenarios that are a later case of an earlier one's geometry (their solution figures, close
+    to the first case's, go to the supplementary material)."""
+    return [n for i, n in enumerate(paper) if geometry_of(n) in {geometry_of(m) for m in paper[:i]}]
+
+
+def solution_figure(ctx: Context, name: str) -> str:
+    return ctx.figure(f"{name}/solution.png", f"`{name}`: (a) controls with their bounds dashed, (b) states, "
+                      "(c) path with the obstacle, its safety circle and the start and goal poses, "
+                      "(d) cumulative energy (the paper's Figures 4-7).")
+
+
 def scenario_sections(ctx: Context) -> str:
-    """Each paper scenario's paragraph and solution figure; the costate figure of the first one only (the
-    others are in the supplementary material, ``{{ costate_figures }}``)."""
-    blocks = []
+    """Each paper scenario's paragraph and solution figure (a later case of a geometry: its figure in the
+    supplementary material); the costate figure of the first one only (the others are in the supplementary
+    material, ``{{ costate_figures }}``)."""
+    blocks, later = [], later_cases(ctx.paper)
     for i, name in enumerate(ctx.paper):
         r = ctx.results[name]
         title = r.summary.get("title") or name
+        first = next(m for m in ctx.paper if geometry_of(m) == geometry_of(name))
+        figure = (solution_figure(ctx, name) if name not in later else
+                  f"Its solution figure, close to `{first}`'s (the same geometry, a longer final time), is in the "
+                  "supplementary material (S5).")  # fmt: skip
         blocks += [
             f"### {title}",
             "",
             scenario_paragraph(r) + (f" {direction_notes(r)}" if r.solved and direction_notes(r) else ""),
             "",
-            ctx.figure(f"{name}/solution.png", f"`{name}`: (a) controls with their bounds dashed, (b) states, "
-                       "(c) path with the obstacle, its safety circle and the start and goal poses, "
-                       "(d) cumulative energy (the paper's Figures 4-7)."),
+            figure,
             "",
         ]
         if i == 0:
@@ -183,8 +203,11 @@ def costate_figure(ctx: Context, name: str) -> str:
 
 
 def costate_figures(ctx: Context) -> str:
-    """The costate figures of the paper scenarios after the first (the supplementary material)."""
-    return "\n\n".join(costate_figure(ctx, name) for name in ctx.paper[1:]) or "No further paper scenario."
+    """The solution figures of the later cases and the costate figures of the paper scenarios after the first
+    (the supplementary material)."""
+    figures = [solution_figure(ctx, name) for name in later_cases(ctx.paper)]
+    figures += [costate_figure(ctx, name) for name in ctx.paper[1:]]
+    return "\n\n".join(figures) or "No further paper scenario."
 
 
 def other_scenarios(ctx: Context) -> str:
