@@ -1,21 +1,26 @@
 """One time budget for both search drivers (issue 44): ``model.search.budget.Budget``.
 
 The roundabout search (``Search``) and the map search (``MapSearch``) keep time with the same ``Budget`` (clock,
-deadline, reserve, the skip rule), and every Ipopt run of either takes its time from ``wall_time_options``. Before,
-the map search kept its own deadline on the wall clock and ``solve_map_route`` dropped ``clock``: a CPU-time budget
-became wall time on a map.
+deadline, reserve, the skip rule: ``Budget.skip``), every Ipopt run of either takes its time from
+``wall_time_options`` and every deadline test is ``model.direct.solve.expired``. Before, the map search kept its own
+deadline on the wall clock and ``solve_map_route`` dropped ``clock`` (``**_ignored``): a CPU-time budget became wall
+time on a map; now it names the options it does not use and refuses unknown ones.
 """
 
 from __future__ import annotations
 
+import inspect
 import time
+from types import SimpleNamespace
 
 import pytest
 
-from model.direct.solve import wall_time_options
+from model.direct.solve import expired, wall_time_options
 from model.problem.scenario import load_scenario
 from model.search.budget import Budget
-from model.search.context import Search
+from model.search.context import Search, reporter
+from model.search.maps import ROUNDABOUT_ONLY, MapSearch, solve_map_route
+from model.search.multistart import solve_ocp
 from tests.conftest import EXAMPLE, ROOT
 
 KACKERT = ROOT / "examples" / "map-kackertstrasse-truck.toml"  # SU-30, left turn, objective "time"
@@ -95,3 +100,54 @@ def test_a_cpu_budget_is_honoured_on_a_map(kackertstrasse, clock):
         assert any("time limit of 2.5 s reached: the map search stops" in line for line in lines)
     else:
         assert solves[0] > 1 or len(solves) > 1, solves
+
+
+def test_one_expiry_test_for_the_budget_the_starts_and_the_strip_solves():
+    """``model.direct.solve.expired`` is the one deadline test: ``Budget.expired`` asks it, and so do ``solve_starts``
+    (no start begins after the deadline) and ``solve_map`` (no strip solve but the first begins after it)."""
+    assert not expired(None) and not expired(time.monotonic() + 10.0)
+    assert expired(time.monotonic() - 1e-3) and not expired(time.process_time() + 10.0, "cpu")
+    over = Budget(1.0, "cpu", started=time.process_time() - 2.0)
+    assert over.expired() == expired(over.deadline, "cpu") is True
+
+
+def test_both_drivers_skip_by_the_budgets_skip_and_report_the_stop_once():
+    stops: list[str] = []
+    over, skipped = Budget(1.0, started=time.monotonic() - 2.0), []
+    assert not over.skip("screening", False, skipped, lambda: stops.append("stop"))  # not begun: nothing skipped
+    assert over.skip("screening", True, skipped, lambda: stops.append("stop")) and skipped == ["screening"]
+    assert not Budget(1e6).skip("continuation", True, skipped, lambda: stops.append("stop"))
+    assert stops == ["stop"] and skipped == ["screening"]
+    lines: list[str] = []
+    search = Search(
+        load_scenario(EXAMPLE).ocp, 10, time_limit=1.0, started=time.monotonic() - 2.0, progress=lines.append
+    )
+    search.solutions.append(SimpleNamespace(validation={}))  # an analysed start: the search has begun
+    assert search.skip("screening", starts=3) and search.skip("continuation")
+    assert search.steps_skipped == ["screening", "continuation"] and search.starts_skipped == 3 and search.stopped
+    assert lines == ["time limit of 1 s reached: the search stops with what it has found"]
+    runs: list[str] = []
+    maps = MapSearch(None, 10, None, {}, reporter(runs.append), Budget(1.0, started=time.monotonic() - 2.0))
+    assert not maps.skip("minimal violation")  # no sequence yet
+    maps.sequences.append({})
+    assert maps.skip("minimal violation") and maps.skip("arclength grid")
+    assert maps.steps_skipped == ["minimal violation", "arclength grid"]
+    assert runs == ["time limit of 1 s reached: the map search stops with what it has found"]
+
+
+def test_the_map_search_names_the_roundabout_options_it_does_not_use_and_refuses_unknown_ones():
+    """``solve_map_route`` took ``**_ignored`` and dropped whatever it was given (``clock`` too, before the Budget).
+    Now the roundabout search's options are named (``ROUNDABOUT_ONLY``, the difference of the two signatures) and
+    anything else is a TypeError, before any work."""
+    ocp = load_scenario(EXAMPLE).ocp
+    theirs = set(inspect.signature(solve_ocp).parameters) - set(inspect.signature(solve_map_route).parameters)
+    assert theirs == set(ROUNDABOUT_ONLY)
+    with pytest.raises(TypeError, match="unexpected keyword arguments: clocks, time_limt"):
+        solve_map_route(ocp, 10, time_limt=5.0, clocks="cpu", formulation="corners")
+
+
+def test_a_map_search_says_which_options_it_leaves_unused(kackertstrasse):
+    lines: list[str] = []
+    sol = solve_map_route(kackertstrasse, 12, time_limit=0.01, progress=lines.append, formulation="corners", guess=None)
+    assert lines[0] == "map search: not used on a map: formulation, guess"
+    assert sol.search["stopped_by_time_limit"] and len(sol.search["sequences"]) == 1

@@ -89,7 +89,7 @@ def solve_starts(
     ``models``: built models and their NLPs by (problem, N, pass, relax, formulation), read and filled here: a
     model built by an earlier call is solved again from the new starts (a search's steps share it).
     """
-    if first_wall_time is None and wall_time_options({}, deadline, clock=clock) is None:
+    if first_wall_time is None and expired(deadline, clock):
         return []
     t0 = time.perf_counter()
     # Pyomo creates many small objects: with the collector on, its full collections over the
@@ -141,6 +141,15 @@ def time_left(deadline: float | None, clock: str = "wall") -> float | None:
     """Seconds of ``clock`` (``CLOCKS``) left until ``deadline``, an instant of that clock (negative once past;
     None: no deadline)."""
     return None if deadline is None else deadline - CLOCKS[clock][0]()
+
+
+def expired(deadline: float | None, clock: str = "wall") -> bool:
+    """Whether ``deadline``, an instant of ``clock`` (``CLOCKS``), has passed (never without a deadline).
+
+    The one expiry test: ``solve_starts``, ``model.direct.map_corridor.solve_map`` and the searches' ``Budget``
+    (``model.search.budget``) all ask it."""
+    left = time_left(deadline, clock)
+    return left is not None and left <= 0.0
 
 
 def wall_time_options(options: dict, deadline: float | None, floor: float | None = None,
@@ -286,6 +295,7 @@ def node_columns(m: pyo.ConcreteModel, ocp: OCP) -> dict[str, np.ndarray]:
 __all__ = [
     "CLOCKS",
     "Start",
+    "expired",
     "finish",
     "load_start",
     "load_values",

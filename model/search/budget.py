@@ -10,9 +10,10 @@ deadline has passed, but never before the search has something to show (an answe
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
-from model.direct.solve import CLOCKS, time_left, wall_time_options
+from model.direct.solve import CLOCKS, expired, time_left, wall_time_options
 
 
 @dataclass(frozen=True)
@@ -62,14 +63,34 @@ class Budget:
         return time_left(self.deadline, self.clock)
 
     def expired(self) -> bool:
-        """Whether the deadline has passed."""
-        left = self.remaining()
-        return left is not None and left <= 0.0
+        """Whether the deadline has passed (``model.direct.solve.expired``)."""
+        return expired(self.deadline, self.clock)
 
     def skips(self, begun: bool) -> bool:
         """The skip rule: whether a step is to be skipped, the deadline passed and the search ``begun`` (it has an
         answer or the evidence of a failure; before that nothing is skipped)."""
         return begun and self.expired()
+
+    def skip(self, step: str, begun: bool, skipped: list[str], stop: Callable[[], None]) -> bool:
+        """The skip rule applied by a search: if ``skips(begun)``, ``stop()`` (the search's first stop prints
+        ``reached``), ``step`` appended to ``skipped`` and True; else False and nothing done.
+
+        Parameters
+        ----------
+        step : str
+            The step's name, as summary.json's ``steps_skipped`` lists it.
+        begun : bool
+            Whether the search has something to show (an answer or the evidence of a failure).
+        skipped : list of str
+            The search's skipped steps (appended to).
+        stop : callable
+            Marks the search as stopped by its limit (prints ``reached`` the first time).
+        """
+        if not self.skips(begun):
+            return False
+        stop()
+        skipped.append(step)
+        return True
 
     def run_options(self, options: dict, floor: float | None = None) -> dict | None:
         """``options`` with the time left as the run's ``run_option`` (at least ``floor``; ``wall_time_options``);

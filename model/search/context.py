@@ -126,13 +126,12 @@ class Search:
     def skip(self, step: str, starts: int = 0) -> bool:
         """True (and ``step`` and its ``starts`` noted as skipped) if the time limit has passed.
 
-        Never before the search's first analysed start (it always runs: ``Search.solve``): ``Budget.skips``.
+        Never before the search's first analysed start (it always runs: ``Search.solve``): ``Budget.skip``, the rule
+        the map search applies too.
         """
-        if not self.budget.skips(self.answered()):
+        if not self.budget.skip(step, self.answered(), self.steps_skipped, self.stop):
             return False
-        self.steps_skipped.append(step)
         self.starts_skipped += starts
-        self.stop()
         return True
 
     def best_evidence(self) -> dict | None:

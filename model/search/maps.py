@@ -83,6 +83,10 @@ PENALTY = 100.0  # per m of strip slack (s/m for the time objective): the arclen
 GRIDS = {"time": ("time",), "arclength": ("arclength",), "time+arclength": ("time", "arclength")}  # ``grid``'s
 ARCLENGTH = "arclength"  # the grid of node k fixed to the frame's arclength s_k (``solve_map(arclength=True)``)
 CONVERGED = ("optimal", "acceptable", "validation_failed")  # Ipopt converged (a check may have failed)
+ROUNDABOUT_ONLY = ("guess", "starts", "continuation", "screen", "accuracy", "formulation")
+"""``model.search.multistart.solve_ocp``'s options that the map search has no use for: ``solve_map_route`` accepts
+them (a caller may hand one set of options to either search) and names those given in a progress line; any other
+keyword it does not take is a TypeError."""
 
 
 @dataclass
@@ -111,13 +115,13 @@ class MapSearch:
 
     def skip(self, step: str) -> bool:
         """True (and ``step`` noted as skipped) if the time limit has passed (never before the first sequence:
-        ``Budget.skips``)."""
-        if not self.budget.skips(bool(self.sequences)):
-            return False
+        ``Budget.skip``, the rule the roundabout search applies too)."""
+        return self.budget.skip(step, bool(self.sequences), self.steps_skipped, self.stop)
+
+    def stop(self) -> None:
+        """Mark the search as cut short by its time limit: the first time (no step skipped yet), one progress line."""
         if not self.steps_skipped:
             self.progress(self.budget.reached("the map search"))
-        self.steps_skipped.append(step)
-        return True
 
     def sequence(self, label: str, grid: str, start: Start | None = None, intervals: int | None = None,
                  relax: bool = False, penalty: float | None = None, between: bool = False,
@@ -186,7 +190,7 @@ def _before(it: Iterate, best: Solution | None, clearance: float) -> bool:
 
 def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None, verbose: bool = False,
                     progress=None, time_limit: float | None = None, search: str = "default",
-                    grid: str = "time+arclength", clock: str = "wall", **_ignored: Any) -> Solution:  # fmt: skip
+                    grid: str = "time+arclength", clock: str = "wall", **roundabout: Any) -> Solution:  # fmt: skip
     """Solve a route through a lanelet map by the steps of the module docstring.
 
     Parameters
@@ -210,9 +214,15 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
         "time": the nodes are equal steps of a free Tf; "arclength": node k fixed to the arclength s_k of
         the route's frame and the time free per interval (``solve_map(arclength=True)``); "time+arclength":
         the time grid's steps 1-3, then, where none validated, the arclength grid's (not with "quick").
-    **_ignored
-        The roundabout search's other options (``guess``, ``starts``, ``formulation``), not used here (``clock`` is:
-        a CPU budget stays one on a map).
+    **roundabout
+        The roundabout search's other options (``ROUNDABOUT_ONLY``: ``guess``, ``starts``, ``formulation``, ...),
+        accepted so that one set of options serves either search, not used here, and named in a progress line
+        (``clock`` is used: a CPU budget stays one on a map).
+
+    Raises
+    ------
+    TypeError
+        A keyword that is neither this function's nor in ``ROUNDABOUT_ONLY``: no option is dropped silently.
 
     Returns
     -------
@@ -228,7 +238,12 @@ def solve_map_route(ocp: OCP, intervals: int = 100, options: dict | None = None,
         raise ValueError(f"search must be one of {', '.join(SPEEDS)}, got {search!r}")
     if grid not in GRIDS:
         raise ValueError(f"grid must be one of {', '.join(GRIDS)}, got {grid!r}")
+    unknown = sorted(set(roundabout) - set(ROUNDABOUT_ONLY))
+    if unknown:
+        raise TypeError(f"solve_map_route() got unexpected keyword arguments: {', '.join(unknown)}")
     run = MapSearch(ocp, intervals, strips(ocp), ipopt, reporter(progress), Budget(time_limit, clock))
+    if roundabout:
+        run.progress(f"map search: not used on a map: {', '.join(sorted(roundabout))}")
     run.progress("map search: the strip sequence from the centre line")
     _steps(run, search, grid)
     if not run.best.ok and search != "quick" and not run.skip("loop round the ring"):
