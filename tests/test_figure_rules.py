@@ -70,7 +70,7 @@ def test_the_path_is_equal_aspect_with_start_goal_direction_and_reversing_marked
     path = fig.axes[2]
     assert path.get_aspect() == 1.0
     labels = {t.get_text() for t in path.get_legend().get_texts()}
-    assert {"start pose", "goal pose", "reversing ($u_1 < 0$)"} <= labels
+    assert {"start pose", "goal pose", "reversing ($u_1$ < 0)"} <= labels
     assert any(a.arrow_patch is not None for a in path.texts), "no arrowhead on the path"
     close(fig)
 

@@ -143,12 +143,13 @@ def direction_arrow(ax: plt.Axes, x: np.ndarray, y: np.ndarray, color, where: fl
                 arrowprops={"arrowstyle": "-|>", "color": color, "lw": 0, "mutation_scale": 14})  # fmt: skip
 
 
-def mark_reversing(ax: plt.Axes, x, y, speed, label: bool = True) -> None:
+def mark_reversing(ax: plt.Axes, x, y, speed, label: bool = True, name: str = "speed") -> None:
     """The nodes where the speed is negative (the vehicle reverses), black crosses; nothing if it never does."""
     back = np.asarray(speed, float) < 0
+    cross = "x"  # names: matplotlib's cross marker, not a state
     if back.any():
-        ax.plot(np.asarray(x)[back], np.asarray(y)[back], "x", color="black", ms=3.5, mew=0.8, zorder=6,
-                label="reversing ($u_1 < 0$)" if label else None)  # fmt: skip
+        ax.plot(np.asarray(x)[back], np.asarray(y)[back], cross, color="black", ms=3.5, mew=0.8, zorder=6,
+                label=f"reversing ({name} < 0)" if label else None)  # fmt: skip
 
 
 def draw_obstacles(ax: plt.Axes, obstacles: Sequence, label: bool = True) -> None:
@@ -216,7 +217,7 @@ def path_panel(ax: plt.Axes, frame: pd.DataFrame, ocp, color=PALETTE[0], label: 
         ax.plot(np.asarray(frame[r.x])[marks], np.asarray(frame[r.y])[marks], "o", color=color, ms=3)
     ax.plot(frame[r.x], frame[r.y], color=color, label=label)
     direction_arrow(ax, frame[r.x], frame[r.y], color)
-    mark_reversing(ax, frame[r.x], frame[r.y], frame[r.speed])
+    mark_reversing(ax, frame[r.x], frame[r.y], frame[r.speed], name=tex(r.speed))
     span = max(np.ptp(frame[r.x]), np.ptp(frame[r.y]), 0.1)
     _pose_arrow(ax, ocp.initial, r, "tab:green", "start", 0.18 * span)
     if set(r.position) <= set(ocp.final):
@@ -366,7 +367,8 @@ def paths_figure(results: Sequence[Result], ocps: Sequence, order: Sequence[str]
         ax.plot(x, y, color=color, linestyle=style, linewidth=2.4 - 0.3 * k,
                 label=f"{r.name} ($T_f$ = {r.summary['final_time']:.3g} s)")  # fmt: skip
         direction_arrow(ax, x, y, color, where=0.3 + 0.1 * k)
-        mark_reversing(ax, x, y, r.trajectory[ocp.vehicle.roles.speed], label=not any(
+        speed = ocp.vehicle.roles.speed
+        mark_reversing(ax, x, y, r.trajectory[speed], name=tex(speed), label=not any(
             ln.get_label().startswith("reversing") for ln in ax.get_lines()))  # fmt: skip
     _start_goal(ax, ocps)
     ax.set_aspect("equal", adjustable="datalim")

@@ -18,7 +18,7 @@ import numpy as np
 from matplotlib.patches import Patch
 from matplotlib.ticker import FormatStrFormatter, NullFormatter
 
-from model.plotting.figures import FIGURE_WIDTH, PALETTE, apply_style
+from model.plotting.figures import FIGURE_WIDTH, PALETTE, apply_style, tex
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -59,24 +59,17 @@ def time_controls_figure(
 ) -> plt.Figure:
     """Each time-optimal solve's controls divided by their upper bounds, a panel per solve, two columns.
 
-    ``runs``: (name, trajectory with t, u1, u2; bounds name -> (lo, hi); chattering windows name -> list of
-    {"t0", "t1"}) per solve. A control is not drawn inside its chattering windows, which are shaded.
+    ``runs``: (name, trajectory with t and the controls; bounds control -> (lo, hi), the speed first, then the
+    steering rate; chattering windows control -> list of {"t0", "t1"}) per solve. A control is not drawn
+    inside its chattering windows, which are shaded.
     """
     apply_style()
     rows = math.ceil(len(runs) / 2)
     fig, axes = plt.subplots(rows, 2, figsize=(FIGURE_WIDTH, 1.35 * rows + 0.7), squeeze=False, layout="constrained")
-    colors = {"u1": PALETTE[0], "u2": PALETTE[1]}
     for ax, (name, tr, bounds, windows) in zip(axes.ravel(), runs, strict=False):
-        t = tr["t"].to_numpy()
-        for c, color in colors.items():
-            mask = np.zeros(len(t), bool)
-            for w in windows.get(c, ()):
-                mask |= (t >= w["t0"]) & (t <= w["t1"])
-                ax.axvspan(w["t0"], w["t1"], color="0.85", lw=0)
-            ax.plot(t, np.where(mask, np.nan, tr[c].to_numpy() / bounds[c][1]), color=color)
-        u1, u2 = bounds["u1"][1], bounds["u2"][1]
-        ax.set_title(f"{name} ($u_1$ bound {u1:g} m/s, $u_2$ {u2:g} rad/s)", fontsize=8, loc="left")
-        ax.set(ylim=(-1.15, 1.15), yticks=(-1, 0, 1))
+        _controls_panel(ax, tr, bounds, windows)
+        (speed, (_, u1)), (turning, (_, u2)) = list(bounds.items())[:2]
+        ax.set_title(f"{name} ({tex(speed)} bound {u1:g} m/s, {tex(turning)} {u2:g} rad/s)", fontsize=8, loc="left")
     for ax in axes.ravel()[len(runs):]:
         ax.set_visible(False)
     for ax in axes[:, 0]:
@@ -84,8 +77,21 @@ def time_controls_figure(
     for ax in axes.ravel():
         if ax.get_visible():
             ax.set_xlabel("t (s)")
-    handles = [plt.Line2D([], [], color=colors["u1"], label="speed $u_1$ / its bound"),
-               plt.Line2D([], [], color=colors["u2"], label="steering rate $u_2$ / its bound"),
+    speed, turning = list(runs[0][2])[:2] if runs else ("", "")
+    handles = [plt.Line2D([], [], color=PALETTE[0], label=f"speed {tex(speed)} / its bound"),
+               plt.Line2D([], [], color=PALETTE[1], label=f"steering rate {tex(turning)} / its bound"),
                Patch(color="0.85", label="chattering window (not drawn)")]  # fmt: skip
     fig.legend(handles=handles, loc="outside lower center", ncols=3, frameon=False)
     return fig
+
+
+def _controls_panel(ax: plt.Axes, tr: pd.DataFrame, bounds: Mapping, windows: Mapping) -> None:
+    """The first two controls of ``bounds`` over their upper bounds, blank inside their chattering windows."""
+    t = tr["t"].to_numpy()
+    for c, color in zip(list(bounds)[:2], PALETTE, strict=False):
+        mask = np.zeros(len(t), bool)
+        for w in windows.get(c, ()):
+            mask |= (t >= w["t0"]) & (t <= w["t1"])
+            ax.axvspan(w["t0"], w["t1"], color="0.85", lw=0)
+        ax.plot(t, np.where(mask, np.nan, tr[c].to_numpy() / bounds[c][1]), color=color)
+    ax.set(ylim=(-1.15, 1.15), yticks=(-1, 0, 1))
