@@ -11,7 +11,14 @@ import pytest
 
 from model.plotting import figures as plotting
 from model.plotting.results import Result
-from model.plotting.rules import MIN_FONT_PT, PRINT_WIDTH_IN, legends_on_data, print_scale, smallest_print_font
+from model.plotting.rules import (
+    MIN_FONT_PT,
+    PRINT_WIDTH_IN,
+    legends_on_data,
+    narrowest_axes,
+    print_scale,
+    smallest_print_font,
+)
 from model.problem.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,6 +67,7 @@ def test_a_scenario_figure_prints_its_text_at_7_pt_with_its_legends_off_the_data
     fig = getattr(plotting, draw)(*s3)
     assert smallest_print_font(fig) >= MIN_FONT_PT
     assert legends_on_data(fig) == []
+    assert narrowest_axes(fig) > 1.5, "a panel squeezed by its legend"
     close(fig)
 
 

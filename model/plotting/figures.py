@@ -104,7 +104,7 @@ def phase_rate(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     return np.arctan2(u2, u1), (u1 * du2 - u2 * du1) / norm
 
 
-def legend_above(ax: plt.Axes, title: str, ncols: int = 3, width: int = 42, **kw) -> None:
+def legend_above(ax: plt.Axes, title: str, ncols: int = 3, width: int = 30, **kw) -> None:
     """The panel's title (wrapped at ``width`` characters) and its legend above the axes, off the data (the
     panel has no axes title). Under constrained layout a legend wider than its axes narrows the axes."""
     handles, labels = ax.get_legend_handles_labels()

@@ -73,3 +73,11 @@ def legends_on_data(fig: Figure) -> list[str]:
         if any(box.contains(*p) for ln in lines for p in _line_points(ln)):
             covered.append(ax.get_title() or ax.get_ylabel() or "axes")
     return covered
+
+
+def narrowest_axes(fig: Figure) -> float:
+    """The width (in) of the narrowest visible axes after layout: a legend wider than its axes under
+    constrained layout squeezes the axes, down to nothing."""
+    fig.canvas.draw()
+    widths = [ax.get_position().width * fig.get_figwidth() for ax in fig.axes if ax.get_visible()]
+    return min(widths, default=0.0)
