@@ -30,6 +30,7 @@ from model.problem.scenario import load_scenario, parse_scenario
 from model.studies.roads import (
     apron_used,
     limits_cell,
+    limits_note,
     operational_document,
     operational_text,
     preset_citation,
@@ -217,6 +218,15 @@ def shown_rows(rows: list[dict], preset: str | None) -> list[dict]:
     return out
 
 
+def row_limits(rows: list[dict], preset: str | None) -> list[str]:
+    """Each row's limits note in full (``limits_note``: the table's limits cell in words); none without a preset."""
+    if not preset:
+        return []
+    items = [f"- {r['objective']} at {r['ratio'] or 1:g} T_min: "
+             f"{limits_note(preset, False, r.get('max_abs_lateral_acceleration'))}." for r in rows]  # fmt: skip
+    return ["The limits of each row:", "", *items, ""]
+
+
 def solve_tables(rows: list[dict], preset: str | None) -> list[str]:
     """The solves in two captioned tables: time and energy; the path, the apron, the clearance and the limits."""
     shown = shown_rows(rows, preset)
@@ -266,7 +276,7 @@ def section(ocp, rows: list[dict], fig: Path, intervals: int, spread: float | No
         lines += [f"The minimum-time problem FAILED: {tmin['diagnosis'] or tmin['status']}; no trade-off is computed.",
                   ""]  # fmt: skip
         return "\n".join(lines)
-    lines += solve_tables(rows, preset)
+    lines += solve_tables(rows, preset) + row_limits(rows, preset)
     lines += reference_lines(reference, tmin)
     if ok:
         lines += [findings(tmin, ok, failed, spread), ""]
