@@ -515,6 +515,151 @@ def path_guess(
     return {name: out[name] for name in (*vehicle.states, *vehicle.controls)}
 
 
+LIMIT_SHARE = 0.7  # of each bound (speed, acceleration, jerk, lateral acceleration) a limited guess drives at
+
+
+def limited_path_guess(
+    vehicle: Vehicle,
+    path: Path,
+    n: int,
+    bounds: Mapping[str, tuple[float, float]],
+    initial: Mapping[str, float] | None = None,
+    final: Mapping[str, float] | None = None,
+    share: float = LIMIT_SHARE,
+) -> tuple[dict[str, np.ndarray], float] | None:
+    """``path_guess`` for a vehicle with longitudinal dynamics, driven within its limits, and the time it takes.
+
+    Each run of the path between cusps is driven at a cruise speed with smooth (half-cosine) ramps: from
+    the stated initial speed (else 0), through 0 at each cusp, to the stated final speed (else 0). A ramp
+    takes the time that keeps |a| (and |j|) within ``share`` of the smaller magnitude of their bounds; the
+    cruise speed is ``share`` of the speed bound in the run's direction, at most sqrt(``share`` a_lat rho)
+    on a run with arcs under a lateral-acceleration bound, and lower where the run is too short for both
+    ramps. The nodes are at equal times of the total; the path is sampled at the arc length driven by
+    then, so the poses, v, a and j agree with each other (the transcription's residuals start small).
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        A model with longitudinal dynamics (``roles.integrated`` not empty).
+    path : Path
+    n : int
+        Number of time steps.
+    bounds : mapping
+        The problem's bounds by name: the speed's, the acceleration's, the jerk's, ``lateral_acceleration``.
+    initial, final : mapping, optional
+        The end values (the speed v where stated; the trailer heading at the start).
+    share : float
+        The share of each bound the guess uses, in (0, 1].
+
+    Returns
+    -------
+    (dict of ndarray, float) or None
+        Every state and control at the n + 1 nodes, and the final time (s); None where the speed's bound
+        forbids a direction the path drives (a path that reverses under v >= 0).
+    """
+    r, initial, final = vehicle.roles, dict(initial or {}), dict(final or {})
+    if r.acceleration is None:
+        raise ValueError(f"the {vehicle.model} model has no longitudinal dynamics")
+    lo, hi = bounds[r.speed]
+    runs = _runs(path)
+    if any((hi if forward else -lo) <= 0.0 for _, forward, _ in runs):
+        return None
+    accel, jerk = (min(-b[0], b[1]) * share if b else math.inf for b in (bounds[r.acceleration], bounds.get(r.jerk)))
+    lateral = bounds.get("lateral_acceleration")
+    turn = math.sqrt(share * min(-lateral[0], lateral[1]) * path.rho) if lateral else math.inf
+    ends = [abs(initial.get(r.speed, 0.0))] + [0.0] * (len(runs) - 1) + [abs(final.get(r.speed, 0.0))]
+    pieces = []
+    for k, (length, forward, arcs) in enumerate(runs):
+        cruise = min(share * (hi if forward else -lo), turn if arcs else math.inf)
+        pieces += [(p[0], p[1], p[2], 1.0 if forward else -1.0) for p in
+                   _run_profile(length, ends[k], ends[k + 1], cruise, accel, jerk)]  # fmt: skip
+    durations = np.array([p[0] for p in pieces])
+    tf = float(durations.sum())
+    t = np.linspace(0.0, tf, n + 1)
+    starts = np.concatenate([[0.0], np.cumsum(durations)])
+    which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(pieces) - 1)
+    tau = t - starts[which]
+    driven = np.concatenate([[0.0], np.cumsum([_ramp(p[0], p[1], p[2], p[0])[0] for p in pieces])])
+    s, v, a, j = np.zeros((4, n + 1))
+    for i, k in enumerate(which):
+        ds, v[i], a[i], j[i] = _ramp(*pieces[k][:3], tau[i])
+        s[i] = driven[k] + ds
+        v[i], a[i], j[i] = (pieces[k][3] * q for q in (v[i], a[i], j[i]))
+    s = np.clip(s * path.length / max(driven[-1], 1e-12), 0.0, path.length)
+    smp = _evaluate(path, s)
+    out = {r.x: smp["x"], r.y: smp["y"], r.heading: smp["theta"]}  # names: the path's pose, keyed by the roles
+    if r.steering is not None:
+        out[r.steering] = np.arctan(vehicle.parameter_values()["wheelbase"] * smp["kappa"])
+    for trailer in r.trailers:
+        fine = 4 * n
+        values = _trailer_angle(vehicle, path, fine, initial.get(trailer, path.start[2]))
+        out[trailer] = np.interp(s, np.linspace(0.0, path.length, fine + 1), values)
+    filled = {k: out.get(k, np.ones(n + 1)) for k in vehicle.states}
+    (factor,) = vehicle.state_function([vehicle.reference_speed()])(filled)
+    rates = dict(zip((r.speed, r.acceleration, r.jerk), (v / factor, a / factor, j / factor), strict=True))
+    out |= {name: rates[name] for name in (*r.integrated, r.jerk or r.acceleration)}  # v, a, j
+    for name in vehicle.states:
+        if name not in out:
+            out[name] = np.full(n + 1, float(initial[name]))
+    out.update(_path_controls(vehicle, out, smp, v, t))
+    return {name: out[name] for name in (*vehicle.states, *vehicle.controls)}, tf
+
+
+def _runs(path: Path) -> list[tuple[float, bool, bool]]:
+    """The path's runs between cusps: (length m, forwards, has an arc)."""
+    runs: list[tuple[float, bool, bool]] = []
+    for kind, seg in path.segments or (("S", 0.0),):
+        forward = seg >= 0.0
+        if runs and runs[-1][1] == forward:
+            length, _, arcs = runs[-1]
+            runs[-1] = (length + abs(seg), forward, arcs or kind != "S")
+        else:
+            runs.append((abs(seg), forward, kind != "S"))
+    return runs
+
+
+def _ramp_time(change: float, accel: float, jerk: float) -> float:
+    """The duration of a half-cosine change of speed by ``change`` with |a| <= accel and |j| <= jerk."""
+    change = abs(change)
+    return max(change * math.pi / (2.0 * accel), math.sqrt(change * math.pi**2 / (2.0 * jerk)), 0.0)
+
+
+def _run_profile(
+    length: float, start: float, end: float, cruise: float, accel: float, jerk: float
+) -> list[tuple[float, float, float]]:
+    """A run's speed pieces (duration s, speed from, speed to, m/s >= 0): ramp, cruise, ramp; the peak lowered
+    (bisection) where the run is too short for both ramps at ``cruise``, the times stretched where even a peak at
+    the larger end speed does not fit."""
+
+    def ramps(peak: float) -> tuple[float, float, float]:
+        up, down = _ramp_time(peak - start, accel, jerk), _ramp_time(peak - end, accel, jerk)
+        return up, down, (start + peak) / 2.0 * up + (peak + end) / 2.0 * down
+
+    peak = max(cruise, start, end)
+    up, down, used = ramps(peak)
+    if used > length:
+        low, high = max(start, end), peak
+        for _ in range(60):
+            peak = 0.5 * (low + high)
+            low, high = (peak, high) if ramps(peak)[2] <= length else (low, peak)
+        peak = low
+        up, down, used = ramps(peak)
+        if used > length:  # a stated end speed too high for the run: the ramps squeezed into it
+            squeeze = length / used
+            up, down, used = up * squeeze, down * squeeze, length
+    cruise_time = (length - used) / peak if peak > 0.0 else 0.0
+    pieces = [(up, start, peak), (cruise_time, peak, peak), (down, peak, end)]
+    return [p for p in pieces if p[0] > 0.0] or [(max(length, 1e-9) / max(peak, 1e-9), peak, peak)]
+
+
+def _ramp(duration: float, v0: float, v1: float, tau: float) -> tuple[float, float, float, float]:
+    """Distance, speed, acceleration and jerk ``tau`` into a half-cosine ramp from v0 to v1 over ``duration``."""
+    w = math.pi / duration
+    half = (v1 - v0) / 2.0
+    c, s = math.cos(w * tau), math.sin(w * tau)
+    return v0 * tau + half * (tau - s / w), v0 + half * (1.0 - c), half * w * s, half * w * w * c
+
+
 def _path_controls(
     vehicle: Vehicle, states: dict[str, np.ndarray], smp: dict[str, np.ndarray], speed: np.ndarray, t: np.ndarray
 ) -> dict[str, np.ndarray]:
@@ -661,5 +806,5 @@ def reeds_shepp_time(start: Pose, goal: Pose, rho: float | None, u1max: float) -
     return reeds_shepp(start, goal, rho).length / u1max
 
 
-__all__ = ["Path", "dubins", "integrated_speed", "min_turning_radius", "path_guess", "reeds_shepp", "reeds_shepp_time",
-           "sample"]  # fmt: skip
+__all__ = ["LIMIT_SHARE", "Path", "dubins", "integrated_speed", "limited_path_guess", "min_turning_radius",
+           "path_guess", "reeds_shepp", "reeds_shepp_time", "sample"]  # fmt: skip
