@@ -37,9 +37,10 @@ class OCP:
     bounds : dict
         State or control name -> inclusive (lower, upper); every control needs bounds.
     initial : dict
-        Every state's value at t = 0.
+        Every state's value at t = 0 but the longitudinal dynamics' (``Vehicle.pose_states``: v and a are
+        free unless given).
     final : dict
-        Any subset of the states at t = Tf (the rest are free).
+        Any subset of the states at t = Tf (the rest are free; ``end_pose`` completes an end for a pose check).
     obstacles : list of Circle
         Discs to keep out of (radius + safety).
     moving_obstacles : tuple of MovingVehicle
