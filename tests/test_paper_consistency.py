@@ -6,6 +6,8 @@
   convex in Tf, so the chord lies above it); now it prints each case's own 2E/Tf.
 - The points of each time-energy front: the number the front table states, the points pareto.csv holds and
   the samples the second table lists (first, middle and last of them).
+- The closed-loop study's open-loop optimum (80, from its row.json) against the scenario it re-solves (30): its
+  energy and final time.
 
 The checks run on sections rendered from small synthetic results (no solves) and, when a build is present,
 on results/sections (or the results tree named by $PAPER_RESULTS).
@@ -25,6 +27,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "workflows" / "scripts"))
 
+import closed_loop_section  # noqa: E402
 import studies_pareto  # noqa: E402
 import tables  # noqa: E402
 
@@ -32,6 +35,8 @@ from model.studies.sweeps import front_statements  # noqa: E402
 
 RESULTS = Path(os.environ.get("PAPER_RESULTS", ROOT / "results"))
 U_MAX = (1.0, 0.35)
+# closed-loop geometry -> the paper scenario it re-solves (workflows/scenarios/closed-loop/<geometry>.toml's header)
+SAME_OPTIMUM = {"s2": "s2-case1"}
 CASES = {"s1": ("s1", 1.15, 0.2584003), "s2-case2": ("s2", 1.7, 0.4273933), "s2-case3": ("s2", 2.5, 0.2883446)}
 
 
@@ -108,6 +113,25 @@ def front_mismatches(pareto: str, fronts: pd.DataFrame) -> list[str]:
     return out
 
 
+def closed_loop_optima(text: str) -> dict[str, tuple[str, str]]:
+    """Each closed-loop geometry's open-loop optimum as its section prints it: (Tf, energy)."""
+    optimum = r"\*\*(\S+)\*\*: [^\n]*?Open-loop optimum: objective \S+, energy (\S+) \([^)]*\), Tf (\S+) s"
+    found = re.findall(optimum, text)
+    return {geometry: (tf, energy) for geometry, energy, tf in found}
+
+
+def optimum_mismatches(scenarios: str, closed_loop: str) -> list[str]:
+    """The closed-loop optima whose energy or Tf differs from the scenario table's beyond the printed digits."""
+    table, optima, out = scenario_table(scenarios), closed_loop_optima(closed_loop), []
+    for geometry, name in SAME_OPTIMUM.items():
+        if geometry not in optima or name not in table:
+            continue
+        for what, mine, theirs in zip(("Tf", "E"), optima[geometry], table[name], strict=True):
+            if abs(float(mine) - float(theirs)) > half_unit(mine) + half_unit(theirs):
+                out.append(f"{geometry}: {what} = {mine} in the closed-loop section, {theirs} for {name}")
+    return out
+
+
 # -- synthetic sections -----------------------------------------------------------------------------
 def scenario_frame() -> pd.DataFrame:
     """The scenario table's records for the synthetic cases (the columns tables.markdown prints)."""
@@ -166,6 +190,33 @@ def test_points_per_front_stated_listed_and_computed_agree(fronts):
     assert front_mismatches(pareto, fewer) == ["s1: 6 points stated, 5 converged in pareto.csv"]
 
 
+def closed_loop_text(energy: float) -> str:
+    """The closed-loop section of one synthetic s2 row whose optimum spends ``energy`` in the case's Tf."""
+    tf = CASES["s1"][1]
+    numbers = dict.fromkeys(closed_loop_section.ACCURACY, 0.0) | {"runs": 1, "reach_rate": 1.0, "violations": 0,
+                                                                   "failed_steps": 0}  # fmt: skip
+    numbers |= dict.fromkeys(("position_error_mean", "position_error_worst", "heading_error_mean",
+                              "heading_error_worst", "energy_ratio_mean", "energy_ratio_worst", "min_clearance",
+                              "step_seconds_mean", "step_seconds_max", "realtime_factor"), 0.5)  # fmt: skip
+    row = {"geometry": "s2", "title": "A case", "level": 0.0, "controller": "mpc", "objective": "energy",
+           "weights": {}, "sample_time": 0.05, "horizon": 40, "numbers": numbers, "criteria": None,
+           "optimum": {"energy": energy, "objective": energy, "final_time": tf, "certified": True},
+           "goal_tolerance": {"position": 0.02, "angle": 0.05},
+           "level1_disturbance": {"speed_gain": 1.0, "steering_bias": 0.0, "drift": [0, 0], "wheelbase": {},
+                                  "delay": 0.0, "noise": 0.0}}  # fmt: skip
+    return closed_loop_section.section([row], "demo", None)
+
+
+def test_the_closed_loop_optimum_is_the_scenario_tables():
+    frame = scenario_frame().assign(scenario=["s2-case1", "s2-case2", "s2-case3"])
+    energy = CASES["s1"][2]
+    assert list(closed_loop_optima(closed_loop_text(energy))) == ["s2"]
+    assert optimum_mismatches(tables.markdown(frame), closed_loop_text(energy)) == []
+    assert optimum_mismatches(tables.markdown(frame), closed_loop_text(energy * 1.01)) == [
+        f"s2: E = {energy * 1.01:.6g} in the closed-loop section, {energy:.4g} for s2-case1"
+    ]
+
+
 # -- the built paper ----------------------------------------------------------------------------------
 def built(*names: str) -> list[Path]:
     paths = [RESULTS / name for name in names]
@@ -182,3 +233,8 @@ def test_built_sections_state_one_c_per_case():
 def test_built_fronts_state_the_points_they_hold():
     pareto, csv = built("sections/61-pareto.md", "studies/pareto/pareto.csv")
     assert front_mismatches(pareto.read_text(), pd.read_csv(csv)) == []
+
+
+def test_built_closed_loop_optimum_is_the_scenario_tables():
+    scenarios, closed_loop = built("sections/30-scenarios.md", "sections/80-closed-loop.md")
+    assert optimum_mismatches(scenarios.read_text(), closed_loop.read_text()) == []
