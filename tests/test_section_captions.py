@@ -262,3 +262,14 @@ def test_closed_loop_tables_are_captioned_one_value_per_cell():
     assert "| 1 | mpc | 3 | 100% | 0.4 | 0.8 | 0.5 | 0.5 | 3 of 3 | 2 of 3 | 3 of 3 |" in text
     assert "| 500 | 500 |" in text  # step times in whole milliseconds
     assert "load" not in text  # the machine's load average is no result
+
+
+def test_turning_circle_table_holds_one_value_per_row():
+    steady = {"R": 10.137, "front_axle_radius": 10.791, "trailer_axle_radius": 6.621, "articulation": 0.8014,
+              "outer": 12.5, "inner": 5.346, "outer_body": "vehicle", "inner_body": "trailer"}  # fmt: skip
+    turns = [{"inner": 5.365, "outer": 16.131}, {"inner": 5.346, "outer": 12.5, "outside_annulus_m2": 6.8e-11}]
+    result = {"steady": steady, "phi_deg": 20.05, "phi": 0.35, "outer_margin": 0.0, "inner_margin": 0.046,
+              "transient": {"turns": turns, "trailer_axle_radius": [6.64, 6.621], "swing_out": 0.426}}  # fmt: skip
+    rows = studies_roads_turning.circle_rows(result, "none")
+    assert all(len(re.findall(r"\d+\.\d+", r["value"])) == 1 for r in rows if r["value"] != "none")
+    assert {"10.137 m", "10.791 m", "6.640 m", "6.621 m", "45.92 deg"} <= {r["value"] for r in rows}

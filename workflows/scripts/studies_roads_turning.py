@@ -126,10 +126,36 @@ def figure(name: str, result: dict, out: Path, formats: list[str]) -> None:
     save(fig, out / "turning", formats)
 
 
-def section(name: str, r: dict, rows: list[dict], fig: Path) -> str:
+def circle_rows(r: dict, limit: str) -> list[dict]:
+    """The turning-circle table of one preset, one value per row (with its unit)."""
     s, tr = r["steady"], r["transient"]
-    p = preset(name)
     t1, t2 = tr["turns"][0], tr["turns"][-1]
+    after = tr["trailer_axle_radius"]
+    pairs = [
+        (f"steering angle for an outer swept radius of {EU_OUTER:.2f} m", angle(r["phi_deg"])),
+        ("the same in radians", f"{r['phi']:.4f} rad"),
+        ("the preset's steering limit", limit),
+        ("tractor rear axle radius R (steady)", metres(s["R"])),
+        ("tractor front axle radius (steady)", metres(s["front_axle_radius"])),
+        ("trailer axle radius R_t (closed form)", metres(s["trailer_axle_radius"])),
+        ("articulation (steady)", angle(math.degrees(s["articulation"]))),
+        (f"outer swept radius (steady; {s['outer_body']})", metres(s["outer"])),
+        (f"its margin against {EU_OUTER:.2f} m", f"{r['outer_margin']:+.3f} m"),
+        (f"inner swept radius (steady; {s['inner_body']})", metres(s["inner"])),
+        (f"its margin against {EU_INNER:.2f} m", f"{r['inner_margin']:+.3f} m"),
+        ("integrated turn 1 from straight: inner swept radius", metres(t1["inner"])),
+        ("integrated turn 1: outer swept radius (the trailer still on the straight approach)", metres(t1["outer"])),
+        ("integrated turn 2: inner swept radius", metres(t2["inner"])),
+        ("integrated turn 2: outer swept radius", metres(t2["outer"])),
+        ("integrated turn 2: swept polygon outside the annulus", f"{t2['outside_annulus_m2']:.2g} m²"),
+        *((f"trailer axle radius after turn {k}", metres(x)) for k, x in enumerate(after, 1)),
+        ("swing-out beyond the straight vehicle's outer side, first half turn", metres(tr["swing_out"])),
+    ]
+    return [{"what": what, "value": value} for what, value in pairs]
+
+
+def section(name: str, r: dict, rows: list[dict], fig: Path) -> str:
+    p = preset(name)
     limit = (
         "the preset gives no steering limit (the directive publishes none)"
         if r["phi_limit"] is None
@@ -158,49 +184,7 @@ def section(name: str, r: dict, rows: list[dict], fig: Path) -> str:
         " and trailer axle radii (m) of the integrated turns, and the swing-out (m); the unit of each value beside"
         " it.",
         "",
-        table(
-            [
-                {
-                    "what": f"steering angle for an outer swept radius of {EU_OUTER:.2f} m",
-                    "value": f"{angle(r['phi_deg'])} ({r['phi']:.4f} rad); {limit}",
-                },
-                {
-                    "what": "tractor rear axle radius R / front axle radius",
-                    "value": f"{metres(s['R'])} / {metres(s['front_axle_radius'])}",
-                },
-                {
-                    "what": "trailer axle radius R_t (closed form) / articulation",
-                    "value": f"{metres(s['trailer_axle_radius'])} / {angle(math.degrees(s['articulation']))}",
-                },
-                {
-                    "what": "outer swept radius (steady; " + s["outer_body"] + ")",
-                    "value": f"{metres(s['outer'])}, margin {r['outer_margin']:+.3f} m",
-                },
-                {
-                    "what": "inner swept radius (steady; " + s["inner_body"] + ")",
-                    "value": f"{metres(s['inner'])}, margin {r['inner_margin']:+.3f} m against {EU_INNER:.2f} m",
-                },
-                {
-                    "what": "integrated, turn 1 from straight: inner / outer swept radius",
-                    "value": f"{metres(t1['inner'])} / {metres(t1['outer'])}"
-                    " (the trailer still on the straight approach)",
-                },
-                {
-                    "what": "integrated, turn 2: inner / outer swept radius",
-                    "value": f"{metres(t2['inner'])} / {metres(t2['outer'])}; swept polygon outside the annulus"
-                    f" {t2['outside_annulus_m2']:.2g} m^2",
-                },
-                {
-                    "what": "trailer axle radius after turn 1 / turn 2 (steady: R_t)",
-                    "value": " / ".join(metres(x) for x in tr["trailer_axle_radius"]),
-                },
-                {
-                    "what": "swing-out beyond the straight vehicle's outer side, first half turn",
-                    "value": metres(tr["swing_out"]),
-                },
-            ],
-            {"what": "quantity", "value": "value (unit)"},
-        ),  # fmt: skip
+        table(circle_rows(r, limit), {"what": "quantity", "value": "value (unit)"}),
         "",
         f"So the {name} {'meets' if r['passes'] else 'does not meet'} the requirement: the inner margin is"
         f" {r['inner_margin'] * 100:+.1f} cm in the steady state (the worst case: from straight driving the trailer's"
