@@ -453,6 +453,18 @@ def preset_citation(name: str) -> str:
     return name + source_citation(preset(name)["source"])
 
 
+def presets_cited(names: list[str]) -> str:
+    """Presets with their sources' citations, each citation once after its group: "P, SU-30 [@aashto2018] and
+    EU-semitrailer [@directive9653]" (the groups in the order of their first preset)."""
+    from model.vehicles import preset
+
+    groups: dict[str, list[str]] = {}
+    for name in names:
+        groups.setdefault(source_citation(preset(name)["source"]), []).append(name)
+    parts = [", ".join(group) + cite for cite, group in groups.items()]
+    return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
+
+
 OPERATIONAL_SUFFIX = "-operational"  # a road <name>-operational.toml: the route <name> at a preset's limits
 DESIGN_SUFFIX = "-design"  # a road <name>-design.toml: the route <name> at a design speed
 

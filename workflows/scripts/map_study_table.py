@@ -22,7 +22,7 @@ from model.plotting.maps import draw_lanelets, draw_swept, map_limits
 from model.plotting.roads import draw_scale_bar
 from model.problem.maps import map_of
 from model.studies.maps import movements
-from model.studies.roads import limits_cell, limits_note, preset_citation
+from model.studies.roads import limits_cell, limits_note, presets_cited
 
 COLUMNS = {
     "preset": "vehicle",
@@ -51,6 +51,18 @@ PAPER_COLUMNS = {k: v for k, v in COLUMNS.items() if k not in ("lanelets_used", 
 # the section's number formats: times to 0.01 s, clearances to the millimetre, depths to 1 cm, areas to 0.1 m^2
 FORMATS = {"final_time": ".2f", "min_clearance": ".3f", "min_clearance_dense": ".3f", "apron_used_m": ".2f",
            "apron_area_m2": ".1f"}  # fmt: skip
+
+
+CONFIG = Path(__file__).resolve().parents[1] / "config.yaml"
+
+
+def full_grid() -> str:
+    """The `map_study: full` grid of workflows/config.yaml in words: its vehicles (cited) and movements."""
+    import yaml
+
+    grid = yaml.safe_load(CONFIG.read_text())["map_studies"]["full"]
+    moves = "every movement" if grid["movements"] == "all" else f"movements {', '.join(grid['movements'])}"
+    return f"{presets_cited(grid['vehicles'])} on {moves}"
 
 
 def lanelet_words(ids: list) -> str:
@@ -226,11 +238,10 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         f" [@round2020] (its CommonRoad map [@commonroad2017]; {n_movements} movements in the map's lanelet graph),"
         f" for each design vehicle, with and without the apron"
         f" ({lanelet_words(template['route'].get('apron_lanelets', []))}). **This is the `map_study: {mode}` run**:"
-        f" vehicles {', '.join(preset_citation(v) for v in grid['vehicles'])}; movements"
+        f" vehicles {presets_cited(grid['vehicles'])}; movements"
         f" {', '.join(grid['movements'])}; apron"
         f" {', '.join('with' if a else 'without' for a in grid['apron'])}; N = {grid['intervals']}"
-        + (" (`map_study: full` in workflows/config.yaml runs P, SU-30, WB-40, WB-62 and the EU-semitrailer on"
-           " every movement)." if mode != "full" else ".")  # fmt: skip
+        + (f" (`map_study: full` in workflows/config.yaml runs {full_grid()})." if mode != "full" else ".")
         + f" {len(df)} cells, {int((~df.valid).sum())} failing; {fmt(cpu, 3)} s of job time in all.",
         "",
         "Per cell (model/studies/maps.py): the minimum-time manoeuvre by the map corridor strips, forward only;"

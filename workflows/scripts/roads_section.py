@@ -16,7 +16,7 @@ from model.problem.scenario import load_scenario
 from model.studies.roads import (
     DESIGN_SUFFIX,
     OPERATIONAL_SUFFIX,
-    preset_citation,
+    presets_cited,
     reference_preset,
     road_limits_cell,
     road_limits_note,
@@ -169,7 +169,7 @@ def limited(scenarios: list[Path], results: Path) -> list[str]:
     if lines:
         lines = [
             "The same routes at the operational limits of the presets ("
-            + ", ".join(preset_citation(name) for name in held_presets(scenarios))
+            + presets_cited(held_presets(scenarios))
             + "; `[vehicle] operational = true`, docs/dynamics-format.md: the speed the state $v$, the "
             "acceleration and jerk bounded, the lateral acceleration and steering rate the preset's; the rigid "
             "truck of the operational rows is a preset, not the time-optimal rows' truck):",

@@ -15,7 +15,7 @@ from studies_common import fmt, parser, plt, table, write_text
 from studies_common import limits_paragraph as common_limits_paragraph
 
 from model.plotting.figures import ENERGY_UNIT, save
-from model.studies.roads import limits_cell, limits_note, preset_citation
+from model.studies.roads import limits_cell, limits_note, presets_cited
 
 
 def load(cells: list[Path]) -> list[dict]:
@@ -270,6 +270,19 @@ def budgets(grid: dict) -> str:
     return f" Budgets per cell: {' and '.join(parts)} (past it, the best validated answer or a refusal)."
 
 
+CONFIG = Path(__file__).resolve().parents[1] / "config.yaml"
+
+
+def full_grid() -> str:
+    """The `road_studies: full` grid of workflows/config.yaml in words: its vehicles (cited) and ICDs."""
+    import yaml
+
+    grid = yaml.safe_load(CONFIG.read_text())["road_studies_grids"]["full"]
+    icd = sorted(grid["icd"])
+    return (f"{presets_cited(grid['vehicles'])} at ICD {icd[0]:g} to {icd[-1]:g} m"
+            f" ({len(icd)} sizes)")  # fmt: skip
+
+
 def cell_rows(df: pd.DataFrame) -> list[dict]:
     """The cells as the table prints them: lengths to the millimetre, times and J to 4 significant digits."""
     out = []
@@ -293,13 +306,11 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
         "",
         f"A left turn (the third exit of a four-leg roundabout, right-hand traffic) for each design vehicle,"
         f" inscribed circle diameter and apron. **This is the `road_studies: {mode}` run**: vehicles"
-        f" {', '.join(preset_citation(v) for v in grid['vehicles'])};"
+        f" {presets_cited(grid['vehicles'])};"
         f" ICD {', '.join(f'{i:g}' for i in grid['icd'])} m; apron"
         f" {', '.join(f'{a:g}' for a in grid['apron'])} m; N = {grid['intervals']} intervals"
         + (
-            " (`road_studies: full` in workflows/config.yaml runs every AASHTO preset [@aashto2018] and the"
-            " EU-semitrailer [@directive9653] at"
-            " ICD 25 to 55 m)."
+            f" (`road_studies: full` in workflows/config.yaml runs {full_grid()})."
             if mode != "full"
             else "."
         )
