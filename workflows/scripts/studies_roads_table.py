@@ -6,6 +6,7 @@ as failed, never drawn as solutions) and the paper section, which states the gri
 
 from __future__ import annotations
 
+import inspect
 import json
 import tomllib
 from pathlib import Path
@@ -15,7 +16,7 @@ from studies_common import fmt, parser, plt, table, write_text
 from studies_common import limits_paragraph as common_limits_paragraph
 
 from model.plotting.figures import ENERGY_UNIT, save
-from model.studies.roads import limits_cell, limits_note, presets_cited
+from model.studies.roads import limits_cell, limits_note, presets_cited, swept_width
 
 
 def load(cells: list[Path]) -> list[dict]:
@@ -271,6 +272,7 @@ def budgets(grid: dict) -> str:
 
 
 CONFIG = Path(__file__).resolve().parents[1] / "config.yaml"
+TRIM_DEG = inspect.signature(swept_width).parameters["trim_deg"].default  # the rays kept clear of the legs
 
 
 def full_grid() -> str:
@@ -328,7 +330,8 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
         f" the energy-optimal J at {ratio:g} x that time; *apron used*: how far the exact rectangles of the"
         f" time-optimal manoeuvre reach inside the ring roadway's inner edge (that optimum hugs the island, so this"
         " is what it uses, not the least it needs: compare the cell without an apron); *swept width*: the"
-        " largest radial extent of the swept area on rays through the ring 45 degrees clear of the entry and exit"
+        f" largest radial extent of the swept area on rays through the ring {TRIM_DEG:g} degrees clear of the entry"
+        " and exit"
         " legs. Where no start gives a valid trajectory the diagnosis of a minimal-violation solve names the body,"
         " the edge that must give way and by how much (a local solve: an upper bound on what must give way).",
         "",
