@@ -311,11 +311,7 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
         f" {presets_cited(grid['vehicles'])};"
         f" ICD {', '.join(f'{i:g}' for i in grid['icd'])} m; apron"
         f" {', '.join(f'{a:g}' for a in grid['apron'])} m; N = {grid['intervals']} intervals"
-        + (
-            f" (`road_studies: full` in workflows/config.yaml runs {full_grid()})."
-            if mode != "full"
-            else "."
-        )
+        + (f" (`road_studies: full` in workflows/config.yaml runs {full_grid()})." if mode != "full" else ".")
         + f" {len(df)} cells, {n_fail} without a valid trajectory; {fmt(cpu, 3)} s of solving in all"
         + (f" ({fmt(process, 3)} s of CPU)." if process is not None else ".")
         + budgets(grid),
