@@ -391,7 +391,7 @@ def section(rows: list[dict], study: str, figures: Path | None) -> str:
         "NMPC re-solving the scenario's own OCP with Ipopt [@ipopt] from the measured state at every sample, "
         "warm-started. A "
         "level scales the geometry's level-1 disturbance (0: the model itself). Energies are the "
-        f"unweighted 1/2 integral of u1^2 + u2^2 ({ENERGY_UNIT}) of the applied controls against that of the open-loop "
+        f"unweighted ½∫(u1² + u2²) dt ({ENERGY_UNIT}) of the applied controls against that of the open-loop "
         "optimum; clearances are over the samples; step times are wall-clock seconds of one controller "
         "call (realtime factor: the worst step over the sample time). Written by "
         "workflows/scripts/closed_loop_section.py from results/closed-loop.",
