@@ -234,40 +234,11 @@ def table(rows: list[dict], geometry: str) -> list[str]:
     return [*lines, ""]
 
 
-ERRORS = (("position_error", "position", "final position error (m)"),
-          ("heading_error", "angle", "final heading error (rad)"))  # fmt: skip
-
-
-def error_panel(ax, rows: list[dict], geometry: str, key: str, tol_key: str) -> None:
-    """One final error (mean, worst as a bar) against the level, one line per controller, its tolerance dashed."""
-    for c in CONTROLLERS:
-        pts = [r for r in of(rows, geometry) if r["controller"] == c and r["numbers"]]
-        if not pts:
-            continue
-        lv = np.array([r["level"] for r in pts])
-        mean = np.array([max(r["numbers"][f"{key}_mean"] or 0.0, 1e-9) for r in pts])
-        worst = np.array([max(r["numbers"][f"{key}_worst"] or 0.0, 1e-9) for r in pts])
-        ax.errorbar(lv, mean, yerr=[0 * mean, worst - mean], fmt="o-", capsize=3, color=COLORS[c], label=c)
-    tol = next((r["goal_tolerance"].get(tol_key) for r in of(rows, geometry) if r["numbers"]), None)
-    if tol:
-        ax.axhline(tol, color="0.4", ls="--", lw=1, label=f"goal tolerance {fmt(tol, 2)}")
-    ax.set(yscale="log", xlabel="disturbance level")
-
-
 def errors_figure(rows: list[dict], stem: Path, formats: Sequence[str]) -> None:
-    """Final position error (top) and heading error (bottom) against the level, one column per geometry.
+    """Final position and heading error per disturbance level (model.plotting.closed_loop.errors_figure)."""
+    from model.plotting.closed_loop import errors_figure as draw_errors
 
-    A run reaches the goal only within both tolerances (and with no failed step), so the heading row shows
-    why runs inside the position tolerance can still count as not reached.
-    """
-    shown = [g for g in geometries(rows) if len({r["level"] for r in of(rows, g)}) > 1] or geometries(rows)
-    fig, axes = plt.subplots(2, len(shown), figsize=(4.2 * len(shown), 6.2), squeeze=False, sharex="col")
-    for j, g in enumerate(shown):
-        for i, (key, tol_key, ylabel) in enumerate(ERRORS):
-            error_panel(axes[i, j], rows, g, key, tol_key)
-            axes[i, j].set(ylabel=ylabel, title=g if i == 0 else None)
-            axes[i, j].legend(loc="best", fontsize=7)
-    save(fig, stem, formats)
+    save(draw_errors(rows, COLORS), stem, formats)
 
 
 def path_level(rows: list[dict], geometry: str) -> float | None:
@@ -403,9 +374,10 @@ def section(rows: list[dict], study: str, figures: Path | None) -> str:
     lines += ["**Findings.** " + " ".join(findings(rows)), ""]
     if figures is not None:
         lines += [
-            f"![Final position error (top) and final heading error (bottom) against the disturbance level (mean;"
-            f" bars up to the worst run; log scale), one line per controller; each goal tolerance dashed: a run"
-            f" reaches the goal only below both (and with no failed step)]({(figures / 'errors.png').as_posix()})",
+            f"![Final position error (top) and final heading error (bottom) at each disturbance level, one marker per"
+            f" controller (the mean over the runs, a bar up to the worst run; log scale; the levels are separate"
+            f" experiments, not joined); each goal tolerance dashed: a run reaches the goal only below both (and with"
+            f" no failed step)]({(figures / 'errors.png').as_posix()})",
             "",
             f"![Closed-loop paths under the level-1 disturbance (first run) on the scene: the open-loop "
             f"optimum (reference) and the three controllers]({(figures / 'paths.png').as_posix()})",
