@@ -14,12 +14,11 @@ import tomllib
 from pathlib import Path
 
 import pandas as pd
-from studies_common import fmt, parser, plt, table, write_text
+from studies_common import fmt, parser, table, write_text
 from studies_common import limits_paragraph as common_limits_paragraph
 
 from model.plotting.figures import save
-from model.plotting.maps import draw_lanelets, draw_swept, map_limits
-from model.plotting.roads import draw_scale_bar
+from model.plotting.maps import map_figure
 from model.problem.maps import map_of
 from model.studies.maps import movements
 from model.studies.roads import limits_cell, limits_note, presets_cited
@@ -143,41 +142,17 @@ def limits_paragraph(df: pd.DataFrame) -> str:
 
 
 def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: list[str]) -> str:
-    """One vehicle: a panel per apron setting with the passing movements' swept paths; returns the caption."""
+    """One vehicle's movements on the map (model.plotting.maps.map_figure); returns the caption."""
+    save(map_figure(lanelet_map, cells, preset), stem, formats)
     mine = [c for c in cells if c["preset"] == preset]
-    settings = sorted({bool(c["apron"]) for c in mine}, reverse=True)
-    fig, axes = plt.subplots(1, len(settings), figsize=(6.2 * len(settings), 7.2), squeeze=False,
-                             constrained_layout=True)  # fmt: skip
-    names = sorted({c["movement"] for c in mine}, key=movement_key)
-    tab20 = plt.get_cmap("tab20").colors
-    palette = tab20[::2] + tab20[1::2]  # the ten strong colours first, then their light pairs
-    colours = {m: palette[k % len(palette)] for k, m in enumerate(names)}
-    swept = [shapely_of(f) for c in mine if c.get("valid") for f in c["swept_path"]["features"]]
-    corridor = sorted({i for c in mine for i in c.get("corridor_lanelets") or []})
-    xlim, ylim = map_limits(swept or [lanelet_map.polygon(i) for i in corridor or lanelet_map.ids])
-    for ax, apron in zip(axes[0], settings, strict=True):
-        handles = draw_lanelets(ax, lanelet_map)
-        failed = []
-        for c in sorted((c for c in mine if bool(c["apron"]) == apron), key=lambda c: movement_key(c["movement"])):
-            if c.get("valid"):
-                geoms = [f["geometry"] for f in c["swept_path"]["features"]]
-                draw_swept(ax, geoms, colours[c["movement"]], f"{c['movement']}: Tf {c['final_time']:.1f} s")
-            else:
-                failed.append(f"{c['movement']} ({c.get('status')})")
-        ax.set(xlim=xlim, ylim=ylim, aspect="equal", xticks=[], yticks=[])
-        draw_scale_bar(ax)
-        use = next((c["apron_use"] for c in mine if bool(c["apron"]) == apron), "none")
-        ax.set_title(f"{preset}, {'with the apron (use: ' + use + ')' if apron else 'without the apron'}",
-                     fontsize=9)  # fmt: skip
-        ax.legend(handles=[*handles, *ax.get_legend_handles_labels()[0]], fontsize=6, loc="upper left", ncol=2)
-        ax.set_xlabel("fails (not drawn): " + (", ".join(failed) if failed else "none"), fontsize=8, wrap=True)
-    save(fig, stem, formats)
     held = [bool(c.get("operational")) for c in mine]
     limits = (f"at the {preset}'s operational limits" if all(held) else
               "without operational limits (the kinematic model)" if not any(held) else
               "at the operational limits where the table's limits column says so")  # fmt: skip
     return (f"{preset} ({limits}): the swept paths (all bodies, exact rectangles) of every movement that passes, on"
-            " the map's lanelets drawn by type; the movements that fail are listed under each panel, not drawn")
+            " the map's lanelets drawn by type, each movement named by the directions of its legs, its route dotted"
+            " with arrowheads from its start (circle) to its goal (square); a panel per apron setting, one where both"
+            " sweep the same paths; the movements that fail are listed under each panel, not drawn")
 
 
 def movement_key(name: str) -> tuple[int, int]:
@@ -220,12 +195,6 @@ def notes(df: pd.DataFrame) -> list[str]:
     found = [f"- {r['preset']} {r['movement']} {apron_label(r['apron'])}: {r['diagnosis']}."
              for r in df.to_dict("records") if isinstance(r.get("diagnosis"), str)]  # fmt: skip
     return ["Diagnoses and notes:", "", *found, ""] if found else []
-
-
-def shapely_of(feature: dict):
-    import shapely
-
-    return shapely.geometry.shape(feature["geometry"])
 
 
 def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements: int, figures: list[tuple]) -> str:
