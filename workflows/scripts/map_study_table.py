@@ -18,7 +18,7 @@ from studies_common import fmt, parser, table, write_text
 from studies_common import limits_paragraph as common_limits_paragraph
 
 from model.plotting.figures import save
-from model.plotting.maps import map_figure
+from model.plotting.maps import map_figure, movement_name
 from model.problem.maps import map_of
 from model.studies.maps import movements
 from model.studies.roads import limits_cell, limits_note, presets_cited
@@ -121,9 +121,12 @@ def flat(c: dict) -> dict:
         "max_abs_lateral": c.get("max_abs_lateral_acceleration") if valid else None,
         "min_acceleration": c.get("min_acceleration") if valid else None,
         "max_acceleration": c.get("max_acceleration") if valid else None,
-        "limits_cell": limits_cell(c["preset"], bool(c.get("operational")),
-                                   c.get("max_abs_lateral_acceleration") if valid else None,
-                                   (c.get("min_acceleration"), c.get("max_acceleration")) if valid else None),
+        "limits_cell": limits_cell(
+            c["preset"],
+            bool(c.get("operational")),
+            c.get("max_abs_lateral_acceleration") if valid else None,
+            (c.get("min_acceleration"), c.get("max_acceleration")) if valid else None,
+        ),
     }
 
 
@@ -149,10 +152,12 @@ def figure(lanelet_map, cells: list[dict], preset: str, stem: Path, formats: lis
     limits = (f"at the {preset}'s operational limits" if all(held) else
               "without operational limits (the kinematic model)" if not any(held) else
               "at the operational limits where the table's limits column says so")  # fmt: skip
-    return (f"{preset} ({limits}): the swept paths (all bodies, exact rectangles) of every movement that passes, on"
-            " the map's lanelets drawn by type, each movement named by the directions of its legs, its route dotted"
-            " with arrowheads from its start (circle) to its goal (square); a panel per apron setting, one where both"
-            " sweep the same paths; the movements that fail are listed under each panel, not drawn")
+    return (
+        f"{preset} ({limits}): the swept paths (all bodies, exact rectangles) of every movement that passes, on"
+        " the map's lanelets drawn by type, each movement named by the directions of its legs, its route dotted"
+        " with arrowheads from its start (circle) to its goal (square); a panel per apron setting, one where both"
+        " sweep the same paths; the movements that fail are listed under each panel, not drawn"
+    )
 
 
 def movement_key(name: str) -> tuple[int, int]:
@@ -171,7 +176,8 @@ def matrix(df: pd.DataFrame) -> str:
                for a in sorted(set(df.apron), reverse=True)}  # fmt: skip
     rows = []
     for movement in sorted(set(df.movement), key=movement_key):
-        row = {"movement": movement}
+        legs = df[df.movement == movement]["legs"].iloc[0] if "legs" in df else None
+        row = {"movement": f"{legs} ({movement})" if isinstance(legs, str) else movement}
         for (preset, apron), header in columns.items():
             g = df[(df.movement == movement) & (df.preset == preset) & (df.apron == apron)]
             row[header] = "" if g.empty else (f"{g.iloc[0].final_time:.1f}" if g.iloc[0].valid else "fails")
@@ -230,8 +236,9 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
         "",
         limits_paragraph(df),
         "",
-        f"Table: The turning-path table of the `{mode}` run: the minimum time Tf (s) of each movement (entry-exit"
-        " lanelet), one column per vehicle and apron setting; fails: no valid trajectory (the diagnosis below).",
+        f"Table: The turning-path table of the `{mode}` run: the minimum time Tf (s) of each movement (by the"
+        " directions of its legs from the island, as in the figures, and its entry-exit lanelets), one column per"
+        " vehicle and apron setting; fails: no valid trajectory (the diagnosis below).",
         "",
         matrix(df),
         "",
@@ -276,15 +283,15 @@ def main() -> None:
     args = ap.parse_args()
     cells = [json.loads(p.read_text()) for p in args.cells]
     order = {n: k for k, n in enumerate(args.vehicles)}
-    df = pd.DataFrame([flat(c) for c in cells])
+    template = tomllib.loads(args.template.read_text())
+    lanelet_map = map_of(template, args.template.parent)
+    df = pd.DataFrame([flat(c) | {"legs": movement_name(lanelet_map, c["route"])} for c in cells])
     keys = {"preset": order.get, "movement": movement_key}
     df = df.sort_values(["preset", "movement", "apron"], ascending=[True, True, False],
                         key=lambda s: s.map(keys[s.name]) if s.name in keys else s)  # fmt: skip
     args.out.mkdir(parents=True, exist_ok=True)
     df.to_csv(args.out / "table.csv", index=False)
     write_text(args.out / "table.md", table(df.to_dict("records"), COLUMNS))
-    template = tomllib.loads(args.template.read_text())
-    lanelet_map = map_of(template, args.template.parent)
     drawn = [(args.out / f"{v}.png", figure(lanelet_map, cells, v, args.out / v, args.formats))
              for v in args.vehicles]  # fmt: skip
     grid = {"vehicles": args.vehicles, "movements": args.movements, "apron": [a == "true" for a in args.apron],
