@@ -16,6 +16,7 @@ import pyomo.environ as pyo
 import pytest
 
 from model.analysis.bodies import moving_clearances
+from model.direct.families import transcription_of
 from model.direct.moving import moving_rows
 from model.plotting.closed_loop import closed_loop_figure
 from model.problem.closed_loop import ControlSettings
@@ -54,7 +55,7 @@ def test_the_horizon_fills_the_car_at_its_absolute_node_times_with_soft_rows(cro
                     for j in range(centres.shape[1])]).reshape(centres.shape)  # fmt: skip
     assert got == pytest.approx(centres, abs=1e-12)
     assert pyo.value(m.moving_t0) == 3.0 and pyo.value(m.moving_tf_ref) == pytest.approx(4.0)
-    moving_slacks = [v for v in m.slacks if v.local_name.startswith("moving_")]
+    moving_slacks = [v for v in transcription_of(m).slack_columns if v.local_name.startswith("moving_")]
     assert len(moving_slacks) == len(sc.ocp.bodies)  # one per body and obstacle, priced with the others
     assert all(v.ub > 0 for s in moving_slacks for v in s.values())
 

@@ -42,6 +42,7 @@ import pyomo.environ as pyo
 
 from derivations.pmp import road_family
 from model.direct.expressions import sympy_to_pyomo
+from model.direct.families import transcription_of
 from model.problem.ocp import OCP
 from model.scene.roundabout import apron_allowed, fillet_geometry, lane_side, leg_point
 from model.vehicles import sym
@@ -120,7 +121,7 @@ def _add_disc_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool, slack: float, 
         for j, offset in enumerate(offsets):
             centre = _pose_point(m, ocp, poses[name], float(offset), 0.0)
             _add_disc(m, ocp, f"body_{name}_{j}", centre, float(radius), apron, relax, k)
-            _register_disc(m, name, f"body_{name}_{j}")
+            _register_disc(m, name, f"body_{name}_{j}", relax)
 
 
 def _add_disc(
@@ -168,36 +169,37 @@ def _add_corner_bodies(m: pyo.ConcreteModel, ocp: OCP, relax: bool) -> None:
             point = _pose_point(m, ocp, poses[name], float(ox), float(oy))
             tag = f"body_{name}_c{j}"  # a disc of radius CORNER_BUFFER: the corner with its buffer
             corners.append(_add_disc(m, ocp, tag, point, CORNER_BUFFER, apron, relax, CORNER_SHARPNESS))
-            _register_disc(m, name, tag)
+            _register_disc(m, name, tag, relax)
         for tag, centre, radius in _keep_out_discs(ocp, apron):
             for box in (0, 1):
                 _add_keep_out(m, f"body_{name}_{tag}_{box}", corners, body, centre, radius, box, relax)
-                _register(m, name, "keep_out", m.component(f"body_{name}_{tag}_{box}_keep_out"))
+                _register(m, name, "keep_out", m.component(f"body_{name}_{tag}_{box}_keep_out"), relax)
         for tag, ends, normal in _keep_out_lines(ocp):
             _add_line_keep_out(m, f"body_{name}_{tag}", corners, body, ends, normal, relax)
-            _register(m, name, "keep_out", m.component(f"body_{name}_{tag}_keep_out"))
+            _register(m, name, "keep_out", m.component(f"body_{name}_{tag}_keep_out"), relax)
 
 
-def _register_disc(m: pyo.ConcreteModel, body: str, tag: str) -> None:
+def _register_disc(m: pyo.ConcreteModel, body: str, tag: str, soft: bool) -> None:
     for kind in ("island", "corridor"):
-        _register(m, body, kind, m.component(f"{tag}_{kind}"))
+        _register(m, body, kind, m.component(f"{tag}_{kind}"), soft)
 
 
-def _register(m: pyo.ConcreteModel, body: str, kind: str, component: pyo.Constraint) -> None:
-    """Record a row family member: ``body_rows(m)`` lists it for the costates and the certificate."""
-    m.body_row_list = [*getattr(m, "body_row_list", []), (road_family(body, kind), component)]
+def _register(m: pyo.ConcreteModel, body: str, kind: str, component: pyo.Constraint, soft: bool) -> None:
+    """Declare a row family member (``model.direct.families``): ``body_rows(m)`` lists it for the costates
+    and the certificate; its slacks (``soft``) are declared where they are made."""
+    transcription_of(m).declare(road_family(body, kind), kind, component, "slack" if soft else "hard")
 
 
 def body_rows(m: pyo.ConcreteModel) -> list[tuple[str, pyo.Constraint]]:
     """(family, constraint) of every body row of the model, the family ``<body>_<kind>``
     (``derivations.pmp.ROAD_KINDS``: island, corridor, keep_out); empty off the road."""
-    return list(getattr(m, "body_row_list", []))
+    return transcription_of(m).rows_of_kind("island", "corridor", "keep_out")
 
 
 def point_definitions(m: pyo.ConcreteModel) -> list[tuple[pyo.Var, pyo.Constraint]]:
     """(variable, defining row) of every auxiliary point coordinate (a disc centre's or a corner's
     x or y, ``var[t] == position(x[t])``): the body rows depend on the state through them."""
-    return list(getattr(m, "point_definition_list", []))
+    return list(transcription_of(m).definitions)
 
 
 def _keep_out_discs(ocp: OCP, apron: bool) -> list[tuple[str, tuple[float, float], float]]:
@@ -299,7 +301,7 @@ def _slack(m: pyo.ConcreteModel, tag: str, relax: bool):
         return lambda t: 0
     var = pyo.Var(m.tau, bounds=(0.0, None), initialize=0.0)
     m.add_component(f"{tag}_slack", var)
-    m.slacks = [*getattr(m, "slacks", []), var]
+    transcription_of(m).add_slack(var)
     return lambda t: var[t]
 
 
@@ -311,7 +313,7 @@ def _slacks(m: pyo.ConcreteModel, tag: str, relax: bool) -> dict:
     for kind in ("island", "corridor"):
         var = pyo.Var(m.tau, bounds=(0.0, None), initialize=0.0)
         m.add_component(f"{tag}_{kind}_slack", var)
-        m.slacks = [*getattr(m, "slacks", []), var]
+        transcription_of(m).add_slack(var)
         out[kind] = lambda t, var=var: var[t]
     return out
 
@@ -329,7 +331,7 @@ def _centre_variables(m: pyo.ConcreteModel, tag: str, position, rb):
         m.add_component(f"{tag}_{name}", var)
         rule = lambda _m, t, k=k, var=var: var[t] == position(t)[k]  # noqa: E731
         m.add_component(f"{tag}_{name}_def", pyo.Constraint(m.tau, rule=rule))
-        m.point_definition_list = [*getattr(m, "point_definition_list", []), (var, m.component(f"{tag}_{name}_def"))]
+        transcription_of(m).definitions.append((var, m.component(f"{tag}_{name}_def")))
         derived = getattr(m, "derived_values", [])
         derived.append((var, lambda t, k=k: position(t)[k]))
         m.derived_values = derived

@@ -26,8 +26,7 @@ import numpy as np
 import pyomo.environ as pyo
 
 from model.analysis.certificate import Adjoined
-from model.direct.bodies import body_rows, point_definitions
-from model.direct.moving import moving_rows
+from model.direct.families import PRICED, transcription_of
 from model.nlp.casadi_nlp import CasadiNLP
 from model.problem.ocp import OCP
 
@@ -41,8 +40,7 @@ def midpoint_to_nodes(mid: np.ndarray) -> np.ndarray:
 def costates(m: pyo.ConcreteModel, ocp: OCP) -> dict[str, np.ndarray]:
     """p_<state> at the nodes, from the duals of the trapezoid constraints."""
     out = {}
-    for s in ocp.vehicle.states:
-        con = m.component(f"d{s}_trapezoid")
+    for s, con in zip(ocp.vehicle.states, transcription_of(m).dynamics(), strict=True):
         mid = np.array([-m.dual[con[k]] for k in sorted(con.keys())])
         out[f"p_{s}"] = midpoint_to_nodes(mid)
     return out
@@ -74,9 +72,7 @@ def path_multipliers(
     at each node), likewise its constraint value, and its complementarity and sign. ``x`` is the
     reduced primal answer whose duals ``m.dual`` holds.
     """
-    families = [(name, m.component(f"bound_{name}")) for name in ocp.vehicle.outputs() if name in ocp.bounds]
-    families += body_rows(m) + moving_rows(m)
-    families = [(name, comp) for name, comp in families if comp is not None]
+    families = transcription_of(m).rows_of_kind(*PRICED)
     if not families:
         return {}, []
     J, body = nlp.jacobian_at(x).tocsr(), nlp.constraint_values_at(x)
@@ -89,7 +85,7 @@ def path_multipliers(
     weights[[0, -1]] = h / 2
     cols = np.array([column[id(m.component(s)[t])] for s in states for t in nodes])
     G = J[:, cols]  # rows x (state, node): the direct dependence on the state ...
-    defs = point_definitions(m)
+    defs = transcription_of(m).definitions
     if defs:  # ... plus that through the auxiliary points, a = position(x): da/dx = -J[def, x] / J[def, a]
         aux = np.array([column[id(var[t])] for var, _ in defs for t in nodes])
         drows = np.array([row[id(con[t])] for _, con in defs for t in nodes])

@@ -43,6 +43,7 @@ import pyomo.environ as pyo
 
 from model.direct.bodies import disc_count
 from model.direct.expressions import sympy_to_pyomo
+from model.direct.families import transcription_of
 from model.nlp.casadi_nlp import CasadiNLP
 from model.nlp.ipopt import WARM_OPTIONS, IpoptResult, run_ipopt
 from model.problem.ocp import OCP
@@ -58,8 +59,8 @@ def add_moving_obstacles(m: pyo.ConcreteModel, ocp: OCP, soft: bool = False) -> 
 
     ``soft`` (``TranscriptionOptions.soft_penalty``): each row's margin r is lowered by a slack
     0 <= s <= r (metres), |c_body - c|^2 >= (r - s)^2, one slack Var per node for each obstacle (and
-    body), ``m.moving_<body>_<i>_slack``, joining ``m.slacks``: the list the soft cost prices and the
-    real-time iteration holds, as the road's body rows (``model.direct.bodies``).
+    body), ``m.moving_<body>_<i>_slack``, slack columns of the transcription (``model.direct.families``):
+    the list the soft cost prices and the real-time iteration holds, as the road's body rows.
 
     Every rule uses only Pyomo components indexed by the rows' own indices, so that each row family
     is one CasADi template (``model.nlp.pyomo_sx``), not one expression walk per row.
@@ -104,7 +105,7 @@ def _margin_slacks(m: pyo.ConcreteModel, ocp: OCP, tag: str, r_body: float, soft
         top = r_body + ob.cover()[1] + ob.safety
         var = pyo.Var(m.tau, bounds=(0.0, top), initialize=0.0)
         m.add_component(f"{tag}_{i}_slack", var)
-        m.slacks = [*getattr(m, "slacks", []), var]
+        transcription_of(m).add_slack(var)
         slacks.append(var)
     return lambda i, t: slacks[i][t]
 
@@ -118,7 +119,7 @@ def _point_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable, soft: bool) ->
         cx, cy = centre(i, j, t)
         return (X[t] - cx) ** 2 + (Y[t] - cy) ** 2 >= (m.moving_R[i] - slack(i, t)) ** 2
 
-    _register(m, "moving", "moving_keep_out", pyo.Constraint(m.moving_discs, m.tau, rule=rule))
+    _register(m, "moving", "moving_keep_out", pyo.Constraint(m.moving_discs, m.tau, rule=rule), soft)
 
 
 def _body_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable, soft: bool) -> None:
@@ -139,17 +140,17 @@ def _body_rows(m: pyo.ConcreteModel, ocp: OCP, centre: Callable, soft: bool) -> 
             return (bx - cx) ** 2 + (by - cy) ** 2 >= (r_body + m.moving_R[i] - slack(i, t)) ** 2
 
         rows = pyo.Constraint(m.moving_discs, ahead.index_set(), m.tau, rule=rule)
-        _register(m, f"{name}_moving", f"moving_{name}_keep_out", rows)
+        _register(m, f"{name}_moving", f"moving_{name}_keep_out", rows, soft)
 
 
-def _register(m: pyo.ConcreteModel, family: str, tag: str, component: pyo.Constraint) -> None:
+def _register(m: pyo.ConcreteModel, family: str, tag: str, component: pyo.Constraint, soft: bool) -> None:
     m.add_component(tag, component)
-    m.moving_row_list = [*getattr(m, "moving_row_list", []), (family, component)]
+    transcription_of(m).declare(family, "moving", component, "slack" if soft else "hard")
 
 
 def moving_rows(m: pyo.ConcreteModel) -> list[tuple[str, pyo.Constraint]]:
     """(family, constraint) of every moving-obstacle row: family ``moving`` or ``<body>_moving``."""
-    return list(getattr(m, "moving_row_list", []))
+    return transcription_of(m).rows_of_kind("moving")
 
 
 def fill_moving(

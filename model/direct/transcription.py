@@ -21,6 +21,7 @@ from pyomo.dae import ContinuousSet, DerivativeVar
 import model.direct.trapezoid  # noqa: F401  (registers dae.trapezoid)
 from model.direct.bodies import DEFAULT_FORMULATION, add_body_constraints
 from model.direct.expressions import sympy_to_pyomo
+from model.direct.families import open_transcription, transcription_of
 from model.direct.moving import add_moving_obstacles
 from model.direct.options import Horizon, TranscriptionOptions
 from model.problem.costs import Energy
@@ -56,6 +57,7 @@ def build_model(
     soft = opts.soft_penalty is not None
     v = ocp.vehicle
     m = pyo.ConcreteModel(name=ocp.name)
+    record = open_transcription(m, v.states, v.controls)
     m.tau = ContinuousSet(bounds=(0, 1))
     for name in v.states + v.controls:
         m.add_component(name, pyo.Var(m.tau, bounds=ocp.bounds.get(name, (None, None))))
@@ -67,6 +69,8 @@ def build_model(
     steps = getattr(m, "step", None)
     pyo.TransformationFactory("dae.trapezoid").apply_to(m, wrt=m.tau, nfe=intervals, steps=steps)
     m.nodes = list(m.tau)
+    for name in v.states:  # the trapezoid rows dae.trapezoid names d<state>_trapezoid (model.direct.trapezoid)
+        record.declare(f"dynamics_{name}", "dynamics", m.component(f"d{name}_trapezoid"))
     if steps is not None:
         m.tf = pyo.Expression(expr=pyo.quicksum(steps[k] for k in steps))
     _add_output_bounds(m, ocp)
@@ -85,9 +89,9 @@ def build_model(
     if soft:  # the soft rows after the objective's: the column order of the MPC's model before the options
         _add_obstacle_rows(m, ocp, soft=True)
         m.objective.set_value(m.objective.expr + _soft_cost(m, opts.soft_penalty))
-    elif relax and getattr(m, "slacks", None):
+    elif relax and record.slack_columns:
         m.objective.deactivate()
-        m.slack_total = pyo.Expression(expr=pyo.quicksum(v[t] for v in m.slacks for t in m.nodes))
+        m.slack_total = pyo.Expression(expr=pyo.quicksum(v[t] for v in record.slack_columns for t in m.nodes))
         # a free Tf has no price in the violation: without one it drifted to 1e3-1e6 s ("at t = 2951418 s")
         time = RELAXED_TIME_WEIGHT * m.tf if ocp.cost.free_final_time else 0.0
         m.violation = pyo.Objective(expr=m.slack_total + time, sense=pyo.minimize)
@@ -146,6 +150,8 @@ def _add_boundary_conditions(m: pyo.ConcreteModel, ocp: OCP, final: bool = True)
             par = pyo.Param(mutable=True, initialize=float(val))
             m.add_component(f"{where}_{name}_value", par)
             m.add_component(f"{where}_{name}", pyo.Constraint(expr=m.component(name)[t] == par))
+            if where == "initial":
+                transcription_of(m).initial[name] = par
 
 
 def _add_output_bounds(m: pyo.ConcreteModel, ocp: OCP) -> None:
@@ -162,6 +168,7 @@ def _add_output_bounds(m: pyo.ConcreteModel, ocp: OCP) -> None:
             return pyo.inequality(lo, sympy_to_pyomo(expr, {s: c[t] for s, c in comps} | params), hi)
 
         m.add_component(f"bound_{name}", pyo.Constraint(m.tau, rule=rule))
+        transcription_of(m).declare(name, "bound", m.component(f"bound_{name}"))  # mu_<output> in the costates
 
 
 def _add_path_bounds(m: pyo.ConcreteModel, ocp: OCP) -> None:
@@ -202,6 +209,8 @@ def _add_path_bounds(m: pyo.ConcreteModel, ocp: OCP) -> None:
 
         m.add_component(f"bound_{name}", pyo.Constraint(m.tau, rule=rule))
         m.add_component(f"bound_{name}_midpoint", pyo.Constraint(pyo.RangeSet(1, n), rule=mid_rule))
+        for row in (m.component(f"bound_{name}"), m.component(f"bound_{name}_midpoint")):
+            transcription_of(m).declare(name, "path", row)
 
 
 def _add_obstacle_data(m: pyo.ConcreteModel, ocp: OCP) -> None:
@@ -229,12 +238,16 @@ def _add_obstacle_rows(m: pyo.ConcreteModel, ocp: OCP, soft: bool = False) -> No
         return (X[t] - m.obstacle_cx[i]) ** 2 + (Y[t] - m.obstacle_cy[i]) ** 2 >= gap**2
 
     m.obstacle = pyo.Constraint(m.obstacle_set, m.tau, rule=rule)
+    transcription_of(m).declare("obstacle", "obstacle", m.obstacle, "slack" if soft else "hard",
+                                m.keep_out_slack if soft else None)  # fmt: skip
 
 
 def _soft_cost(m: pyo.ConcreteModel, penalty: float):
     """``penalty`` times the summed keep-out and body-row slacks (metres) over all nodes."""
-    slacks = [m.keep_out_slack[i, t] for i in m.obstacle_set for t in m.tau] if hasattr(m, "keep_out_slack") else []
-    slacks += [v[t] for v in getattr(m, "slacks", []) for t in m.nodes]
+    record = transcription_of(m)
+    obstacle = record.families.get("obstacle")
+    slacks = [v[i, t] for v in (obstacle.slacks if obstacle else []) for i in m.obstacle_set for t in m.tau]
+    slacks += [v[t] for v in record.slack_columns for t in m.nodes]
     return penalty * pyo.quicksum(slacks)
 
 
@@ -254,6 +267,9 @@ def _add_horizon(m: pyo.ConcreteModel, ocp: OCP, horizon: Horizon, soft_penalty:
         return (m.component(k)[end] - m.target[k]) / scales[k] == m.above[k] - m.below[k]
 
     m.terminal = pyo.Constraint(m.state_set, rule=terminal)
+    record = transcription_of(m)
+    for column in (m.above, m.below):
+        record.declare("terminal", "terminal", m.terminal if column is m.above else None, "slack", column)
     penalty = sum(
         m.target_weight[k] * (horizon.terminal_l1 * (m.above[k] + m.below[k])
                               + horizon.terminal_quadratic * (m.above[k] - m.below[k]) ** 2)

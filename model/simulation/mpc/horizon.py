@@ -20,6 +20,7 @@ from functools import partial
 import numpy as np
 import pyomo.environ as pyo
 
+from model.direct.families import transcription_of
 from model.direct.moving import fill_moving_at
 from model.direct.options import Horizon, TranscriptionOptions
 from model.direct.resolve import WARM_OPTIONS
@@ -112,8 +113,9 @@ class HorizonModel:
         if any(np.any(c < 0) for c in self.node_cols.values()):
             raise RuntimeError("a state or control node left the NLP")
         self.tf_col = int(nlp.columns_of(m.tf)[0]) if self.free_time else None
-        self.above_cols, self.below_cols = nlp.columns_of(m.above), nlp.columns_of(m.below)
-        self.keep_out_cols = nlp.columns_of(m.keep_out_slack).reshape(-1, len(m.nodes))
+        record = transcription_of(m)
+        self.above_cols, self.below_cols = (nlp.columns_of(v) for v in record.family_slacks("terminal"))
+        self.keep_out_cols = nlp.columns_of(record.family_slacks("obstacle")[0]).reshape(-1, len(m.nodes))
 
     # -- a step -----------------------------------------------------------------------------
     def set_problem(self, start: dict[str, float], length: float, free: bool, target: dict[str, float],
@@ -128,7 +130,7 @@ class HorizonModel:
             m.d_hat[name].set_value(float(val))
         for name, val in start.items():
             lo, hi = self.ocp.bounds.get(name, (-math.inf, math.inf))
-            m.component(f"initial_{name}_value").set_value(min(max(val, lo), hi))
+            transcription_of(m).initial[name].set_value(min(max(val, lo), hi))
         for name in self.states:
             m.target[name] = target[name]
             m.target_weight[name] = weights[name]

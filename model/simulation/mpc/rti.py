@@ -49,7 +49,7 @@ import pyomo.environ as pyo
 from scipy.sparse import coo_matrix, csc_matrix
 from scipy.sparse.linalg import splu
 
-from model.direct.bodies import point_definitions
+from model.direct.families import transcription_of
 from model.nlp.casadi_nlp import CasadiNLP
 from model.simulation.mpc.qp_buffer import BufferedQP
 from model.simulation.mpc.stagewise import StagewiseQP
@@ -88,12 +88,12 @@ class RealTimeIteration:
     Parameters
     ----------
     model : pyo.ConcreteModel
-        The horizon's model (``build_model`` with a ``Horizon``): its component names say which
-        rows are the dynamics and the definitions.
+        The horizon's model (``build_model`` with a ``Horizon``): its transcription
+        (``model.direct.families``) says which rows are the dynamics and the definitions.
     nlp : CasadiNLP
         Its NLP.
     states : sequence of str
-        The state names (``d<state>_trapezoid`` are their trapezoid rows).
+        The state names, in the transcription's order.
     solver : str
         A ``casadi.conic`` plug-in (``QP_SOLVERS``): a dense one on the condensed QP, or "hpipm".
     regularization : float
@@ -136,17 +136,16 @@ class RealTimeIteration:
         other rows R."""
         nlp = self.nlp
         n, rows = nlp.n_primals(), nlp.n_constraints()
-        dep_rows = [nlp.rows_of(m.component(f"d{s}_trapezoid")) for s in states]
+        record = transcription_of(m)
+        dep_rows = [nlp.rows_of(row) for row in record.dynamics()]
         dep_cols = [nlp.columns_of(s)[1:] for s in states]
-        for var, row in point_definitions(m):
+        for var, row in record.definitions:
             dep_cols.append(nlp.columns_of(var))
             dep_rows.append(nlp.rows_of(row))
         self.dep, self.eq = np.concatenate(dep_cols), np.concatenate(dep_rows)
         if np.any(self.dep < 0) or np.any(self.eq < 0) or len(self.dep) != len(self.eq):
             raise ValueError("the horizon's dynamics and definitions do not condense")
-        held = [nlp.columns_of(v) for v in getattr(m, "slacks", [])]
-        if hasattr(m, "keep_out_slack"):
-            held.append(nlp.columns_of(m.keep_out_slack))
+        held = [nlp.columns_of(v) for v in record.slack_columns + record.family_slacks("obstacle")]
         self.held = np.concatenate(held) if held else np.zeros(0, int)
         role = np.zeros(n, dtype=int)  # 0 free, 1 dependent, 2 held
         role[self.dep], role[self.held] = 1, 2

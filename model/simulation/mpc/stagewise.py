@@ -34,7 +34,7 @@ import numpy as np
 import pyomo.environ as pyo
 from scipy.sparse import coo_matrix, csc_matrix
 
-from model.direct.bodies import point_definitions
+from model.direct.families import transcription_of
 from model.nlp.casadi_nlp import CasadiNLP
 from model.simulation.mpc.qp_buffer import BufferedQP
 
@@ -48,7 +48,7 @@ class StagewiseQP:
     Parameters
     ----------
     model : pyo.ConcreteModel
-        The horizon's model (its trapezoid rows ``d<state>_trapezoid``, its point definitions).
+        The horizon's model (its transcription's trapezoid rows and point definitions).
     nlp : CasadiNLP
     states, controls : sequence of str
     held : ndarray of int
@@ -74,8 +74,9 @@ class StagewiseQP:
         U = np.array([nlp.columns_of(c) for c in controls]).T
         self.N, self.ns, self.nc = X.shape[0] - 1, X.shape[1], U.shape[1]
         N = self.N
-        dyn = np.array([nlp.rows_of(model.component(f"d{s}_trapezoid")) for s in states]).T  # (N, ns)
-        defs = [(nlp.columns_of(v), nlp.rows_of(r)) for v, r in point_definitions(model)]
+        record = transcription_of(model)
+        dyn = np.array([nlp.rows_of(row) for row in record.dynamics()]).T  # (N, ns)
+        defs = [(nlp.columns_of(v), nlp.rows_of(r)) for v, r in record.definitions]
         P = np.concatenate([d[0] for d in defs]) if defs else np.zeros(0, int)
         P_rows = np.concatenate([d[1] for d in defs]) if defs else np.zeros(0, int)
         if np.any(X < 0) or np.any(U < 0) or np.any(dyn < 0) or np.any(P < 0) or np.any(P_rows < 0):
