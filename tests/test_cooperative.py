@@ -128,3 +128,17 @@ def test_swept_areas_are_the_part_of_each_legs_area_the_truck_covers():
     assert swept.areas[0].contains(shapely.Point(-ra.outer_radius + 0.5, 0.0))  # the truck's front in the ring
     assert swept.areas[0].difference(whole.areas[0]).area < 1e-9
     assert swept.areas[2].is_empty  # never near the far leg
+
+
+def test_a_hold_that_does_not_get_the_truck_going_never_costs_more_than_the_truck_has_lost():
+    """Two cars held for a truck that stays standing: the vehicle-seconds held grow twice as fast as its lost time,
+    so the hold is refused whenever they have caught up (rent or buy: holding never outspends waiting)."""
+    manager = request({"a": 0.0, "b": 0.0}, cost=0.0)
+    granted = []
+    for k in range(30):
+        now = 1.0 + 0.1 * k
+        manager.step(None, now=now, pilot=StubPilot(s=1.0, rate=0.0))
+        granted.append(manager.granted)
+        assert manager.spent <= manager.lost(now, StubPilot(s=1.0, rate=0.0)) + 0.2 + 1e-9  # one step's hold
+    assert granted[0] and not all(granted)
+    assert manager.reasons["the hold costs more than the time lost"] == granted.count(False)

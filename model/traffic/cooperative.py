@@ -44,6 +44,7 @@ KEEP_CLEAR_MARGIN = 1.0  # s kept free before and after each of the truck's wind
 REACH = 80.0  # m of a vehicle's path ahead that is looked at
 HOLD_BUFFER = 1.5  # m: a held vehicle stops this far outside the area (safety_distance 1 m and 0.5 m more)
 SLOW_SPEED = 1.0  # m/s: a vehicle slower than this is taken to reach the area at this speed (``hold_cost``)
+STOP_SPEED = 1.0  # m/s: a keep-clear speed below this is asked as 0 (held still, not creeping to the area)
 
 
 class Progress(Protocol):
@@ -83,6 +84,9 @@ class Cooperator:
     buffer : float
         ``HOLD_BUFFER``: the areas a vehicle is held out of are the conflict areas grown by this (the truck's
         windows are its rectangles grown by it too), so that a held vehicle stands clear of the truck.
+    stop_speed : float
+        A keep-clear speed below this is asked as 0 (``STOP_SPEED`` for the managed drivers; 0 here: as
+        asked). A car creeping toward the area stays a follower the truck's entry would make brake hard.
     swept : bool
         Whether each area is cut down to the ground the truck's rectangles, grown by ``buffer``, cover along
         its plan (``footprint``): a vehicle is then held only out of the part of a leg's area the truck
@@ -96,6 +100,7 @@ class Cooperator:
     margin: float = KEEP_CLEAR_MARGIN
     buffer: float = HOLD_BUFFER
     swept: bool = False
+    stop_speed: float = 0.0
     windows: list[Window] = field(init=False)
     areas: dict[int, shapely.Polygon] = field(init=False)
     commanded: dict[str, float] = field(init=False, default_factory=dict)
@@ -133,7 +138,7 @@ class Cooperator:
             speed, length = traci.vehicle.getSpeed(vid), traci.vehicle.getLength(vid)
             asked = [a for w in windows if (a := self._ask(path, w, speed, length, now, traci, vid)) is not None]
             if asked:
-                speeds[vid] = min(asked)
+                speeds[vid] = min(asked) if min(asked) >= self.stop_speed else 0.0
         return speeds
 
     def command(self, traci, speeds: dict[str, float]) -> dict[str, float]:
@@ -206,6 +211,9 @@ class PriorityRequest:
     granted : bool
         Whether the request stands (decided afresh each step before the line; past it, kept until the
         truck has left the entry's area).
+    spent : float
+        Vehicle-seconds of holding so far while the truck waited before its line: added to the hold's cost,
+        so that a hold that does not get the truck going ends once it has cost what the truck lost.
     reasons : dict
         The steps in which the truck waited before its line, counted by the first rule that refused the
         request ("no vehicle to hold", "a blocker cannot be held", "the hold costs more than the time lost"),
@@ -217,6 +225,7 @@ class PriorityRequest:
     appeared: float | None = None
     granted: bool = False
     reasons: dict[str, int] = field(default_factory=dict)  # steps the truck waited, by what its request said
+    spent: float = 0.0  # vehicle-seconds held while the truck waited before its line
 
     def lost(self, now: float, pilot: Progress) -> float:
         """Seconds the truck has lost and cannot but lose: clock time since it appeared less the plan time it has
@@ -245,6 +254,7 @@ class PriorityRequest:
         speeds = coop.asks(traci, now, windows, truck)
         if pilot.s <= pilot.give_way + 1e-9:  # slowing for, or standing at, its line
             self.granted = pilot.rate < 1.0 and self.decide(traci, now, pilot, others or [], speeds, lost)
+            self.spent += coop.step * len(speeds) if self.granted else 0.0
         return coop.command(traci, speeds if self.granted else {})
 
     def decide(self, traci, now: float, pilot: Progress, others: list, speeds: dict[str, float],
@@ -254,7 +264,7 @@ class PriorityRequest:
             reason = "no vehicle to hold"
         elif not blockers(pilot, others, self.cooperator.step) <= set(speeds):
             reason = "a blocker cannot be held"
-        elif lost < self.cooperator.hold_cost(traci, now, speeds, {self.enter}):
+        elif lost < self.cooperator.hold_cost(traci, now, speeds, {self.enter}) + self.spent:
             reason = "the hold costs more than the time lost"
         else:
             reason = "asked"

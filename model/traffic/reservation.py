@@ -30,7 +30,7 @@ import shapely
 
 from model.problem.ocp import OCP
 from model.problem.scenario import Scenario
-from model.traffic.cooperative import Cooperator, PriorityRequest, Progress, area_entry, path_ahead
+from model.traffic.cooperative import STOP_SPEED, Cooperator, PriorityRequest, Progress, area_entry, path_ahead
 from model.traffic.windows import conflict_areas
 
 ARRIVAL_DISTANCE = 10.0  # m: a vehicle arrives at its entry when its front comes this near the ring
@@ -145,7 +145,7 @@ def traffic_manager(kind: str, scenario: Scenario, plan, front: float) -> Priori
     PriorityRequest or Reservation
         Its ``step(traci, now, pilot)`` sets the other vehicles' speeds each step.
     """
-    coop = Cooperator(scenario.ocp, plan.at, plan.duration, scenario.traffic.step, swept=True)
+    coop = Cooperator(scenario.ocp, plan.at, plan.duration, scenario.traffic.step, swept=True, stop_speed=STOP_SPEED)
     if kind == "reservation":
         return Reservation(coop, arrival_time(scenario.ocp, plan.at, plan.duration, front))
     if kind == "cooperative":
