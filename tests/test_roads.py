@@ -151,12 +151,12 @@ def test_the_lane_strip_ends_at_the_centre(doc):
     """A disc beyond the far side of the ring is in no piece (the strip must not run through the centre)."""
     import pyomo.environ as pyo
 
-    from model.direct.bodies import _lane_margin
+    from model.direct.bodies import _lane_margin, lane_numbers
 
     ocp = parse_scenario(doc).ocp
-    rb = ocp.road.roundabout
-    far_side = _lane_margin(rb, 0, "entry", 25.0, -2.0, 1.0)  # leg 0 points west; (25, -2) is east of the ring
-    near = _lane_margin(rb, 0, "entry", -30.0, -2.0, 1.0)
+    lane = lane_numbers(ocp.road.roundabout, 0, "entry")
+    far_side = _lane_margin(lane, 25.0, -2.0, 1.0)  # leg 0 points west; (25, -2) is east of the ring
+    near = _lane_margin(lane, -30.0, -2.0, 1.0)
     assert pyo.value(far_side) < 0 < pyo.value(near)
 
 

@@ -138,7 +138,7 @@ def _add_disc(
         x, y = centre(t)
         return pyo.sqrt((x - cx) ** 2 + (y - cy) ** 2) + slack["island"](t) >= inner + r
 
-    lanes = [_lane_numbers(rb, leg, lane) for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit"))]
+    lanes = [lane_numbers(rb, leg, lane) for leg, lane in ((road.route.enter, "entry"), (road.exit_leg, "exit"))]
 
     def corridor(_m, t):
         x, y = centre(t)
@@ -359,7 +359,7 @@ class LaneNumbers:
     rays: tuple[tuple[float, float, float], ...]
 
 
-def _lane_numbers(rb, leg: int, lane: str) -> LaneNumbers:
+def lane_numbers(rb, leg: int, lane: str) -> LaneNumbers:
     """``LaneNumbers`` of a leg's lane."""
     g, f = rb.legs[leg], fillet_geometry(rb, leg, lane)
     corner = np.asarray(f["corner"]) - f["center"]

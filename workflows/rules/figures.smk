@@ -25,7 +25,10 @@ def compare_rule_params(names):
     return {"scenarios": [SCENARIO_FILES[s] for s in names], "dirs": [f"results/scenarios/{s}" for s in names]}
 
 
-for _kind, _stem, _key in (("phase-rate", "phase-rate", "phase_rate"), ("paths", "paths", "compare_paths")):
+COMPARISONS = (("phase-rate", "phase-rate", "phase_rate"), ("paths", "paths", "compare_paths"),
+               ("cases", "s2-cases", "compare_cases"))
+
+for _kind, _stem, _key in COMPARISONS:
     _names = chosen(_key)
 
     rule:
@@ -50,7 +53,8 @@ for _kind, _stem, _key in (("phase-rate", "phase-rate", "phase_rate"), ("paths",
 FIGURES = expand("results/figures/{scenario}/{name}.png", scenario=PAPER_SCENARIOS, name=["solution", "costates"]) + [
     "results/figures/phase-rate.png",
     "results/figures/paths.png",
+    "results/figures/s2-cases.png",
 ]
 OPTIONAL_TARGETS += expand("results/figures/{scenario}/{name}.{ext}", scenario=SCENARIOS,
                            name=["solution", "costates"], ext=FORMATS)
-OPTIONAL_TARGETS += expand("results/figures/{stem}.{ext}", stem=["phase-rate", "paths"], ext=FORMATS)
+OPTIONAL_TARGETS += expand("results/figures/{stem}.{ext}", stem=["phase-rate", "paths", "s2-cases"], ext=FORMATS)

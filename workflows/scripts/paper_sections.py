@@ -165,6 +165,11 @@ def scenario_sections(ctx: Context) -> str:
             figure,
             "",
         ]
+        if name in later and name == [n for n in ctx.paper if geometry_of(n) == geometry_of(name)][-1]:
+            cases = [n for n in ctx.paper if geometry_of(n) == geometry_of(name)]
+            blocks += [ctx.figure(f"{geometry_of(name)}-cases.png", f"The cases {', '.join(cases)} overlaid: "
+                                  "speed, steering rate, path and energy (their paths differ by millimetres; "
+                                  "each case's own figure is in S5)."), ""]  # fmt: skip
         if i == 0:
             blocks += [costate_figure(ctx, name), ""]
             if len(ctx.paper) > 1:
@@ -228,7 +233,9 @@ def comparison_figures(ctx: Context) -> str:
     return "\n\n".join([
         ctx.figure("phase-rate.png", "Phase of the control vector and its rate (the paper's Figure 8, "
                    "Hypothesis 1), by finite differences on the nodes; symmetric-log scale."),
-        ctx.figure("paths.png", "Paths of the compared scenarios around the same obstacle (the paper's Figure 9)."),
+        ctx.figure("paths.png", f"Paths of {', '.join(f'`{n}`' for n in ctx.paper)} around the same obstacle, "
+                   "the direction of travel, start and goal marked (the paper's Figure 9 shows s2-case1, s2-case2 "
+                   "and s3)."),
     ])
 
 
