@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -226,14 +227,17 @@ def panels_text(ocp) -> str:
     return ", ".join(names[:-1]) + " and " + names[-1]
 
 
+PAPER_DIR = "results/paper"  # the paper's folder: its links are relative to it
+
+
 def animation(gif: Path, note: str = "") -> list[str]:
-    """The paragraph embedding the animated GIF (the PDF shows its first frame); ``note``: its limits note."""
+    """The paragraph linking the animated GIF (its first frame would repeat the road's figure); ``note``: its
+    limits note."""
     return [
-        f"![{gif.stem}, animated: the vehicle drives its optimal trajectory; each body's swept path grows "
-        "behind it, the dotted line is the rear axle's path ahead"
-        + (f"; {note}" if note else "")
-        + ". (In the PDF: its first frame, the complete manoeuvre at t = Tf; "
-        f"the HTML paper plays it, and it is `{gif.as_posix()}` in the results.)]({gif.as_posix()})",
+        f"An animation of `{gif.stem}` ([{gif.name}]({Path(os.path.relpath(gif, PAPER_DIR)).as_posix()}), "
+        f"`{gif.as_posix()}` in the results) shows the "
+        "vehicle driving its optimal trajectory, each body's swept path growing behind it and the rear axle's "
+        "path ahead dotted" + (f"; {note}" if note else "") + ".",
         "",
     ]
 

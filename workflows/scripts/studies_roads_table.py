@@ -272,6 +272,7 @@ def budgets(grid: dict) -> str:
 
 
 CONFIG = Path(__file__).resolve().parents[1] / "config.yaml"
+FIGURE_ROWS = 8  # the section shows the table's figure only for a larger grid: a few rows it would repeat
 TRIM_DEG = inspect.signature(swept_width).parameters["trim_deg"].default  # the rays kept clear of the legs
 
 
@@ -361,8 +362,7 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, fig: Path, 
         *preset_limits(df),
         *diagnoses(df),
         *(line for part in outlier_lines(df) for line in (part, "")),
-        f"![{caption}]({fig})",
-        "",
+        *([f"![{caption}]({fig})", ""] if len(df) > FIGURE_ROWS else []),
     ]
     return "\n".join(lines)
 
