@@ -204,3 +204,16 @@ def test_the_time_controls_figure_titles_each_run_labels_its_quantity_and_keeps_
     assert "bound" in shown[0].get_ylabel()
     assert smallest_print_font(fig) >= MIN_FONT_PT
     close(fig)
+
+
+def test_the_closed_loop_paths_figure_prints_at_7_pt_with_one_legend_below():
+    from model.plotting.closed_loop import paths_figure
+
+    s = np.linspace(0.0, 1.0, 30)
+    path = pd.DataFrame({"x": s, "y": -0.2 * np.sin(np.pi * s)})
+    runs = {c: path.assign(y=path["y"] * (1 + 0.1 * k)) for k, c in enumerate(("open-loop", "tracking", "mpc"))}
+    panels = [{"title": f"{g}, level 1 (first run)", "ocp": None, "optimum": path, "runs": runs} for g in ("a", "b")]
+    fig = paths_figure(panels, {"open-loop": "tab:red", "tracking": "tab:green", "mpc": "tab:blue"})
+    assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)

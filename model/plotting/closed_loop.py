@@ -89,7 +89,7 @@ def _title(ocp: OCP, summary: Mapping) -> str:
     return f"{ocp.title or ocp.name}\n{reached}" + (f" ({numbers})" if numbers else "")
 
 
-__all__ = ["closed_loop_figure"]
+__all__ = ["closed_loop_figure", "errors_figure", "paths_figure"]
 
 
 # --------------------------------------------------------------------------- final errors against the level
@@ -140,4 +140,47 @@ def errors_figure(rows: list[dict], colors: Mapping[str, tuple]) -> plt.Figure:
             axes[i, j].set(ylabel=ylabel if j == 0 else None, title=g if i == 0 else None)
     handles = {h.get_label(): h for ax in axes.ravel() for h in ax.get_legend_handles_labels()[0]}
     fig.legend(handles=list(handles.values()), loc="outside lower center", ncols=4, frameon=False)
+    return fig
+
+
+# --------------------------------------------------------------------------- closed-loop paths on the scene
+
+
+def _scene(ax: plt.Axes, ocp: OCP | None) -> None:
+    """The geometry's obstacles or roundabout and its goal (a star); nothing without a scenario."""
+    if ocp is None:
+        return
+    if ocp.road is not None:
+        draw_roundabout(ax, ocp, label=False)
+    draw_obstacles(ax, ocp.obstacles, label=False)
+    ax.plot([ocp.final.get("x", np.nan)], [ocp.final.get("y", np.nan)], "k*", ms=9, label="goal")
+
+
+def _paths_panel(ax: plt.Axes, panel: Mapping, colors: Mapping[str, tuple]) -> None:
+    _scene(ax, panel.get("ocp"))
+    optimum = panel.get("optimum")
+    if optimum is not None:
+        ax.plot(optimum["x"], optimum["y"], color="k", lw=2.4, alpha=0.35, label="optimum (reference)")
+    for controller, run in panel["runs"].items():
+        ax.plot(run["x"], run["y"], color=colors[controller], lw=1.3, label=controller)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set(xlabel="x (m)", ylabel="y (m)", title=panel["title"])
+
+
+def paths_figure(panels: list[Mapping], colors: Mapping[str, tuple]) -> plt.Figure:
+    """The closed-loop paths on the scene, one panel per geometry, at the figure width; one legend below.
+
+    ``panels``: per geometry a mapping with ``title``, ``ocp`` (the scenario's problem or None),
+    ``optimum`` (columns x, y, or None) and ``runs`` (controller -> columns x, y).
+    """
+    from model.plotting.figures import FIGURE_WIDTH
+
+    apply_style()
+    fig, axes = plt.subplots(1, max(1, len(panels)), figsize=(FIGURE_WIDTH, 3.6), squeeze=False,
+                             layout="constrained")  # fmt: skip
+    for ax, panel in zip(axes[0], panels, strict=False):
+        _paths_panel(ax, panel, colors)
+    handles = {h.get_label(): h for ax in axes[0] for h in ax.get_legend_handles_labels()[0]}
+    if handles:
+        fig.legend(handles=list(handles.values()), loc="outside lower center", ncols=5, frameon=False)
     return fig

@@ -15,14 +15,13 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from model.plotting.figures import ENERGY_UNIT, PALETTE, apply_style, draw_obstacles, plt, save  # noqa: E402
+from model.plotting.figures import ENERGY_UNIT, PALETTE, apply_style, save  # noqa: E402
 
 CONTROLLERS = ("open-loop", "tracking", "mpc")
 COLORS = {"open-loop": PALETTE[3], "tracking": PALETTE[2], "mpc": PALETTE[0]}
@@ -247,45 +246,38 @@ def path_level(rows: list[dict], geometry: str) -> float | None:
     return 1.0 if 1.0 in levels else (levels[-1] if levels else None)
 
 
-def draw_scene(ax, scenario: Path | None) -> None:
-    """Obstacles or the roundabout of the geometry's scenario file (nothing if it is missing)."""
+def scene(scenario: Path | None):
+    """The geometry's problem (its obstacles or road are drawn); None if the scenario file is missing."""
     if scenario is None or not scenario.exists():
-        return
+        return None
     from model.problem.scenario import load_scenario
 
-    ocp = load_scenario(scenario).ocp
-    if ocp.road is not None:
-        from model.plotting.roads import draw_roundabout
+    return load_scenario(scenario).ocp
 
-        draw_roundabout(ax, ocp, label=False)
-    draw_obstacles(ax, ocp.obstacles, label=False)
-    ax.plot([ocp.final.get("x", np.nan)], [ocp.final.get("y", np.nan)], "k*", ms=9, label="goal")
+
+def path_panel(rows: list[dict], geometry: str, scenario_dir: Path | None) -> dict:
+    """The optimum and each controller's first run at the path level, read from the runs' folders."""
+    level = path_level(rows, geometry)
+    panel = {"title": f"{geometry}, level {fmt(level)} (first run)", "optimum": None, "runs": {},
+             "ocp": scene(scenario_dir / f"{geometry}.toml" if scenario_dir else None)}  # fmt: skip
+    for c in CONTROLLERS:
+        r = find(rows, geometry, level, c) if level is not None else None
+        if r is None or not (Path(r["dir"]) / "closed_loop.csv").exists():
+            continue
+        optimum = Path(r["dir"]) / "optimum" / "trajectory.csv"
+        if panel["optimum"] is None and optimum.exists():
+            panel["optimum"] = pd.read_csv(optimum)
+        panel["runs"][c] = pd.read_csv(Path(r["dir"]) / "closed_loop.csv")
+    return panel
 
 
 def paths_figure(rows: list[dict], scenario_dir: Path | None, stem: Path, formats: Sequence[str]) -> None:
-    """Reference optimum and each controller's first run at level 1, on the scene, one panel per geometry."""
+    """Reference optimum and each controller's first run at level 1, on the scene, one panel per geometry
+    (model.plotting.closed_loop.paths_figure)."""
+    from model.plotting.closed_loop import paths_figure as draw_paths
+
     shown = [g for g in geometries(rows) if len({r["controller"] for r in of(rows, g)}) > 1] or geometries(rows)
-    fig, axes = plt.subplots(1, len(shown), figsize=(4.4 * len(shown), 4.2), squeeze=False)
-    for ax, g in zip(axes[0], shown, strict=True):
-        level = path_level(rows, g)
-        draw_scene(ax, scenario_dir / f"{g}.toml" if scenario_dir else None)
-        reference = False
-        for c in CONTROLLERS:
-            r = find(rows, g, level, c) if level is not None else None
-            cl = Path(r["dir"]) / "closed_loop.csv" if r else None
-            if cl is None or not cl.exists():
-                continue
-            if not reference and (Path(r["dir"]) / "optimum" / "trajectory.csv").exists():
-                opt = pd.read_csv(Path(r["dir"]) / "optimum" / "trajectory.csv")
-                ax.plot(opt["x"], opt["y"], color="k", lw=2.4, alpha=0.35, label="optimum (reference)")
-                reference = True
-            run = pd.read_csv(cl)
-            ax.plot(run["x"], run["y"], color=COLORS[c], lw=1.3, label=c)
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.set(xlabel="x (m)", ylabel="y (m)", title=f"{g}, level {fmt(level)} (first run)")
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(loc="best", fontsize=7)
-    save(fig, stem, formats)
+    save(draw_paths([path_panel(rows, g, scenario_dir) for g in shown], COLORS), stem, formats)
 
 
 def ratio(a: float | None, b: float | None) -> float | None:
