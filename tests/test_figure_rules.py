@@ -217,3 +217,20 @@ def test_the_closed_loop_paths_figure_prints_at_7_pt_with_one_legend_below():
     assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
     assert smallest_print_font(fig) >= MIN_FONT_PT
     close(fig)
+
+
+def test_the_plant_gap_figure_prints_at_7_pt_with_its_legend_below():
+    from model.plotting.studies import plant_gap_figure
+
+    def record(level: float) -> dict:
+        return {"plan_valid": True, "clearance_lost_m": 0.1 * level, "plan_max_lateral_acceleration_mps2": level,
+                "plant_max_lateral_deviation_m": 0.2 * level,
+                "kinematic_max_lateral_deviation_m": 0.01 * level}  # fmt: skip
+
+    groups = [("rigid truck SU-30, right turn", "o", [record(1.5), record(3.5)]),
+              ("tractor-semitrailer EU-semitrailer, right turn", "s", [record(1.5), record(3.0)])]  # fmt: skip
+    fig = plant_gap_figure(groups)
+    assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
+    assert all("(m/s²)" in ax.get_xlabel() for ax in fig.axes)
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)

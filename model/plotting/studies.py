@@ -70,7 +70,7 @@ def time_controls_figure(
         _controls_panel(ax, tr, bounds, windows)
         (speed, (_, u1)), (turning, (_, u2)) = list(bounds.items())[:2]
         ax.set_title(f"{name} ({tex(speed)} bound {u1:g} m/s, {tex(turning)} {u2:g} rad/s)", fontsize=8, loc="left")
-    for ax in axes.ravel()[len(runs):]:
+    for ax in axes.ravel()[len(runs) :]:
         ax.set_visible(False)
     for ax in axes[:, 0]:
         ax.set_ylabel("$u$ / bound (-)")
@@ -95,3 +95,31 @@ def _controls_panel(ax: plt.Axes, tr: pd.DataFrame, bounds: Mapping, windows: Ma
             ax.axvspan(w["t0"], w["t1"], color="0.85", lw=0)
         ax.plot(t, np.where(mask, np.nan, tr[c].to_numpy() / bounds[c][1]), color=color)
     ax.set(ylim=(-1.15, 1.15), yticks=(-1, 0, 1))
+
+
+def plant_gap_figure(groups: Sequence[tuple[str, str, Sequence[Mapping]]]) -> plt.Figure:
+    """The plant study: the largest lateral deviation from the plan (left; the dynamic plant solid, the kinematic
+    plant dotted) and the clearance lost (right) against the plan's largest lateral acceleration, one line per
+    manoeuvre; one legend below.
+
+    ``groups``: (label, marker, records in rising level) per manoeuvre; the records are
+    model.studies.plant_gap's (RECORD_KEYS), only the validated ones with a clearance lost are drawn.
+    """
+    apply_style()
+    fig, axes = plt.subplots(1, 2, figsize=(FIGURE_WIDTH, 3.2), layout="constrained")
+    for k, (label, marker, records) in enumerate(groups):
+        done = [r for r in records if r["plan_valid"] and r["clearance_lost_m"] is not None]
+        x = [r["plan_max_lateral_acceleration_mps2"] for r in done]
+        style = {"marker": marker, "color": PALETTE[k % len(PALETTE)]}
+        axes[0].plot(x, [r["plant_max_lateral_deviation_m"] for r in done], label=label, **style)
+        axes[0].plot(x, [r["kinematic_max_lateral_deviation_m"] for r in done], ls=":", mfc="none", **style)
+        axes[1].plot(x, [r["clearance_lost_m"] for r in done], **style)
+    axes[0].set_ylabel("lateral deviation from the plan (m)")
+    axes[1].set_ylabel("clearance lost (m)")
+    for ax in axes:
+        ax.set(xlabel="plan's largest lateral accel. (m/s²)", ylim=(0.0, None))
+    handles, names = axes[0].get_legend_handles_labels()
+    handles.append(plt.Line2D([], [], color="0.4", ls=":", marker="o", mfc="none"))
+    names.append("the same plan on the kinematic plant")
+    fig.legend(handles, names, loc="outside lower center", ncols=2, frameon=False)
+    return fig

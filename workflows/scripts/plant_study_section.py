@@ -16,20 +16,21 @@ import io
 import json
 from pathlib import Path
 
-from studies_common import fmt, plt, table, write_text
+from studies_common import fmt, table, write_text
 
 from model.plotting.figures import save
+from model.plotting.studies import plant_gap_figure
 from model.studies.plant_gap import RECORD_KEYS, first_unsafe
 
 COLUMNS = {
     "vehicle": "vehicle",
     "manoeuvre": "manoeuvre",
-    "lateral_acceleration_bound_mps2": "bound a_lat (m/s^2)",
+    "lateral_acceleration_bound_mps2": "bound a_lat (m/s²)",
     "status": "plan",
     "intervals": "N",
     "final_time_s": "Tf (s)",
     "plan_max_speed_mps": "plan v max (m/s)",
-    "plan_max_lateral_acceleration_mps2": "plan a_lat max (m/s^2)",
+    "plan_max_lateral_acceleration_mps2": "plan a_lat max (m/s²)",
     "plan_min_clearance_m": "plan clearance (m)",
     "kinematic_min_clearance_m": "kinematic plant clearance (m)",
     "plant_min_clearance_m": "dynamic plant clearance (m)",
@@ -37,7 +38,7 @@ COLUMNS = {
     "kinematic_max_lateral_deviation_m": "kinematic plant deviation (m)",
     "plant_max_lateral_deviation_m": "dynamic plant deviation (m)",
     "plant_max_side_slip_rad": "side slip (rad)",
-    "plant_max_lateral_acceleration_mps2": "plant a_lat max (m/s^2)",
+    "plant_max_lateral_acceleration_mps2": "plant a_lat max (m/s²)",
     "plant_max_friction_use": "friction use (-)",
     "plant_final_position_error_m": "goal error (m)",
     "safe": "safe",
@@ -76,28 +77,10 @@ def vehicle_name(r: dict) -> str:
 
 
 def figure(records: list[dict], stem: Path, formats: list[str]) -> None:
-    """Two panels against the plan's largest lateral acceleration: deviation from the plan, clearance lost."""
-    fig, axes = plt.subplots(1, 2, figsize=(9.0, 4.0))
-    for key, group in groups(records).items():
-        done = [r for r in group if r["plan_valid"] and r["clearance_lost_m"] is not None]
-        x = [r["plan_max_lateral_acceleration_mps2"] for r in done]
-        style = {"marker": MARKERS.get(key[0], "^"), "label": label(group[0])}
-        line = axes[0].plot(x, [r["plant_max_lateral_deviation_m"] for r in done], **style)[0]
-        axes[0].plot(x, [r["kinematic_max_lateral_deviation_m"] for r in done], ls=":", color=line.get_color(),
-                     marker=style["marker"], mfc="none")  # fmt: skip
-        axes[1].plot(x, [r["clearance_lost_m"] for r in done], color=line.get_color(), marker=style["marker"])
-    axes[0].set_ylabel("lateral deviation from the plan (m)")
-    axes[1].set_ylabel("clearance lost (m)")
-    for ax in axes:
-        ax.set_xlabel("plan's largest lateral acceleration (m/s$^2$)")
-        ax.grid(alpha=0.3)
-        ax.set_ylim(bottom=0.0)
-    handles, names = axes[0].get_legend_handles_labels()
-    handles.append(plt.Line2D([], [], color="0.4", ls=":", marker="o", mfc="none"))
-    names.append("the same plan on the kinematic plant")
-    fig.legend(handles, names, loc="lower center", ncol=2, frameon=False)
-    fig.tight_layout(rect=(0, 0.06 * (len(handles) + 1) / 2, 1, 1))
-    save(fig, stem, formats)
+    """Two panels against the plan's largest lateral acceleration: deviation from the plan, clearance lost
+    (model.plotting.studies.plant_gap_figure)."""
+    shown = [(label(g[0]), MARKERS.get(key[0], "^"), g) for key, g in groups(records).items()]
+    save(plant_gap_figure(shown), stem, formats)
 
 
 def groups(records: list[dict]) -> dict[tuple[str, int], list[dict]]:
@@ -118,7 +101,7 @@ def trend(group: list[dict]) -> str:
     done = [r for r in group if r["plan_valid"] and r["clearance_lost_m"] is not None]
     failed = [r for r in group if not r["plan_valid"]]
     note = "" if not failed else " (no validated plan at " + ", ".join(
-        f"{value(r, 'lateral_acceleration_bound_mps2')} m/s^2: {r['status']}" for r in failed) + ")"  # fmt: skip
+        f"{value(r, 'lateral_acceleration_bound_mps2')} m/s²: {r['status']}" for r in failed) + ")"  # fmt: skip
     if not done:
         return f"For the {label(group[0])} no level gave a validated plan{note}."
     lo, hi = done[0], done[-1]
@@ -127,13 +110,13 @@ def trend(group: list[dict]) -> str:
     kinematic = max(r["kinematic_max_lateral_deviation_m"] for r in done)
     slip, friction = max(r["plant_max_side_slip_rad"] for r in done), max(r["plant_max_friction_use"] for r in done)
     return (
-        f"For the {label(lo)}, from a bound of {value(lo, bound)} to {value(hi, bound)} m/s^2 (the plan's top speed "
+        f"For the {label(lo)}, from a bound of {value(lo, bound)} to {value(hi, bound)} m/s² (the plan's top speed "
         f"{value(lo, speed)} to {value(hi, speed)} m/s), the dynamic plant's largest lateral deviation from the plan "
         f"grows from {value(lo, deviation, 2)} to {value(hi, deviation, 2)} m (the kinematic plant's at most "
         f"{fmt(kinematic, 2)} m under the same controller) and the clearance lost from {value(lo, lost, 2)} to "
         f"{value(hi, lost, 2)} m, with side slip up to {fmt(slip, 2)} rad and friction use up to {fmt(friction, 2)}; "
         f"at the highest level the plant's lateral acceleration reaches "
-        f"{value(hi, 'plant_max_lateral_acceleration_mps2')} m/s^2 where the plan's is "
+        f"{value(hi, 'plant_max_lateral_acceleration_mps2')} m/s² where the plan's is "
         f"{value(hi, 'plan_max_lateral_acceleration_mps2')}{note}."
     )
 
@@ -146,13 +129,13 @@ def verdict(group: list[dict], unsafe: dict | None) -> str:
         return ""
     if unsafe is None:
         return (f"On the {done[0]['manoeuvre']} the {vehicle_name(done[0])} stays in its corridor on the dynamic plant "
-                f"at every level up to {value(done[-1], bound)} m/s^2.")  # fmt: skip
+                f"at every level up to {value(done[-1], bound)} m/s².")  # fmt: skip
     where = "already at the lowest level tested," if unsafe[bound] == done[0][bound] else "at"
     clearance = unsafe["plant_min_clearance_m"]
     why = f"its bodies leave the corridor by {fmt(-clearance, 2)} m" if clearance < 0 else "it misses the goal"
     return (
         f"On the {unsafe['manoeuvre']} the {vehicle_name(unsafe)}'s kinematic plan stops being safe {where} "
-        f"{value(unsafe, bound)} m/s^2 (top speed "
+        f"{value(unsafe, bound)} m/s² (top speed "
         f"{value(unsafe, 'plan_max_speed_mps')} m/s): {why} on the dynamic plant, where the plan keeps "
         f"{value(unsafe, 'plan_min_clearance_m', 2)} m and the kinematic plant "
         f"{value(unsafe, 'kinematic_min_clearance_m', 2)} m."
@@ -164,7 +147,7 @@ def caption(records: list[dict], study: str) -> str:
     levels = ", ".join(fmt(v, 3) for v in sorted({r["lateral_acceleration_bound_mps2"] for r in records}))
     return (
         f"Table: Every manoeuvre of the `{study}` grid, one row per vehicle, manoeuvre and bound of the lateral "
-        f"acceleration ({levels} m/s^2): the plan (its status, grid N, final time Tf, top speed, largest lateral "
+        f"acceleration ({levels} m/s²): the plan (its status, grid N, final time Tf, top speed, largest lateral "
         f"acceleration and least clearance), the least clearance and the largest lateral deviation from the plan on "
         f"the kinematic and the dynamic plant, the clearance lost, the dynamic plant's largest side slip, lateral "
         f"acceleration and friction use, its distance from the goal, and whether the plan is safe; units in the "
@@ -183,7 +166,7 @@ def section(records: list[dict], study: str, figure_path: str) -> str:
         "",
         f"The time-optimal plans of the road sections come from the kinematic model. Here the same manoeuvres "
         f"({'; '.join(label(g[0]) for g in by.values())}; each vehicle at its operational limits) are planned at "
-        f"rising bounds of the lateral acceleration ({', '.join(fmt(v, 3) for v in levels)} m/s^2; the "
+        f"rising bounds of the lateral acceleration ({', '.join(fmt(v, 3) for v in levels)} m/s²; the "
         f"`{study}` grid of `plant_study` in workflows/config.yaml, the plans solved on N = "
         f"{', '.join(str(n) for n in intervals)} after the solve's own refinement), and each plan is driven by "
         f"the tracking controller (time-varying LQR on the kinematic model) twice: on the kinematic plant, which "
