@@ -142,3 +142,14 @@ def test_a_hold_that_does_not_get_the_truck_going_never_costs_more_than_the_truc
         assert manager.spent <= manager.lost(now, StubPilot(s=1.0, rate=0.0)) + 0.2 + 1e-9  # one step's hold
     assert granted[0] and not all(granted)
     assert manager.reasons["the hold costs more than the time lost"] == granted.count(False)
+
+
+def test_a_blocker_is_asked_to_stand_where_it_is_and_named_by_its_sumo_id():
+    from model.scene.moving import MovingVehicle
+    from model.traffic.cooperative import standing, sumo_id
+
+    car = MovingVehicle(4.5, 1.8, start=(1.0, 2.0, 0.5), speed=8.0, yaw_rate=0.1, key="traffic f1_3.1")
+    still = standing(car)
+    assert sumo_id(still) == "f1_3.1" and still.start == car.start
+    tau = np.array([0.0, 1.0, 5.0])
+    assert np.allclose(still.pose(tau)[0], 1.0) and np.allclose(still.pose(tau)[1], 2.0)

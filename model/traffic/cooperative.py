@@ -37,6 +37,7 @@ from shapely.ops import substring
 
 from model.problem.ocp import OCP
 from model.problem.scenario import Scenario
+from model.scene.moving import MovingVehicle
 from model.traffic.autopilot import MARGIN_HORIZON, PREDICTION_MARGIN
 from model.traffic.windows import Window, clock_windows, conflict_areas, footprint, occupancy_windows
 
@@ -216,8 +217,9 @@ class PriorityRequest:
         so that a hold that does not get the truck going ends once it has cost what the truck lost.
     reasons : dict
         The steps in which the truck waited before its line, counted by the first rule that refused the
-        request ("no vehicle to hold", "a blocker cannot be held", "the hold costs more than the time lost"),
-        or "asked".
+        request ("no vehicle to hold", "a blocker cannot be held", "holding would not clear the way": with
+        the blockers standing where they are the plan's pace is still not safe, "the hold costs more than the
+        time lost"), or "asked".
     """
 
     cooperator: Cooperator
@@ -262,14 +264,28 @@ class PriorityRequest:
         """Whether a waiting truck asks now; the step counted in ``reasons`` under the first rule that says no."""
         if not speeds:
             reason = "no vehicle to hold"
-        elif not blockers(pilot, others, self.cooperator.step) <= set(speeds):
+        elif not (blocking := blockers(pilot, others, self.cooperator.step)) <= set(speeds):
             reason = "a blocker cannot be held"
+        elif blockers(pilot, [standing(o) if sumo_id(o) in blocking else o for o in others], self.cooperator.step):
+            reason = "holding would not clear the way"
         elif lost < self.cooperator.hold_cost(traci, now, speeds, {self.enter}) + self.spent:
             reason = "the hold costs more than the time lost"
         else:
             reason = "asked"
         self.reasons[reason] = self.reasons.get(reason, 0) + 1
         return reason == "asked"
+
+
+def sumo_id(other: MovingVehicle) -> str:
+    """SUMO's id of a predicted vehicle (its key is ``traffic <id>``)."""
+    return str(other.key).removeprefix("traffic ")
+
+
+def standing(other: MovingVehicle) -> MovingVehicle:
+    """``other`` held still where it is now (a vehicle given only a path keeps it)."""
+    if other.start is None:
+        return other
+    return MovingVehicle(other.length, other.width, start=other.start, speed=0.0, yaw_rate=0.0, key=other.key)
 
 
 def blockers(pilot: Progress, others: list, step: float) -> set[str]:
@@ -287,7 +303,7 @@ def blockers(pilot: Progress, others: list, step: float) -> set[str]:
     rate = np.clip(1.0, pilot.rate - pilot.rate_slope * tau, pilot.rate + pilot.rate_slope * tau)
     s = pilot.s + np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tau))])
     need = pilot.scenario.traffic.safety_distance + PREDICTION_MARGIN * np.minimum(tau[1:], MARGIN_HORIZON)
-    return {str(o.key).removeprefix("traffic ") for k, o in enumerate(near)
+    return {sumo_id(o) for k, o in enumerate(near)
             if np.any(pilot.clearances(s, theirs[k : k + 1])[1:] < need)}  # fmt: skip
 
 

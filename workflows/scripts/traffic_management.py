@@ -48,6 +48,7 @@ DELAY_COLUMNS = {
 
 REASONS = {"asked": "asked (s)", "no vehicle to hold": "no vehicle to hold (s)",
            "a blocker cannot be held": "a blocker cannot be held (s)",
+           "holding would not clear the way": "holding would not clear the way (s)",
            "the hold costs more than the time lost": "hold costs more than the time lost (s)"}  # fmt: skip
 
 
