@@ -234,3 +234,25 @@ def test_the_plant_gap_figure_prints_at_7_pt_with_its_legend_below():
     assert all("(m/s²)" in ax.get_xlabel() for ax in fig.axes)
     assert smallest_print_font(fig) >= MIN_FONT_PT
     close(fig)
+
+
+def tradeoff_columns(ocp, speed: float) -> dict:
+    """A straight pass through the scene at constant speed with every state of the vehicle."""
+    t = np.linspace(0.0, 40.0 / speed, 21)
+    cols = {name: np.zeros_like(t) for name in ocp.vehicle.states}
+    cols.update({"t": t, "x": -20.0 + speed * t, "y": -2.0 + 0 * t, "u1": speed + 0 * t, "u2": 0.1 * np.sin(t)})
+    return cols
+
+
+def test_the_road_tradeoff_figure_prints_at_7_pt_with_one_legend_below():
+    from model.plotting.studies import tradeoff_figure
+
+    ocp = load_scenario(ROOT / "workflows/scenarios/roads/su30-left-turn.toml").ocp
+    rows = [{"objective": "time", "valid": True, "final_time": 4.0, "energy": 600.0},
+            {"objective": "energy", "valid": True, "final_time": 5.0, "energy": 500.0},
+            {"objective": "energy", "valid": True, "final_time": 8.0, "energy": 300.0}]  # fmt: skip
+    trajectories = {"time": tradeoff_columns(ocp, 10.0), "energy, 2 T_min": tradeoff_columns(ocp, 5.0)}
+    fig = tradeoff_figure(ocp, rows, trajectories)
+    assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)

@@ -123,3 +123,90 @@ def plant_gap_figure(groups: Sequence[tuple[str, str, Sequence[Mapping]]]) -> pl
     names.append("the same plan on the kinematic plant")
     fig.legend(handles, names, loc="outside lower center", ncols=2, frameon=False)
     return fig
+
+
+# --------------------------------------------------------------------------- the road energy-time trade-off
+
+
+def path_spread(trajectories: Mapping[str, Mapping]) -> float | None:
+    """How far the rear-axle paths lie from the time-optimal one (key ``time``): the largest Hausdorff distance, m."""
+    import shapely
+
+    lines = {k: shapely.LineString(np.column_stack([c["x"], c["y"]])) for k, c in trajectories.items()}
+    ref = lines.pop("time", None)
+    return max((ref.hausdorff_distance(line) for line in lines.values()), default=None) if ref else None
+
+
+def _tradeoff_colors(keys: Sequence[str]) -> dict:
+    cmap = plt.get_cmap("viridis")
+    return {key: "C3" if key == "time" else cmap(k / max(1, len(keys) - 1)) for k, key in enumerate(keys)}
+
+
+def _energy_time_panel(ax: plt.Axes, rows: Sequence[Mapping]) -> None:
+    """J against the final time: the energy-optimal points, and the time-optimal controls' J."""
+    from model.plotting.figures import ENERGY_UNIT
+
+    tmin = next(r for r in rows if r["objective"] == "time")
+    en = [r for r in rows if r["valid"] and r["objective"] == "energy"]
+    ax.plot([r["final_time"] for r in en], [r["energy"] for r in en], "o-", label="energy-optimal J(Tf)")
+    if tmin["valid"]:
+        ax.plot(tmin["final_time"], tmin["energy"], "s", color="C3", label="time-optimal (J of its controls)")
+        ax.axvline(tmin["final_time"], color="C3", ls=":", lw=1)
+    ax.set(xlabel="final time Tf (s)", ylabel=f"J = ½∫(u1² + u2²) dt\n({ENERGY_UNIT})",
+           title="(a) energy against time\n(kinematic model, no limits)")  # fmt: skip
+
+
+def _tradeoff_paths_panel(ax: plt.Axes, ocp, trajectories: Mapping[str, Mapping]) -> None:
+    """The rear-axle paths on the roundabout to scale, the fastest and slowest swept areas shaded."""
+    from model.analysis.bodies import swept_polygons
+    from model.plotting.roads import draw_roundabout, draw_scale_bar, geometry_patch
+
+    draw_roundabout(ax, ocp, label=False)
+    keys, color = list(trajectories), _tradeoff_colors(list(trajectories))
+    for key in keys:
+        cols = trajectories[key]
+        if key in (keys[0], keys[-1]):
+            for poly in swept_polygons(ocp, cols).values():
+                ax.add_patch(geometry_patch(poly, facecolor=color[key], alpha=0.2, lw=0, zorder=2))
+        ax.plot(cols["x"], cols["y"], color=color[key], lw=1.2, label=key, zorder=4)
+    rb = ocp.road.roundabout
+    lim = rb.outer_radius + 2 * max(g.lane_width for g in rb.legs)
+    allx = np.concatenate([c["x"] for c in trajectories.values()])
+    ally = np.concatenate([c["y"] for c in trajectories.values()])
+    ax.set_xlim(min(allx.min(), -lim) - 1, max(allx.max(), lim) + 1)
+    ax.set_ylim(min(ally.min(), -lim) - 1, max(ally.max(), lim) + 1)
+    ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
+    draw_scale_bar(ax)
+    spread = path_spread(trajectories)
+    same = f"\n(within {spread:.2g} m of the time-optimal)" if spread is not None else ""
+    ax.set_title(f"(b) rear-axle paths to scale{same}")
+
+
+def _tradeoff_controls(axes: Sequence[plt.Axes], trajectories: Mapping[str, Mapping]) -> None:
+    """Speed and steering rate against the normalised time t / Tf: where the solves differ."""
+    color = _tradeoff_colors(list(trajectories))
+    for key, cols in trajectories.items():
+        tau = np.asarray(cols["t"]) / cols["t"][-1]
+        axes[0].plot(tau, cols["u1"], color=color[key], lw=1.2, label=key)
+        axes[1].plot(tau, cols["u2"], color=color[key], lw=1.2, label=key)
+    axes[0].set(xlabel="t / Tf (-)", ylabel="speed u1 (m/s)", title="(c) speed: what differs")
+    axes[1].set(xlabel="t / Tf (-)", ylabel="steering rate u2 (rad/s)", title="(d) steering rate")
+
+
+def tradeoff_figure(ocp, rows: Sequence[Mapping], trajectories: Mapping[str, Mapping]) -> plt.Figure:
+    """The road study's energy-time trade-off at the figure width: (a) J against Tf, (b) the rear-axle paths on
+    the roundabout (fastest and slowest swept areas shaded), (c) speed and (d) steering rate against t / Tf; one
+    legend below (the solves by colour, the same in (b)-(d)).
+
+    ``rows``: the solves' records (objective, valid, final_time, energy); ``trajectories``: the valid solves'
+    columns (t, x, y, u1, u2 and the states the bodies need) by label, ``time`` the time-optimal one.
+    """
+    apply_style()
+    fig, axes = plt.subplots(2, 2, figsize=(FIGURE_WIDTH, 6.0), layout="constrained")
+    _energy_time_panel(axes[0, 0], rows)
+    if trajectories:
+        _tradeoff_paths_panel(axes[0, 1], ocp, trajectories)
+    _tradeoff_controls(axes[1], trajectories)
+    handles = {h.get_label(): h for ax in (axes[0, 0], axes[1, 0]) for h in ax.get_legend_handles_labels()[0]}
+    fig.legend(handles=list(handles.values()), loc="outside lower center", ncols=2, frameon=False)
+    return fig

@@ -20,12 +20,10 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import shapely
-from studies_common import fmt, parser, plt, table, write_json, write_text
+from studies_common import fmt, parser, table, write_json, write_text
 
-from model.analysis.bodies import swept_polygons
 from model.plotting.figures import ENERGY_UNIT, save
-from model.plotting.roads import draw_roundabout, draw_scale_bar, geometry_patch
+from model.plotting.studies import path_spread, tradeoff_figure
 from model.problem.scenario import load_scenario, parse_scenario
 from model.studies.roads import (
     apron_used,
@@ -97,81 +95,13 @@ def reference_lines(ref: dict | None, tmin: dict) -> list[str]:
         return [f"{head} FAILED: {ref['diagnosis'] or ref['status']}.", ""]
     lo, hi = ref["acceleration"]
     return [f"{head} is {fmt(ref['final_time'], 5)} s (N = {ref['intervals']}; reached: max lateral acceleration "
-            f"{ref['max_abs_lateral_acceleration']:.2f} m/s^2, a in [{lo:.2f}, {hi:.2f}] m/s^2), against T_min = "
+            f"{ref['max_abs_lateral_acceleration']:.2f} m/s², a in [{lo:.2f}, {hi:.2f}] m/s²), against T_min = "
             f"{fmt(tmin['final_time'], 5)} s without them.", ""]  # fmt: skip
 
 
-def path_spread(trajectories: dict) -> float | None:
-    """How far the rear-axle paths lie from the time-optimal one: the largest Hausdorff distance, m."""
-    lines = {k: shapely.LineString(np.column_stack([c["x"], c["y"]])) for k, c in trajectories.items()}
-    ref = lines.pop("time", None)
-    return max((ref.hausdorff_distance(line) for line in lines.values()), default=None) if ref else None
-
-
-def energy_panel(ax, rows: list[dict]) -> None:
-    """J against the final time: the energy-optimal points, and the time-optimal controls' J."""
-    tmin = next(r for r in rows if r["objective"] == "time")
-    en = [r for r in rows if r["valid"] and r["objective"] == "energy"]
-    ax.plot([r["final_time"] for r in en], [r["energy"] for r in en], "o-", label="energy-optimal J(Tf)")
-    if tmin["valid"]:
-        ax.plot(tmin["final_time"], tmin["energy"], "s", color="C3", label="time-optimal (J of its controls)")
-        ax.axvline(tmin["final_time"], color="C3", ls=":", lw=1)
-    ax.set_xlabel("final time Tf (s)")
-    ax.set_ylabel(f"J = ½∫(u1² + u2²) dt ({ENERGY_UNIT})")
-    ax.set_title("energy against time (kinematic model, no operational limits)", fontsize=10)
-    ax.legend(fontsize=8)
-
-
-def colors(keys: list[str]) -> dict:
-    cmap = plt.get_cmap("viridis")
-    return {key: "C3" if key == "time" else cmap(k / max(1, len(keys) - 1)) for k, key in enumerate(keys)}
-
-
-def paths_panel(ax, ocp, trajectories: dict) -> None:
-    """The rear-axle paths on the roundabout to scale, the fastest and slowest swept areas shaded."""
-    draw_roundabout(ax, ocp)
-    keys, color = list(trajectories), colors(list(trajectories))
-    for key in keys:
-        cols = trajectories[key]
-        if key in (keys[0], keys[-1]):
-            for poly in swept_polygons(ocp, cols).values():
-                ax.add_patch(geometry_patch(poly, facecolor=color[key], alpha=0.2, lw=0, zorder=2))
-        ax.plot(cols["x"], cols["y"], color=color[key], lw=1.2, label=key, zorder=4)
-    rb = ocp.road.roundabout
-    lim = rb.outer_radius + 2 * max(g.lane_width for g in rb.legs)
-    allx = np.concatenate([c["x"] for c in trajectories.values()])
-    ally = np.concatenate([c["y"] for c in trajectories.values()])
-    ax.set_xlim(min(allx.min(), -lim) - 1, max(allx.max(), lim) + 1)
-    ax.set_ylim(min(ally.min(), -lim) - 1, max(ally.max(), lim) + 1)
-    ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
-    draw_scale_bar(ax)
-    spread = path_spread(trajectories)
-    same = f": they coincide, within {spread:.2g} m of the time-optimal one" if spread is not None else ""
-    ax.set_title(f"rear-axle paths to scale{same}\n(shaded: swept area of the fastest and slowest)", fontsize=9)
-    ax.legend(fontsize=7, loc="lower left")
-
-
-def controls_panels(axes, trajectories: dict) -> None:
-    """Speed and steering rate against the normalised time t / Tf: where the solves differ."""
-    color = colors(list(trajectories))
-    for key, cols in trajectories.items():
-        tau = cols["t"] / cols["t"][-1]
-        axes[0].plot(tau, cols["u1"], color=color[key], lw=1.2, label=key)
-        axes[1].plot(tau, cols["u2"], color=color[key], lw=1.2, label=key)
-    axes[0].set(xlabel="t / Tf", ylabel="speed u1 (m/s)")
-    axes[1].set(xlabel="t / Tf", ylabel="steering rate u2 (rad/s)")
-    axes[0].set_title("speed: what differs (the same path, driven slower)", fontsize=9)
-    axes[1].set_title("steering rate", fontsize=9)
-    axes[0].legend(fontsize=7)
-
-
 def figure(ocp, rows: list[dict], trajectories: dict, out: Path, formats: list[str]) -> None:
-    fig, axes = plt.subplots(2, 2, figsize=(11.5, 9.5), gridspec_kw={"width_ratios": (1, 1.25)})
-    energy_panel(axes[0, 0], rows)
-    paths_panel(axes[0, 1], ocp, trajectories)
-    controls_panels(axes[1], trajectories)
-    fig.tight_layout()
-    save(fig, out / "tradeoff", formats)
+    """The trade-off figure (model.plotting.studies.tradeoff_figure)."""
+    save(tradeoff_figure(ocp, rows, trajectories), out / "tradeoff", formats)
 
 
 def length_range(rows: list[dict]) -> str:
@@ -245,8 +175,12 @@ def solve_tables(rows: list[dict], preset: str | None) -> list[str]:
         "",
         "Table: The same solves on the roundabout: the rear-axle path length, how far the bodies reach onto the"
         " apron, the swept width in the ring and the smallest clearance (m)"
-        + (f"; limits: the kinematic model (*none*) with its largest lateral acceleration a_lat against the"
-           f" {preset}'s allowed one (m/s²)." if preset else "."),
+        + (
+            f"; limits: the kinematic model (*none*) with its largest lateral acceleration a_lat against the"
+            f" {preset}'s allowed one (m/s²)."
+            if preset
+            else "."
+        ),
         "",
         table(shown, second),
         "",
@@ -295,8 +229,12 @@ def main() -> None:
     ap.add_argument("--ratios", type=float, nargs="+", default=[1.1, 1.25, 1.5, 2.0])
     ap.add_argument("--intervals", type=int, default=None)
     ap.add_argument("--formats", nargs="+", default=["pdf", "png"])
-    ap.add_argument("--operational-reference", action=argparse.BooleanOptionalAction, default=True,
-                    help="also solve the minimum time at the preset's operational limits (default)")
+    ap.add_argument(
+        "--operational-reference",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="also solve the minimum time at the preset's operational limits (default)",
+    )
     args = ap.parse_args()
     sc = load_scenario(args.scenario)
     ocp, n = sc.ocp, args.intervals or sc.intervals
