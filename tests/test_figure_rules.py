@@ -256,3 +256,27 @@ def test_the_road_tradeoff_figure_prints_at_7_pt_with_one_legend_below():
     assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
     assert smallest_print_font(fig) >= MIN_FONT_PT
     close(fig)
+
+
+def test_the_turning_circle_figure_prints_at_7_pt_with_one_legend_below():
+    from model.plotting.studies import turning_figure
+
+    theta = np.linspace(0.0, 4 * np.pi, 81)  # two turns, 40 nodes each
+    square = np.array([[-1.0, -0.5], [1.0, -0.5], [1.0, 0.5], [-1.0, 0.5]])
+
+    def body(radius: float) -> np.ndarray:
+        rot = np.stack(
+            [np.stack([np.cos(theta), -np.sin(theta)], -1), np.stack([np.sin(theta), np.cos(theta)], -1)], -2
+        )
+        centre = radius * np.column_stack([np.sin(theta), -np.cos(theta)])
+        return centre[:, None, :] + np.einsum("nij,kj->nki", rot, square)
+
+    result = {
+        "phi_deg": 20.0,
+        "steady": {"inner": 6.0},
+        "transient": {"turns": [1, 2], "run": {"t": theta, "theta": theta}},
+    }
+    fig = turning_figure("a semitrailer", result, {"vehicle": body(9.0), "trailer": body(7.5)}, 12.5, 5.3)
+    assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)

@@ -210,3 +210,69 @@ def tradeoff_figure(ocp, rows: Sequence[Mapping], trajectories: Mapping[str, Map
     handles = {h.get_label(): h for ax in (axes[0, 0], axes[1, 0]) for h in ax.get_legend_handles_labels()[0]}
     fig.legend(handles=list(handles.values()), loc="outside lower center", ncols=2, frameon=False)
     return fig
+
+
+# --------------------------------------------------------------------------- the EU turning circle
+
+TURNING_COLORS = {"vehicle": "#1f77b4", "trailer": "#ff7f0e"}
+
+
+def _annulus(ax: plt.Axes, outer: float, inner: float) -> None:
+    """The directive's annulus between ``inner`` and ``outer`` (m), each circle labelled with its radius."""
+    t = np.linspace(0, 2 * math.pi, 721)
+    ax.fill(outer * np.cos(t), outer * np.sin(t), color="#e8e8e8", lw=0)
+    ax.fill(inner * np.cos(t), inner * np.sin(t), color="white", lw=0)
+    for r in (outer, inner):
+        ax.plot(r * np.cos(t), r * np.sin(t), color="k", lw=1.0)
+        ax.annotate(f"{r:.2f} m", (r * math.cos(2.4), r * math.sin(2.4)), xytext=(4, 4), textcoords="offset points",
+                    bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 0.5}, zorder=6)  # fmt: skip
+
+
+def _swept_turns(ax: plt.Axes, all_corners: Mapping[str, np.ndarray], per_turn: int) -> None:
+    """Each body's swept area per turn (the second darker) and its outline at three early nodes."""
+    import shapely
+
+    from model.plotting.roads import geometry_patch
+
+    for k, (alpha, tag) in enumerate(((0.15, "turn 1 (from straight)"), (0.35, "turn 2"))):
+        pick = slice(k * per_turn, (k + 1) * per_turn + 1)
+        for body, c in all_corners.items():
+            poly = shapely.union_all(shapely.polygons(c[pick])).buffer(0)
+            ax.add_patch(geometry_patch(poly, facecolor=TURNING_COLORS[body], alpha=alpha, lw=0,
+                                        label=f"{body} swept, {tag}"))  # fmt: skip
+    for idx in (0, per_turn // 4, per_turn // 2):
+        for body, c in all_corners.items():
+            ax.add_patch(plt.Polygon(c[idx], closed=True, fill=False, ec=TURNING_COLORS[body], lw=0.9))
+
+
+def turning_figure(name: str, result: Mapping, all_corners: Mapping[str, np.ndarray], outer: float,
+                   inner: float) -> plt.Figure:  # fmt: skip
+    """The EU turning circle at the figure width: (a) two full turns' swept areas in the annulus between
+    ``inner`` and ``outer`` (m), (b) the inner swept radius against the heading turned; one legend below.
+
+    ``result``: model.studies.roads.eu_turning_circle's (phi_deg, steady inner, transient run and turns);
+    ``all_corners``: body -> corners over the run (model.studies.roads.corners).
+    """
+    from model.studies.roads import rectangle_distance
+
+    apply_style()
+    run = result["transient"]["run"]
+    per_turn = (len(run["t"]) - 1) // len(result["transient"]["turns"])
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(FIGURE_WIDTH, 3.6), width_ratios=(1.1, 1), layout="constrained")
+    _annulus(ax, outer, inner)
+    _swept_turns(ax, all_corners, per_turn)
+    title = f"(a) two full turns at {result['phi_deg']:.2f}° steering"
+    ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)", title=title)
+    theta = np.degrees(run["theta"] - run["theta"][0])
+    least = rectangle_distance(all_corners.get("trailer", all_corners["vehicle"]))
+    ax2.plot(theta, least, color=TURNING_COLORS["trailer"], label="inner swept radius of the trailer (integrated)")
+    ax2.axhline(result["steady"]["inner"], color="k", ls="--", lw=0.8,
+                label=f"steady state {result['steady']['inner']:.3f} m")  # fmt: skip
+    ax2.axhline(inner, color="r", lw=0.8, label=f"{inner:.2f} m (96/53/EC)")
+    top = max(inner + 1.0, float(np.percentile(least, 20)))
+    ax2.set(xlabel="heading turned by the tractor (deg)", ylabel="least distance from the centre (m)",
+            ylim=(inner - 0.2, top), title="(b) inner swept radius")  # fmt: skip
+    handles = [h for a in (ax, ax2) for h in a.get_legend_handles_labels()[0]]
+    fig.legend(handles=handles, loc="outside lower center", ncols=2, frameon=False)
+    fig.suptitle(name)
+    return fig

@@ -12,13 +12,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
-import shapely
-from studies_common import parser, plt, table, write_json, write_text
+from studies_common import parser, table, write_json, write_text
 
 from model.plotting.figures import save
-from model.plotting.roads import geometry_patch
+from model.plotting.studies import turning_figure
 from model.studies.roads import EU_INNER, EU_OUTER, corners, eu_turning_circle, preset_vehicle, source_citation
 from model.vehicles import PRESETS, preset
 
@@ -83,47 +81,10 @@ def verdict(r: dict) -> str:
 
 
 def figure(name: str, result: dict, out: Path, formats: list[str]) -> None:
+    """Two full turns in the directive's annulus and the inner swept radius (model.plotting.studies.turning_figure)."""
     v, bodies, _ = preset_vehicle(name)
-    run = result["transient"]["run"]
-    per_turn = (len(run["t"]) - 1) // len(result["transient"]["turns"])
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 5.2), gridspec_kw={"width_ratios": (1.1, 1)})
-    t = np.linspace(0, 2 * math.pi, 721)
-    ax.fill(EU_OUTER * np.cos(t), EU_OUTER * np.sin(t), color="#e8e8e8", lw=0)
-    ax.fill(EU_INNER * np.cos(t), EU_INNER * np.sin(t), color="white", lw=0)
-    for r_, label in ((EU_OUTER, "12.50 m"), (EU_INNER, "5.30 m")):
-        ax.plot(r_ * np.cos(t), r_ * np.sin(t), color="k", lw=1.0)
-        ax.annotate(label, (r_ * math.cos(2.4), r_ * math.sin(2.4)), fontsize=8, xytext=(4, 4),
-                    textcoords="offset points")  # fmt: skip
-    colors = {"vehicle": "#1f77b4", "trailer": "#ff7f0e"}
-    all_corners = corners(v, bodies, run)
-    for k, (alpha, tag) in enumerate(((0.15, "turn 1 (from straight)"), (0.35, "turn 2"))):
-        pick = slice(k * per_turn, (k + 1) * per_turn + 1)
-        for body, c in all_corners.items():
-            poly = shapely.union_all(shapely.polygons(c[pick])).buffer(0)
-            ax.add_patch(geometry_patch(poly, facecolor=colors[body], alpha=alpha, lw=0, label=f"{body} swept, {tag}"))
-    for idx in (0, per_turn // 4, per_turn // 2):
-        for body, c in all_corners.items():
-            ax.add_patch(plt.Polygon(c[idx], closed=True, fill=False, ec=colors[body], lw=0.9))
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_title(f"{name}: two full turns at {result['phi_deg']:.2f} deg steering", fontsize=10)
-    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)  # below: off the annulus
-    theta = np.degrees(run["theta"] - run["theta"][0])
-    trailer = all_corners.get("trailer")
-    from model.studies.roads import rectangle_distance
-
-    inner = rectangle_distance(trailer if trailer is not None else all_corners["vehicle"])
-    ax2.plot(theta, inner, color=colors["trailer"], label="inner swept radius of the trailer (integrated)")
-    ax2.axhline(result["steady"]["inner"], color="k", ls="--", lw=0.8,
-                label=f"steady state {result['steady']['inner']:.3f} m")  # fmt: skip
-    ax2.axhline(EU_INNER, color="r", lw=0.8, label="5.30 m (96/53/EC)")
-    ax2.set_xlabel("heading turned by the tractor (deg)")
-    ax2.set_ylabel("least distance from the centre (m)")
-    ax2.set_ylim(EU_INNER - 0.2, max(EU_INNER + 1.0, float(np.percentile(inner, 20))))
-    ax2.legend(fontsize=8)
-    fig.tight_layout()
-    save(fig, out / "turning", formats)
+    all_corners = corners(v, bodies, result["transient"]["run"])
+    save(turning_figure(name, result, all_corners, EU_OUTER, EU_INNER), out / "turning", formats)
 
 
 def circle_rows(r: dict, limit: str) -> list[dict]:
