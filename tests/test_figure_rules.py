@@ -280,3 +280,20 @@ def test_the_turning_circle_figure_prints_at_7_pt_with_one_legend_below():
     assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
     assert smallest_print_font(fig) >= MIN_FONT_PT
     close(fig)
+
+
+def test_the_map_figure_holds_its_legend_inside_the_figure():
+    from model.plotting.maps import map_figure
+    from model.scene.lanelet_map import dataset_file, read_map
+
+    lanelet_map = read_map(dataset_file("rounD/DEU_Kackertstrasse-1"))
+    route = {"from_lanelet": 90, "to_lanelet": 102, "start_offset": 11.9, "goal_offset": -5.6}
+    box = {"type": "Polygon", "coordinates": [[[100, -70], [104, -70], [104, -60], [100, -60], [100, -70]]]}
+    cell = {"cell": "c", "preset": "P", "movement": "90-102", "route": route, "valid": True, "final_time": 9.0,
+            "swept_path": {"features": [{"geometry": box}]}, "apron_use": "trailer", "apron": True}  # fmt: skip
+    fig = map_figure(lanelet_map, [cell], "P")
+    fig.canvas.draw()
+    legend, page = fig.legends[0].get_window_extent(), fig.bbox
+    assert page.x0 <= legend.x0 and legend.x1 <= page.x1, "the legend runs past the figure's edge (cut when saved)"
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)

@@ -157,9 +157,10 @@ def map_figure(lanelet_map: LaneletMap, cells: list[dict], preset: str) -> plt.F
     """One vehicle's movements on the map: a panel per apron setting (one when the settings sweep the same
     area), each movement's swept path, its route with start, goal and direction, named by its legs'
     directions; the framing holds the whole ring; the legend below the map; failures listed by name."""
-    from model.plotting.figures import FIGURE_WIDTH
+    from model.plotting.figures import FIGURE_WIDTH, apply_style
     from model.plotting.roads import FONT, draw_north, draw_scale_bar
 
+    apply_style()
     mine = [c for c in cells if c["preset"] == preset]
     panels = {a: [c for c in mine if bool(c["apron"]) == a] for a in sorted({bool(c["apron"]) for c in mine})[::-1]}
     merged = len(panels) == 2 and same_swept(*panels.values())
@@ -170,8 +171,9 @@ def map_figure(lanelet_map: LaneletMap, cells: list[dict], preset: str) -> plt.F
     xlim, ylim = map_frame(lanelet_map, [g for c in mine for g in _swept_of(c)])
     aspect = (ylim[1] - ylim[0]) / (xlim[1] - xlim[0])
     panel = min(FIGURE_WIDTH / len(panels), (MAX_HEIGHT - 1.8) / aspect)  # the PDF's height cap: 16 cm
-    fig, axes = plt.subplots(1, len(panels), figsize=(max(panel * len(panels), 4.5), panel * aspect + 1.8),
-                             squeeze=False, layout="constrained")  # fmt: skip
+    # always the figure width: the legend below (three columns) needs it, a narrower figure cut it at the right
+    fig, axes = plt.subplots(1, len(panels), figsize=(FIGURE_WIDTH, panel * aspect + 1.8), squeeze=False,
+                             layout="constrained")  # fmt: skip
     for ax, (apron, group) in zip(axes[0], panels.items(), strict=True):
         handles = draw_lanelets(ax, lanelet_map)
         failed = []
