@@ -11,6 +11,7 @@ from model.problem.ocp import OCP
 from model.search.paths import (
     Path,
     integrated_speed,
+    limited_path_guess,
     min_turning_radius,
     path_guess,
     reeds_shepp,
@@ -195,7 +196,13 @@ RS_DETOUR = 2.0  # a Reeds-Shepp start that must reverse is used only up to this
 
 
 def reeds_shepp_start_path(ocp: OCP, ends: str | None = None) -> Path | None:
-    """The Reeds-Shepp path of ``reeds_shepp_guess`` (same rules), or None where it does not apply."""
+    """The Reeds-Shepp path of ``reeds_shepp_guess`` (same rules), or None where it does not apply.
+
+    With longitudinal dynamics (``Vehicle.integrated_states``) also None for the empty path (no word
+    reverses into the goal or out of the start: a stand-still start, 3000 Ipopt iterations on the
+    rest-to-rest truck of tests/test_longitudinal.py) and for a path that drives a direction the bound
+    of the speed forbids (reversing under v >= 0). Without them the empty path is returned as before.
+    """
     rho = min_turning_radius(ocp.vehicle, ocp.bounds, both_ways=True)
     keys = (*ocp.vehicle.position, ocp.vehicle.roles.heading)
     if rho is None or math.isinf(rho) or not all(k in ocp.final for k in keys) or ocp.max_speed() is None:
@@ -206,7 +213,15 @@ def reeds_shepp_start_path(ocp: OCP, ends: str | None = None) -> Path | None:
         shortest, path = path, reeds_shepp(start, goal, rho, ends)
         if path.word == shortest.word or path.length > RS_DETOUR * shortest.length:
             return None
+    if ocp.vehicle.integrated_states and not (path.segments and _may_drive(ocp, path)):
+        return None
     return path
+
+
+def _may_drive(ocp: OCP, path: Path) -> bool:
+    """Whether the bound of the speed lets the vehicle drive ``path``'s directions (backwards: lower bound < 0)."""
+    lo, hi = ocp.bounds.get(ocp.vehicle.roles.speed, (-math.inf, math.inf))
+    return all((hi if length >= 0.0 else -lo) > 0.0 for _, length in path.segments)
 
 
 def reeds_shepp_guess(
@@ -214,14 +229,54 @@ def reeds_shepp_guess(
 ) -> tuple[dict[str, np.ndarray], float] | None:
     """The shortest Reeds-Shepp path (cusps, reversing; obstacles ignored) as node values, and its time.
 
-    Driven at constant speed in the given final time, or (free Tf) at 70 % of the top speed times
-    ``1 / tf_scale``. ``ends`` ("reverse-in", "reverse-out"): the shortest that reverses into the
-    goal or out of the start, if it differs from the shortest and is at most RS_DETOUR x as long.
-    None where it does not apply: no turning radius to both sides, no top speed, or x, y, theta
-    not all fixed at the goal.
+    Without longitudinal dynamics: driven at constant speed in the given final time, or (free Tf) at
+    70 % of the top speed times ``1 / tf_scale``. With them (``Vehicle.integrated_states``): driven
+    within the limits (``model.search.paths.limited_path_guess``: v, a, j and the lateral acceleration
+    at 0.7 of their bounds, through 0 at each cusp), its time times ``tf_scale``, or retimed to the given
+    final time (``retimed``). ``ends`` ("reverse-in", "reverse-out"): the shortest that reverses into
+    the goal or out of the start, if it differs from the shortest and is at most RS_DETOUR x as long.
+    None where it does not apply: no turning radius to both sides, no top speed, x, y, theta not all
+    fixed at the goal, or (longitudinal dynamics) an empty path or a direction the speed's bound forbids.
     """
     path = reeds_shepp_start_path(ocp, ends)
     if path is None:
         return None
+    if ocp.vehicle.integrated_states:
+        limited = limited_path_guess(ocp.vehicle, path, n, ocp.bounds, ocp.initial, ocp.final)
+        if limited is None:
+            return None
+        values, tf = limited
+        target = float(ocp.final_time) if ocp.final_time is not None else tf_scale * tf
+        return (values, tf) if target == tf else (retimed(ocp, values, target / tf), target)
     tf = ocp.final_time if ocp.final_time is not None else tf_scale * max(path.length, 1e-3) / (0.7 * ocp.max_speed())
     return path_guess(ocp.vehicle, path, tf, n, initial=ocp.initial, final=ocp.final), tf
+
+
+def retimed(ocp: OCP, values: dict[str, np.ndarray], stretch: float) -> dict[str, np.ndarray]:
+    """Node values of a guess driven ``stretch`` x as long (same nodes, same poses): every rate divided.
+
+    The speed (state or control), the steering rate and the turn rate by ``stretch``, the acceleration by
+    its square, the jerk by its cube; every state clipped to its bounds as ``_complete`` does.
+
+    Parameters
+    ----------
+    ocp : OCP
+        The problem (its vehicle's roles name the rates, its bounds clip the states).
+    values : dict of ndarray
+        Node values of every state and control.
+    stretch : float
+        New final time over the old (> 0).
+
+    Returns
+    -------
+    dict of ndarray
+        The same names, the rates rescaled.
+    """
+    if not stretch > 0.0:
+        raise ValueError(f"stretch must be > 0, got {stretch!r}")
+    r = ocp.vehicle.roles
+    order = {r.speed: 1, r.steering_rate: 1, r.turn_rate: 1, r.acceleration: 2, r.jerk: 3}
+    out = {k: val / stretch ** order[k] if k in order else val for k, val in values.items()}
+    for name in ocp.vehicle.states:
+        out[name] = _clip(out[name], ocp.bounds.get(name))
+    return out

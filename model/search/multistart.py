@@ -30,7 +30,6 @@ from model.search.context import MIN_WALL_TIME, Reporter, Search, better, clearl
 from model.search.curves import curve_routes, tf_scales
 from model.search.diagnosis import bound_diagnosis, refined_diagnosis, solver_diagnosis, time_limit_diagnosis
 from model.search.guess import reeds_shepp_start_path
-from model.search.paths import Path
 from model.search.road import cuts_inner_edge, geometry_continuation, refused_with_evidence, road_steps
 from model.search.screening import REFINE_OPTIONS, screen_starts, screening_intervals
 from model.search.starts import passes_to_try, reeds_shepp_ends, resample, start_values
@@ -356,38 +355,21 @@ def default_starts(ocp: OCP) -> tuple[tuple[float, str], ...]:
 def reeds_shepp_starts(ocp: OCP) -> tuple[tuple[float, str], ...]:
     """The Reeds-Shepp cold starts (``REEDS_SHEPP_STARTS``) that apply to a problem off the road.
 
-    Each where its path exists (``model.search.guess.reeds_shepp_start_path``). With longitudinal dynamics
-    (``Vehicle.integrated_states``) two more rules, measured on the rest-to-rest truck of tests/test_longitudinal.py
-    (60 m x 10 m, a in [-2, 1], N = 60; docs/dynamics-format.md): a start that drives backwards only where the
-    bound of v lets the vehicle reverse (v >= 0: 391-518 iterations to a local infeasibility), and the reversing
-    words only where one exists: where no word reverses into the goal (or out of the start) ``reeds_shepp``
-    returns the empty path, a stand-still with a final time of 1.7e-4 s, which ran into Ipopt's 3000 iterations
-    (57-60 s each) on that truck: what the former rule (no reversing words with longitudinal dynamics) was
-    measured on. Where reversing words exist and v may be negative they converge in 43-60 iterations (0.3-0.6 s)
-    and beat the shortest word as a start (parallel parking 6 m to the side with jerk, v >= -3: 14.557 s against
-    14.629 s), but the whole search found 12.331 s from the arc starts with or without them (4.5 s CPU without,
-    5.4 s with). Without longitudinal dynamics the starts are as they were (the seed paper's searches unchanged).
+    Each where its path exists (``model.search.guess.reeds_shepp_start_path``, which holds the rules). With
+    longitudinal dynamics (``Vehicle.integrated_states``) that path is None where no word reverses into the goal
+    (or out of the start; ``reeds_shepp`` returns the empty path there, a stand-still start that ran into Ipopt's
+    3000 iterations, 57-60 s each, on the rest-to-rest truck of tests/test_longitudinal.py) and where the path
+    reverses under v >= 0 (391-518 iterations to a local infeasibility); such a start drives within the limits
+    (``model.search.paths.limited_path_guess``; docs/dynamics-format.md has the numbers). Without longitudinal
+    dynamics the starts are as they were, the empty path included (the seed paper's searches unchanged).
 
     Returns
     -------
     tuple of (float, str)
         (scale of the Tf guess, route) of each start that applies, in ``REEDS_SHEPP_STARTS``' order.
     """
-    kept = []
-    for start in REEDS_SHEPP_STARTS:
-        path = reeds_shepp_start_path(ocp, reeds_shepp_ends(start))
-        if path is None:
-            continue
-        if ocp.vehicle.integrated_states and not (path.segments and _may_drive(ocp, path)):
-            continue
-        kept.append(start)
-    return tuple(kept)
-
-
-def _may_drive(ocp: OCP, path: Path) -> bool:
-    """Whether the bound of the speed lets the vehicle drive ``path``'s directions (backwards: lower bound < 0)."""
-    lo, hi = ocp.bounds[ocp.vehicle.roles.speed]
-    return all((hi if length >= 0.0 else -lo) > 0.0 for _, length in path.segments)
+    paths = {start: reeds_shepp_start_path(ocp, reeds_shepp_ends(start)) for start in REEDS_SHEPP_STARTS}
+    return tuple(start for start, path in paths.items() if path is not None)
 
 
 SEARCHES = ("quick", "default", "thorough")
