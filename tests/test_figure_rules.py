@@ -297,3 +297,18 @@ def test_the_map_figure_holds_its_legend_inside_the_figure():
     assert page.x0 <= legend.x0 and legend.x1 <= page.x1, "the legend runs past the figure's edge (cut when saved)"
     assert smallest_print_font(fig) >= MIN_FONT_PT
     close(fig)
+
+
+def test_the_traffic_comparison_figure_prints_at_7_pt_with_its_legends_beside_the_axes():
+    from model.plotting.studies import comparison_figure
+
+    cells = [{"vc_pcph": v, "line_wait": 0.005 * v} for v in (200.0, 450.0, 650.0)]
+    cars = {"critical_gap": 4.75, "follow_up": 2.35, "cells": cells}
+    measures = {("truck", "autopilot"): {"critical_gap": 5.2, "cells": cells[:1]},
+                ("semitrailer", "sumo"): {"critical_gap": None, "cells": cells[1:2]}}  # fmt: skip
+    styles = {"autopilot": {"color": "#1f6fb4", "marker": "o"}, "sumo": {"color": "#d2691e", "marker": "s"}}
+    fig = comparison_figure(cars, measures, styles)
+    assert legends_on_data(fig) == []
+    assert narrowest_axes(fig) > 1.5, "a panel squeezed by its legend"
+    assert smallest_print_font(fig) >= MIN_FONT_PT
+    close(fig)

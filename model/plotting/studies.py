@@ -276,3 +276,65 @@ def turning_figure(name: str, result: Mapping, all_corners: Mapping[str, np.ndar
     fig.legend(handles=handles, loc="outside lower center", ncols=2, frameon=False)
     fig.suptitle(name)
     return fig
+
+
+# --------------------------------------------------------------------------- traffic: waits and capacities
+
+
+def _waits_panel(ax: plt.Axes, cars: Mapping, measures: Mapping, styles: Mapping, vc: np.ndarray) -> None:
+    """Measured waits at the line against Adams' delay with each group's critical gap."""
+    from model.traffic.gaps import adams_delay
+
+    rows, tc = cars["cells"], cars["critical_gap"]
+    ax.plot([r["vc_pcph"] for r in rows], [r["line_wait"] for r in rows], "o", color="0.2", ms=5,
+            label="cars: measured (per rate and leg)")  # fmt: skip
+    for (vehicle, driver), g in measures.items():
+        if g["critical_gap"] is not None:
+            ax.plot(vc, [adams_delay(v / 3600, g["critical_gap"]) for v in vc], lw=1.0, ls="--",
+                    color=styles.get(driver, {}).get("color", "0.5"),
+                    label=f"{vehicle} ({driver}): Adams, $t_c$ = {g['critical_gap']:.2f} s")  # fmt: skip
+    if tc is not None:
+        ax.plot(
+            vc, [adams_delay(v / 3600, tc) for v in vc], color="0.2", lw=1.2, label=f"cars: Adams, $t_c$ = {tc:.2f} s"
+        )
+    for (vehicle, driver), g in measures.items():
+        style = styles.get(driver, {"color": "0.5", "marker": "x"})
+        ax.plot([r["vc_pcph"] for r in g["cells"]], [r["line_wait"] for r in g["cells"]], ls="none", ms=6,
+                label=f"{vehicle} ({driver}): measured", mfc="none" if vehicle != "truck" else style["color"],
+                **style)  # fmt: skip
+    ax.set(xlabel="conflicting flow $v_c$ at the entry (pc/h, measured)", ylabel="wait at the line (s)",
+           title="(a) waits against Adams' delay")  # fmt: skip
+
+
+def _capacity_panel(ax: plt.Axes, cars: Mapping, vc: np.ndarray) -> None:
+    """The HCM's entry capacity and Siegloch's with the cars' measured gaps."""
+    from model.traffic.gaps import HCM_BASE, HCM_SLOPE, gap_capacity, hcm_capacity
+
+    ax.plot(vc, [hcm_capacity(v) for v in vc], color="0.3", lw=1.5,
+            label=f"HCM 6th ed. {HCM_BASE:g} exp(-{HCM_SLOPE:.3g} $v_c$)")  # fmt: skip
+    tc, tf = cars["critical_gap"], cars["follow_up"]
+    if tc is not None and tf:
+        ax.plot(vc, [3600 * gap_capacity(v / 3600, tc, tf) for v in vc], color="#1f6fb4", lw=1.2,
+                label=f"Siegloch, cars' $t_c$ = {tc:.2f} s, $t_f$ = {tf:.2f} s")  # fmt: skip
+    ax.set(xlabel="conflicting flow $v_c$ (pc/h)", ylabel="entry capacity (pc/h)", ylim=(0, None),
+           title="(b) entry capacity")  # fmt: skip
+
+
+def comparison_figure(cars: Mapping, measures: Mapping[tuple[str, str], Mapping], styles: Mapping) -> plt.Figure:
+    """The traffic study at the figure width: (a) measured waits at the line against Adams' delay, (b) Siegloch's
+    capacity with the cars' measured gaps against the HCM's; each panel's legend to its right, off the data.
+
+    ``cars``: model.traffic.study.others_measures (critical_gap, follow_up, cells with vc_pcph and line_wait);
+    ``measures``: (vehicle, driver) -> the group's measures (critical_gap, cells); ``styles``: driver -> colour
+    and marker.
+    """
+    apply_style()
+    fig, (left, right) = plt.subplots(2, 1, figsize=(FIGURE_WIDTH, 5.6), layout="constrained")
+    vmax = max([r["vc_pcph"] for r in cars["cells"]] + [r["vc_pcph"] for g in measures.values() for r in g["cells"]]
+               + [100.0])  # fmt: skip
+    vc = np.linspace(0, 1.1 * vmax, 200)
+    _waits_panel(left, cars, measures, styles, vc)
+    _capacity_panel(right, cars, vc)
+    for ax in (left, right):
+        ax.legend(loc="center left", bbox_to_anchor=(1.02, 0.5), frameon=False)
+    return fig

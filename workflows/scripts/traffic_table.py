@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from scipy import stats
-from studies_common import parser, plt, table, write_text
+from studies_common import parser, table, write_text
 
 from model.plotting.figures import save
-from model.traffic.gaps import HCM_CRITICAL_GAP, HCM_FOLLOW_UP, adams_delay, gap_capacity, hcm_capacity
+from model.traffic.gaps import HCM_CRITICAL_GAP, HCM_FOLLOW_UP
 from model.traffic.study import FORMULA_MIN_DRIVERS, everyone_delay, group_measures, others_delay, others_measures
 
 DRIVER_STYLE = {"autopilot": {"color": "#1f6fb4", "marker": "o"}, "sumo": {"color": "#d2691e", "marker": "s"},
@@ -159,40 +159,11 @@ def gap_row(who: str, g: dict) -> dict:
 
 
 def figure(cars: dict, measures: dict, stem: Path) -> None:
-    """Measured waits against Adams' delay; Siegloch's capacity with the measured gaps against the HCM's."""
-    fig, (left, right) = plt.subplots(1, 2, figsize=(10.4, 4.0))
-    rows = cars["cells"]
-    vmax = max([r["vc_pcph"] for r in rows] + [r["vc_pcph"] for g in measures.values() for r in g["cells"]] + [100.0])
-    vc = np.linspace(0, 1.1 * vmax, 200)
-    left.plot([r["vc_pcph"] for r in rows], [r["line_wait"] for r in rows], "o", color="0.2", ms=5,
-              label="cars: measured (per rate and leg)")  # fmt: skip
-    tc = cars["critical_gap"]
-    for (vehicle, driver), g in measures.items():
-        own = g["critical_gap"]
-        if own is not None:
-            left.plot(vc, [adams_delay(v / 3600, own) for v in vc], lw=1.0, ls="--",
-                      color=DRIVER_STYLE.get(driver, {}).get("color", "0.5"),
-                      label=f"{vehicle} ({driver}): Adams, t_c = {own:.2f} s")  # fmt: skip
-    if tc is not None:
-        left.plot(vc, [adams_delay(v / 3600, tc) for v in vc], color="0.2", lw=1.2,
-                  label=f"cars: Adams, t_c = {tc:.2f} s")  # fmt: skip
-    for (vehicle, driver), g in measures.items():
-        style = DRIVER_STYLE.get(driver, {"color": "0.5", "marker": "x"})
-        left.plot([r["vc_pcph"] for r in g["cells"]], [r["line_wait"] for r in g["cells"]], ls="none", ms=6,
-                  label=f"{vehicle} ({driver}): measured", mfc="none" if vehicle != "truck" else style["color"],
-                  **style)  # fmt: skip
-    left.set(xlabel="conflicting flow v_c at the entry (pc/h, measured)", ylabel="wait at the line (s)")
-    right.plot(vc, [hcm_capacity(v) for v in vc], color="0.3", lw=1.5, label="HCM 6th ed. 1380 exp(-1.02e-3 v_c)")
-    tf = cars["follow_up"]
-    if tc is not None and tf:
-        right.plot(vc, [3600 * gap_capacity(v / 3600, tc, tf) for v in vc], color="#1f6fb4", lw=1.2,
-                   label=f"Siegloch, cars' t_c = {tc:.2f} s, t_f = {tf:.2f} s")  # fmt: skip
-    right.set(xlabel="conflicting flow v_c (pc/h)", ylabel="entry capacity (pc/h)", ylim=(0, None))
-    for ax in (left, right):
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-    fig.tight_layout()
-    save(fig, stem)
+    """Measured waits against Adams' delay; Siegloch's capacity with the measured gaps against the HCM's
+    (model.plotting.studies.comparison_figure)."""
+    from model.plotting.studies import comparison_figure
+
+    save(comparison_figure(cars, measures, DRIVER_STYLE), stem)
 
 
 def findings(cars: dict) -> str:
