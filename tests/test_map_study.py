@@ -168,15 +168,34 @@ def test_the_apron_measures_bound_what_is_on_the_apron(kackertstrasse, template)
     got = apron_use_measures(ocp, across, route.apron_lanelets)
     corners = bodies["vehicle"].corners(cx, cy, 0.3)
     rect = shapely.Polygon(corners)
-    assert got["apron_area_m2"] == pytest.approx(rect.intersection(apron.difference(route.lanes)).area, rel=0.02)
-    on_apron = rect.intersection(apron.difference(route.lanes))  # sampled on a 2 cm grid inside it
+    # the apron region: lanelet 50 and, with the template's apron_gap, the strip it paves between it and the lanes
+    region = apron.union(route.with_apron.difference(route.lanes)).difference(route.lanes)
+    assert route.apron_gap > gap and region.area > apron.difference(route.lanes).area
+    assert got["apron_area_m2"] == pytest.approx(rect.intersection(region).area, rel=0.02)
+    on_apron = rect.intersection(region)  # sampled on a 2 cm grid inside it
     x0, y0, x1, y1 = on_apron.bounds
     grid = shapely.points(np.stack(np.meshgrid(np.arange(x0, x1, 0.02), np.arange(y0, y1, 0.02)), -1).reshape(-1, 2))
     inside = grid[shapely.contains(on_apron, grid)]
     deepest = float(np.max(shapely.distance(inside, route.lanes)))
-    assert got["apron_used_m"] >= gap and got["apron_used_m"] == pytest.approx(deepest, abs=0.03)
+    assert got["apron_used_m"] == pytest.approx(deepest, abs=0.03)
     assert apron_use_measures(ocp, across, ()) == {"apron_area_m2": 0.0, "apron_used_m": 0.0}
     assert min(pose_clearances(route, vehicle, bodies, {k: v[0] for k, v in across.items()}).values()) < 0
+
+
+def test_apron_gap_paves_the_strip_between_the_lanes_and_the_apron(kackertstrasse, template):
+    """docs/map-format.md: with apron_gap = g the apron is A | (close(C | A, g) - close(C, g)); 0: the lanelets."""
+    import dataclasses
+
+    doc = cell_document(template, kackertstrasse, "EU-semitrailer", "90-102", True, 40)
+    route = parse_scenario(doc, path=TEMPLATE).ocp.map_route
+    lanelets = dataclasses.replace(route, apron_gap=0.0)
+    gap = apron_gap(route)  # 2.1 m on this map: the strip no lanelet covers
+    narrow = dataclasses.replace(route, apron_gap=0.5 * gap)  # narrower than the strip: nothing paved
+    assert lanelets.with_apron.area == pytest.approx(narrow.with_apron.area, rel=1e-6)
+    assert route.with_apron.area > lanelets.with_apron.area + 50.0  # the ring of the strip round the island
+    assert route.with_apron.contains(lanelets.with_apron.buffer(-1e-6))
+    with pytest.raises(InputError, match="apron_gap"):
+        dataclasses.replace(route, apron_gap=-1.0)
 
 
 def test_the_template_names_a_map_with_its_apron(template):

@@ -115,7 +115,7 @@ def cell_route(lanelet_map: LaneletMap, route: dict):
     """A study cell's ``route`` table as a MapRoute (its start, goal and centre line)."""
     from model.scene.lanelet_map import MapRoute
 
-    keys = ("from_lanelet", "to_lanelet", "start_offset", "goal_offset", "apron_use")
+    keys = ("from_lanelet", "to_lanelet", "start_offset", "goal_offset", "apron_use", "apron_gap")
     given = {k: route[k] for k in keys if k in route}
     return MapRoute(lanelet_map, apron_lanelets=tuple(route.get("apron_lanelets", ())), **given)
 

@@ -20,7 +20,7 @@ from model.vehicles import Body, Vehicle
 
 MAP_KEYS = {"file", "dataset"}
 ROUTE_KEYS = {"from_lanelet", "to_lanelet", "start_offset", "goal_offset", "lane_changes", "apron_lanelets",
-              "apron_use"}  # fmt: skip
+              "apron_use", "apron_gap"}  # fmt: skip
 ROUNDABOUT_ROUTE_KEYS = {"enter", "exit", "start_distance", "goal_distance"}  # model/problem/roads.py
 
 
@@ -62,6 +62,7 @@ def parse_map(data: dict[str, Any], base: Path | None = None) -> MapRoute | None
         lane_changes=_flag(route, "lane_changes"),
         apron_lanelets=_ids(route.get("apron_lanelets", [])),
         apron_use=route.get("apron_use", "trailer"),
+        apron_gap=number(route, "apron_gap", "route.", 0.0),
     )
 
 

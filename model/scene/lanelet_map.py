@@ -270,6 +270,10 @@ class MapRoute:
     apron_lanelets : tuple of int
         Lanelets that ``apron_use`` allows.
     apron_use : {"trailer", "all", "none"}
+    apron_gap : float
+        m: a strip narrower than this between the corridor's lanelets and the apron lanelets is paved (a
+        mountable curb, a gutter the map leaves out): the apron region is A | (close(C | A, g) - close(C, g)),
+        close(P, g) = P buffered out by g/2 and back in (docs/map-format.md); 0: the lanelets alone.
     loops : int
         How many more times the route's centre line goes round the first cycle it meets (a roundabout's
         ring; ``looped``): the same corridor, the goal heading turned 2 pi further per loop. Not a
@@ -289,6 +293,7 @@ class MapRoute:
     lane_changes: bool = False
     apron_lanelets: tuple[int, ...] = ()
     apron_use: str = "trailer"
+    apron_gap: float = 0.0
     loops: int = 0
 
     def __post_init__(self) -> None:
@@ -302,6 +307,8 @@ class MapRoute:
             self._known(lanelet_id, "route.apron_lanelets")
         if self.apron_use not in APRON_USE:
             raise InputError("route.apron_use", f"must be one of {', '.join(APRON_USE)}, got {self.apron_use!r}")
+        if not (math.isfinite(self.apron_gap) and self.apron_gap >= 0.0):
+            raise InputError("route.apron_gap", f"must be a finite width >= 0 m, got {self.apron_gap!r}")
         if not self.lanelets:
             how = "successors or adjacent same-direction lanelets" if self.lane_changes else "successors"
             flag = str(self.lane_changes).lower()
@@ -420,9 +427,16 @@ class MapRoute:
 
     @cached_property
     def with_apron(self) -> shapely.Polygon | shapely.MultiPolygon:
-        """The corridor lanelets and the apron lanelets."""
+        """The corridor lanelets and the apron region: the apron lanelets, and with ``apron_gap`` the strips
+        narrower than it that closing the corridor and the apron together fills and closing the corridor alone
+        does not."""
         ids = sorted(set(self.corridor_lanelets) | set(self.apron_lanelets))
-        return union(self.map.polygon(i) for i in ids)
+        both = union(self.map.polygon(i) for i in ids)
+        if self.apron_gap <= 0.0 or not self.apron_lanelets:
+            return both
+        half = self.apron_gap / 2.0
+        closed = both.buffer(half).buffer(-half)
+        return both.union(closed.difference(self.lanes.buffer(half).buffer(-half)))
 
     def corridor(self, body: str) -> shapely.Polygon | shapely.MultiPolygon:
         """The area body ``"vehicle"`` or ``"trailer"`` may cover (shapely, the map's coordinates)."""

@@ -166,7 +166,7 @@ def straight_state(preset_name: str, heading: float = 0.0) -> dict[str, float]:
 
 
 def route_poses(lanelet_map: LaneletMap, movement: Movement, preset_name: str, apron_lanelets: tuple[int, ...],
-                use: str) -> dict[str, float | int]:  # fmt: skip
+                use: str, gap: float = 0.0) -> dict[str, float | int]:  # fmt: skip
     """The route keys ``from_lanelet``, ``to_lanelet``, ``start_offset``, ``goal_offset`` of a cell.
 
     The start: the least offset (from ``MARGIN`` behind the vehicle's rear reach, in ``STEP``s) at
@@ -189,7 +189,7 @@ def route_poses(lanelet_map: LaneletMap, movement: Movement, preset_name: str, a
         offset = -(front + MARGIN)
         while offset <= 0.0 and offset >= -length:
             route = MapRoute(lanelet_map, movement.entry, to_lanelet, goal_offset=offset,
-                             apron_lanelets=apron_lanelets, apron_use=use)  # fmt: skip
+                             apron_lanelets=apron_lanelets, apron_use=use, apron_gap=gap)  # fmt: skip
             x, y, heading = route.goal()
             goal = straight_state(preset_name, heading) | {r.x: x, r.y: y}
             if min(pose_clearances(route, vehicle, bodies, goal).values()) >= 0:
@@ -207,7 +207,7 @@ def _start_offset(route: MapRoute, preset_name: str, rear: float) -> float:
     while offset <= route.goal_s:
         moved = MapRoute(route.map, route.from_lanelet, route.to_lanelet, start_offset=offset,
                          goal_offset=route.goal_offset, apron_lanelets=route.apron_lanelets,
-                         apron_use=route.apron_use)  # fmt: skip
+                         apron_use=route.apron_use, apron_gap=route.apron_gap)  # fmt: skip
         x, y, heading = moved.start()
         state = straight_state(preset_name, heading) | {r.x: x, r.y: y}
         if min(pose_clearances(moved, vehicle, bodies, state).values()) >= 0:
@@ -282,8 +282,9 @@ def cell_document(template: dict, lanelet_map: LaneletMap, preset_name: str, mov
         bounds.pop("articulation", None)
     use = apron_use(preset_name) if apron else "none"
     aprons = tuple(doc.get("route", {}).get("apron_lanelets", [])) if apron else ()
-    doc["route"] = {**route_poses(lanelet_map, found, preset_name, aprons, use), "apron_lanelets": list(aprons),
-                    "apron_use": use}  # fmt: skip
+    gap = float(doc.get("route", {}).get("apron_gap", 0.0)) if apron else 0.0
+    doc["route"] = {**route_poses(lanelet_map, found, preset_name, aprons, use, gap), "apron_lanelets": list(aprons),
+                    "apron_use": use, "apron_gap": gap}  # fmt: skip
     doc["problem"] = {**doc.get("problem", {}), "objective": "time", "intervals": int(intervals)}
     doc["name"] = cell_name(preset_name, movement, apron)
     doc["title"] = (f"{preset_name} from lanelet {found.entry} to lanelet {found.exit} "
@@ -295,14 +296,15 @@ def cell_document(template: dict, lanelet_map: LaneletMap, preset_name: str, mov
 
 
 def apron_use_measures(ocp: OCP, states: Mapping[str, np.ndarray], apron_lanelets: tuple[int, ...]) -> dict:
-    """The apron the bodies use: the area they sweep on the apron lanelets outside the corridor's lanes
-    (m^2) and how deep they reach into it from the lanes (m, the largest distance of a swept point on the
-    apron from the lanes); both 0 without apron lanelets or where no body leaves the lanes."""
+    """The apron the bodies use: the area they sweep on the apron region outside the corridor's lanes (the
+    apron lanelets and, with ``route.apron_gap``, the paved strip between them and the lanes; m^2) and how deep
+    they reach into it from the lanes (m, the largest distance of a swept point on the apron from the lanes);
+    both 0 without apron lanelets or where no body leaves the lanes."""
     route = ocp.map_route
     if not apron_lanelets or not ocp.bodies:
         return {"apron_area_m2": 0.0, "apron_used_m": 0.0}
     swept = shapely.union_all(list(swept_polygons(ocp, states).values()))
-    apron = shapely.union_all([route.map.polygon(i) for i in apron_lanelets]).difference(route.lanes)
+    apron = route.with_apron.difference(route.lanes)
     on_apron = swept.intersection(apron)
     if on_apron.is_empty or on_apron.area <= 0:
         return {"apron_area_m2": 0.0, "apron_used_m": 0.0}
@@ -323,8 +325,8 @@ def apron_gap(route: MapRoute) -> float | None:
     """The least distance (m) from the corridor's lanes to its apron lanelets; None without apron lanelets.
 
     0 where they touch; more where the map leaves a strip between them that no lanelet covers (at
-    Kackertstrasse the border lanelet 50 lies 2.1 m inside the ring's inner edge), which no body
-    may cross, so that such an apron cannot be reached.
+    Kackertstrasse the border lanelet 50 lies 2.1 m inside the ring's inner edge): a body reaches such an
+    apron only with a route ``apron_gap`` wider than this (docs/map-format.md), which paves the strip.
     """
     if not route.apron_lanelets:
         return None

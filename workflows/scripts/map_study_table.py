@@ -259,15 +259,20 @@ def section(df: pd.DataFrame, mode: str, grid: dict, template: dict, n_movements
 
 
 def gap_note(df: pd.DataFrame, template: dict) -> list[str]:
-    """A paragraph on how far the apron lanelets lie from the lanes (nothing where they touch or are not used)."""
+    """A paragraph on how far the apron lanelets lie from the lanes and the route's ``apron_gap`` that paves
+    the strip between (nothing where they touch or are not used)."""
     gaps = df.apron_gap_m.dropna()
     if gaps.empty or float(gaps.min()) <= 1e-3:
         return []
     apron = lanelet_words(template["route"].get("apron_lanelets", []))
-    return [f"The apron ({apron}) does not touch the corridor's lanes: it lies"
-            f" {float(gaps.min()):.2f} m from them (a strip no lanelet covers, which no body may cross), so on this"
-            " map the apron cannot be reached, and a cell with it poses the problem of the cell without it.",
-            ""]  # fmt: skip
+    paved = float(template["route"].get("apron_gap", 0.0))
+    reach = (f"The template's `apron_gap = {paved:g}` m (docs/map-format.md) paves strips narrower than that"
+             " between the lanes and the apron, so the apron can be reached; the cells with the apron use that"
+             " corridor." if paved > float(gaps.min()) else
+             " No `apron_gap` wider than that is set, so on this map the apron cannot be reached, and a cell with"
+             " it poses the problem of the cell without it.")  # fmt: skip
+    return [f"The apron ({apron}) does not touch the corridor's lanes: it lies {float(gaps.min()):.2f} m from them"
+            f" (a strip no lanelet covers). {reach}", ""]  # fmt: skip
 
 
 def main() -> None:
