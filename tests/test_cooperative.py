@@ -47,7 +47,7 @@ class StubCooperator(Cooperator):
     def asks(self, traci, now, windows, truck="truck", holds=None):
         return dict(self.fixed) if any(w.leg == 0 for w in windows) else {}
 
-    def hold_cost(self, traci, now, speeds, legs=None):
+    def hold_cost(self, traci, now, speeds, windows):
         return self.cost
 
     def command(self, traci, speeds):

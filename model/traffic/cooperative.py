@@ -46,6 +46,7 @@ REACH = 80.0  # m of a vehicle's path ahead that is looked at
 HOLD_BUFFER = 1.5  # m: a held vehicle stops this far outside the area (safety_distance 1 m and 0.5 m more)
 SLOW_SPEED = 1.0  # m/s: a vehicle slower than this is taken to reach the area at this speed (``hold_cost``)
 STOP_SPEED = 1.0  # m/s: a keep-clear speed below this is asked as 0 (held still, not creeping to the area)
+STOP_DECEL = 2.0  # m/s^2: the cooperative driver asks a held vehicle that can stop braking this gently to stand
 
 
 class Progress(Protocol):
@@ -88,6 +89,11 @@ class Cooperator:
     stop_speed : float
         A keep-clear speed below this is asked as 0 (``STOP_SPEED`` for the managed drivers; 0 here: as
         asked). A car creeping toward the area stays a follower the truck's entry would make brake hard.
+    stop_decel : float
+        m/s^2; > 0: a vehicle that would be asked to keep clear and can stop before the area braking at
+        most this hard is asked to stand (0: off, the keep-clear speed). ``STOP_DECEL`` for the cooperative
+        driver: held behind a standing truck at the keep-clear speed a car creeps to the area, and the
+        autopilot's follower check then refuses the entry (it would brake at 9 m/s^2).
     swept : bool
         Whether each area is cut down to the ground the truck's rectangles, grown by ``buffer``, cover along
         its plan (``footprint``): a vehicle is then held only out of the part of a leg's area the truck
@@ -102,6 +108,7 @@ class Cooperator:
     buffer: float = HOLD_BUFFER
     swept: bool = False
     stop_speed: float = 0.0
+    stop_decel: float = 0.0
     windows: list[Window] = field(init=False)
     areas: dict[int, shapely.Polygon] = field(init=False)
     commanded: dict[str, float] = field(init=False, default_factory=dict)
@@ -161,18 +168,23 @@ class Cooperator:
         windows = self.announced(now, s, rate, slope) if announce else []
         return self.command(traci, self.asks(traci, now, windows, truck, holds) if windows else {})
 
-    def hold_cost(self, traci, now: float, speeds: dict[str, float], legs: set[int] | None = None) -> float:
-        """Seconds the vehicles asked for ``speeds`` would lose: per vehicle its arrival at the area at the speed
-        asked less its arrival at its speed now (at least ``SLOW_SPEED``), the area the first of ``legs``' (default:
-        every leg's) along its path."""
-        areas = [a for leg, a in self.areas.items() if legs is None or leg in legs]
+    def hold_cost(self, traci, now: float, speeds: dict[str, float], windows: list[Window]) -> float:
+        """Seconds the vehicles asked for ``speeds`` would lose, out of the areas of ``windows`` (clock times).
+
+        Per vehicle: its arrival at the first of those areas along its path at the speed asked (asked to
+        stand: when the last window has closed, ``margin`` after it) less its arrival at its speed now (at
+        least ``SLOW_SPEED``).
+        """
+        areas = [self.areas[leg] for leg in {w.leg for w in windows}]
+        free = max((w.end for w in windows), default=now) + self.margin - now
         loss = 0.0
         for vid, asked in speeds.items():
             path = path_ahead(traci, vid, shape=self.shapes(traci))
             entries = [e[0] for a in areas if path is not None and (e := area_entry(path, a))]
             distance = min(entries, default=0.0)
             own = distance / max(traci.vehicle.getSpeed(vid), SLOW_SPEED)
-            loss += max(distance / max(asked, 1e-3) - own, 0.0)
+            held = distance / asked if asked > 0.0 else free
+            loss += max(held - own, 0.0)
         return loss
 
     def shapes(self, traci):
@@ -191,8 +203,11 @@ class Cooperator:
         if entry is None:
             return None
         distance, through = entry
-        return keep_clear_speed(distance, through + length, speed, now, window, self.margin,
-                                traci.vehicle.getAllowedSpeed(vid))  # fmt: skip
+        asked = keep_clear_speed(distance, through + length, speed, now, window, self.margin,
+                                 traci.vehicle.getAllowedSpeed(vid))  # fmt: skip
+        if asked is not None and self.stop_decel > 0.0 and speed * speed <= 2.0 * self.stop_decel * distance:
+            return 0.0  # it can stop before the area braking gently: it waits there (no creeping follower)
+        return asked
 
 
 @dataclass
@@ -255,12 +270,12 @@ class PriorityRequest:
             return coop.command(traci, {})
         speeds = coop.asks(traci, now, windows, truck)
         if pilot.s <= pilot.give_way + 1e-9:  # slowing for, or standing at, its line
-            self.granted = pilot.rate < 1.0 and self.decide(traci, now, pilot, others or [], speeds, lost)
+            self.granted = pilot.rate < 1.0 and self.decide(traci, now, pilot, others or [], speeds, lost, windows)
             self.spent += coop.step * len(speeds) if self.granted else 0.0
         return coop.command(traci, speeds if self.granted else {})
 
-    def decide(self, traci, now: float, pilot: Progress, others: list, speeds: dict[str, float],
-               lost: float) -> bool:  # fmt: skip
+    def decide(self, traci, now: float, pilot: Progress, others: list, speeds: dict[str, float], lost: float,
+               windows: list[Window]) -> bool:  # fmt: skip
         """Whether a waiting truck asks now; the step counted in ``reasons`` under the first rule that says no."""
         if not speeds:
             reason = "no vehicle to hold"
@@ -268,7 +283,7 @@ class PriorityRequest:
             reason = "a blocker cannot be held"
         elif blockers(pilot, [standing(o) if sumo_id(o) in blocking else o for o in others], self.cooperator.step):
             reason = "holding would not clear the way"
-        elif lost < self.cooperator.hold_cost(traci, now, speeds, {self.enter}) + self.spent:
+        elif lost < self.cooperator.hold_cost(traci, now, speeds, windows) + self.spent:
             reason = "the hold costs more than the time lost"
         else:
             reason = "asked"

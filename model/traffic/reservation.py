@@ -30,7 +30,15 @@ import shapely
 
 from model.problem.ocp import OCP
 from model.problem.scenario import Scenario
-from model.traffic.cooperative import STOP_SPEED, Cooperator, PriorityRequest, Progress, area_entry, path_ahead
+from model.traffic.cooperative import (
+    STOP_DECEL,
+    STOP_SPEED,
+    Cooperator,
+    PriorityRequest,
+    Progress,
+    area_entry,
+    path_ahead,
+)
 from model.traffic.windows import conflict_areas
 
 ARRIVAL_DISTANCE = 10.0  # m: a vehicle arrives at its entry when its front comes this near the ring
@@ -145,11 +153,13 @@ def traffic_manager(kind: str, scenario: Scenario, plan, front: float) -> Priori
     PriorityRequest or Reservation
         Its ``step(traci, now, pilot)`` sets the other vehicles' speeds each step.
     """
-    coop = Cooperator(scenario.ocp, plan.at, plan.duration, scenario.traffic.step, swept=True, stop_speed=STOP_SPEED)
+    ocp, step = scenario.ocp, scenario.traffic.step
     if kind == "reservation":
-        return Reservation(coop, arrival_time(scenario.ocp, plan.at, plan.duration, front))
-    if kind == "cooperative":
-        return PriorityRequest(coop, scenario.ocp.road.route.enter)
+        coop = Cooperator(ocp, plan.at, plan.duration, step, swept=True, stop_speed=STOP_SPEED)
+        return Reservation(coop, arrival_time(ocp, plan.at, plan.duration, front))
+    if kind == "cooperative":  # held behind a waiting truck: stand, do not creep
+        coop = Cooperator(ocp, plan.at, plan.duration, step, swept=True, stop_speed=STOP_SPEED, stop_decel=STOP_DECEL)
+        return PriorityRequest(coop, ocp.road.route.enter)
     raise ValueError(f"no management for the driver {kind!r}")
 
 
