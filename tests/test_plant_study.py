@@ -99,19 +99,19 @@ def test_the_first_unsafe_level_is_the_lowest_validated_one_whose_plant_leaves_t
 def test_the_section_reads_its_numbers_from_the_records():
     records = [record(1.0, 0.03), record(2.0, -0.0123), record(3.0, -0.2)]
     text = plant_study_section.section(records, "small", "results/x.png")
-    assert "stops being safe at 2 m/s^2 (top speed 7 m/s)" in text
+    assert "stops being safe at 2 m/s² (top speed 7 m/s)" in text
     assert "leave the corridor by 0.012 m" in text
     moved = plant_study_section.section([record(1.0, -0.05), *records[1:]], "small", "results/x.png")
-    assert "already at the lowest level tested, 1 m/s^2" in moved and "by 0.05 m" in moved
+    assert "already at the lowest level tested, 1 m/s²" in moved and "by 0.05 m" in moved
     safe = plant_study_section.section([record(1.0, 0.03), record(2.0, 0.02)], "small", "results/x.png")
-    assert "stays in its corridor on the dynamic plant at every level up to 2 m/s^2" in safe
+    assert "stays in its corridor on the dynamic plant at every level up to 2 m/s²" in safe
     assert "![" in text and "(results/x.png)" in text and "| safe |" in text
 
 
 def test_a_failed_plan_is_reported_without_numbers():
     records = [record(1.0, 0.03), record(2.0, -0.1, valid=False, status="validation_failed")]
     text = plant_study_section.section(records, "small", "x.png")
-    assert "no validated plan at 2 m/s^2: validation_failed" in text
+    assert "no validated plan at 2 m/s²: validation_failed" in text
     assert "stays in its corridor" in text
 
 

@@ -96,7 +96,7 @@ def plant_record(level: float) -> dict:
 def test_plant_study_table_is_captioned_with_the_records_levels():
     text = plant_study_section.section([plant_record(1.5), plant_record(2.5)], "small", "x.png")
     (caption,) = captions_of_tables(text)
-    assert "(1.5, 2.5 m/s^2)" in caption and "`small` grid" in caption
+    assert "(1.5, 2.5 m/s²)" in caption and "`small` grid" in caption
     assert "[@commonroadvehicles]" in text
 
 
