@@ -131,7 +131,9 @@ class Cooperator:
         """The speed each vehicle would be asked for (``keep_clear_speed``, the lowest over ``windows``).
 
         ``holds``: vehicle id -> whether it may be held (default: every vehicle); a vehicle already in an
-        area of ``windows`` is never held (held there, it would stand in the truck's way).
+        area of ``windows`` is not held (held there, it would stand in the truck's way), unless it was asked
+        to stand (speed 0) the step before: it stopped at the area's edge (grown by ``buffer`` beyond the
+        truck's ground) with its front a little past it, and released it would drive on into the truck's way.
         """
         ahead = shapely.union_all([self.areas[leg] for leg in {w.leg for w in windows}])
         speeds = {}
@@ -139,6 +141,8 @@ class Cooperator:
             if vid == truck or (holds is not None and not holds(vid)):
                 continue
             if ahead.contains(shapely.Point(traci.vehicle.getPosition(vid))):
+                if self.commanded.get(vid) == 0.0:  # stopped at the area's edge, its front a little in: stays
+                    speeds[vid] = 0.0
                 continue
             path = path_ahead(traci, vid, shape=self.shapes(traci))
             if path is None:
