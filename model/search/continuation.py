@@ -58,7 +58,9 @@ def slowed_minimum_time(
 
 
 def _reeds_shepp_start(timed: OCP, solve: Callable[..., Solution]) -> Solution | None:
-    """The time problem solved from the shortest Reeds-Shepp path (cusps, reversing) driven at 70 % speed."""
+    """The time problem solved from the shortest Reeds-Shepp path (cusps, reversing), as ``reeds_shepp_guess``
+    drives it: at 70 % of the speed bound, or within the limits (``limited_path_guess``) with longitudinal
+    dynamics."""
     from model.search.guess import reeds_shepp_guess
 
     found = reeds_shepp_guess(timed, 200)
