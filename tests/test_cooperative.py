@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -58,7 +59,7 @@ class StubCooperator(Cooperator):
 
 @dataclass
 class StubPilot:
-    """The autopilot's progress; no vehicle predicted near (``blockers`` finds none)."""
+    """The autopilot's progress; no vehicle predicted near (``blockers`` finds none, ``clears`` passes)."""
 
     s: float
     rate: float
@@ -70,6 +71,25 @@ class StubPilot:
 
     def near(self, others, tau):
         return []
+
+    def predicted(self, others, tau):
+        return np.empty((0, len(tau), 4, 2))
+
+    def clearances(self, s, theirs):
+        return np.full(len(s), math.inf)
+
+    def net_gap(self, tau, s, gaps):
+        return math.inf
+
+    def follower_braking(self, tau, rates, s, theirs):
+        return 0.0
+
+    def junction_conflict(self, tau, s, theirs):
+        return False
+
+    @property
+    def scenario(self):
+        return SimpleNamespace(traffic=SimpleNamespace(safety_distance=1.0))
 
 
 def request(fixed: dict[str, float], cost: float) -> PriorityRequest:
@@ -153,3 +173,16 @@ def test_a_blocker_is_asked_to_stand_where_it_is_and_named_by_its_sumo_id():
     assert sumo_id(still) == "f1_3.1" and still.start == car.start
     tau = np.array([0.0, 1.0, 5.0])
     assert np.allclose(still.pose(tau)[0], 1.0) and np.allclose(still.pose(tau)[1], 2.0)
+
+
+def test_no_request_when_the_held_vehicles_standing_would_still_not_let_the_truck_go():
+    """A follower the truck's entry would make brake hard even with the held vehicles standing: waiting is kept."""
+
+    @dataclass
+    class Followed(StubPilot):
+        def follower_braking(self, tau, rates, s, theirs):
+            return 9.0
+
+    manager = request({"car": 0.0}, cost=0.0)
+    assert manager.step(None, now=5.0, pilot=Followed(s=0.5, rate=0.0)) == {}
+    assert manager.reasons == {"holding would not clear the way": 1}

@@ -38,7 +38,7 @@ from shapely.ops import substring
 from model.problem.ocp import OCP
 from model.problem.scenario import Scenario
 from model.scene.moving import MovingVehicle
-from model.traffic.autopilot import MARGIN_HORIZON, PREDICTION_MARGIN
+from model.traffic.autopilot import FOLLOWER_DECEL, MARGIN_HORIZON, PREDICTION_MARGIN
 from model.traffic.windows import Window, clock_windows, conflict_areas, footprint, occupancy_windows
 
 KEEP_CLEAR_MARGIN = 1.0  # s kept free before and after each of the truck's windows
@@ -65,6 +65,12 @@ class Progress(Protocol):
     def predicted(self, others: list, tau: np.ndarray) -> np.ndarray: ...  # their predicted corners
 
     def clearances(self, s: np.ndarray, theirs: np.ndarray) -> np.ndarray: ...  # least distance per instant
+
+    def net_gap(self, tau: np.ndarray, s: np.ndarray, gaps: np.ndarray) -> float: ...  # the distance less the margin
+
+    def follower_braking(self, tau: np.ndarray, rates: np.ndarray, s: np.ndarray, theirs: np.ndarray) -> float: ...
+
+    def junction_conflict(self, tau: np.ndarray, s: np.ndarray, theirs: np.ndarray) -> bool: ...
 
 
 @dataclass
@@ -237,8 +243,8 @@ class PriorityRequest:
     reasons : dict
         The steps in which the truck waited before its line, counted by the first rule that refused the
         request ("no vehicle to hold", "a blocker cannot be held", "holding would not clear the way": with
-        the blockers standing where they are the plan's pace is still not safe, "the hold costs more than the
-        time lost"), or "asked".
+        the held vehicles standing where they are the plan's pace still fails the autopilot's checks,
+        ``clears``; "the hold costs more than the time lost"), or "asked".
     """
 
     cooperator: Cooperator
@@ -283,9 +289,9 @@ class PriorityRequest:
         """Whether a waiting truck asks now; the step counted in ``reasons`` under the first rule that says no."""
         if not speeds:
             reason = "no vehicle to hold"
-        elif not (blocking := blockers(pilot, others, self.cooperator.step)) <= set(speeds):
+        elif not blockers(pilot, others, self.cooperator.step) <= set(speeds):
             reason = "a blocker cannot be held"
-        elif blockers(pilot, [standing(o) if sumo_id(o) in blocking else o for o in others], self.cooperator.step):
+        elif not clears(pilot, [standing(o) if sumo_id(o) in speeds else o for o in others], self.cooperator.step):
             reason = "holding would not clear the way"
         elif lost < self.cooperator.hold_cost(traci, now, speeds, windows) + self.spent:
             reason = "the hold costs more than the time lost"
@@ -307,6 +313,26 @@ def standing(other: MovingVehicle) -> MovingVehicle:
     return MovingVehicle(other.length, other.width, start=other.start, speed=0.0, yaw_rate=0.0, key=other.key)
 
 
+def pace_profile(pilot: Progress, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The autopilot's ``rate 1`` profile at ``tau``: the rate rising at its slope to 1, and the plan times."""
+    rate = np.clip(1.0, pilot.rate - pilot.rate_slope * tau, pilot.rate + pilot.rate_slope * tau)
+    return rate, pilot.s + np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tau))])
+
+
+def clears(pilot: Progress, others: list, step: float) -> bool:
+    """Whether the plan's pace would pass the autopilot's own checks among ``others`` (the held ones standing):
+    the distance with its margin (``Autopilot.net_gap``), no circulating follower braking above
+    ``FOLLOWER_DECEL`` and, with the junction rule on, no junction conflict."""
+    tau = pilot.instants(step)
+    rate, s = pace_profile(pilot, tau)
+    theirs = pilot.predicted(others, tau)
+    if pilot.net_gap(tau, s, pilot.clearances(s, theirs)) < pilot.scenario.traffic.safety_distance:
+        return False
+    return pilot.follower_braking(tau, rate, s, theirs) <= FOLLOWER_DECEL and not pilot.junction_conflict(
+        tau, s, theirs
+    )
+
+
 def blockers(pilot: Progress, others: list, step: float) -> set[str]:
     """The vehicles that keep the truck's plan pace from being safe now: SUMO ids of the predicted ``others``.
 
@@ -319,8 +345,7 @@ def blockers(pilot: Progress, others: list, step: float) -> set[str]:
     if not near:
         return set()
     theirs = pilot.predicted(near, tau)
-    rate = np.clip(1.0, pilot.rate - pilot.rate_slope * tau, pilot.rate + pilot.rate_slope * tau)
-    s = pilot.s + np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tau))])
+    _, s = pace_profile(pilot, tau)
     need = pilot.scenario.traffic.safety_distance + PREDICTION_MARGIN * np.minimum(tau[1:], MARGIN_HORIZON)
     return {sumo_id(o) for k, o in enumerate(near)
             if np.any(pilot.clearances(s, theirs[k : k + 1])[1:] < need)}  # fmt: skip
