@@ -276,7 +276,11 @@ def test_the_turning_circle_figure_prints_at_7_pt_with_one_legend_below():
         "steady": {"inner": 6.0},
         "transient": {"turns": [1, 2], "run": {"t": theta, "theta": theta}},
     }
-    fig = turning_figure("a semitrailer", result, {"vehicle": body(9.0), "trailer": body(7.5)}, 12.5, 5.3)
+    from model.studies.roads import rectangle_distance
+
+    trailer = body(7.5)
+    fig = turning_figure("a semitrailer", result, {"vehicle": body(9.0), "trailer": trailer}, 12.5, 5.3,
+                         rectangle_distance(trailer))  # fmt: skip
     assert fig.legends and all(ax.get_legend() is None for ax in fig.axes)
     assert smallest_print_font(fig) >= MIN_FONT_PT
     close(fig)
@@ -307,7 +311,11 @@ def test_the_traffic_comparison_figure_prints_at_7_pt_with_its_legends_beside_th
     measures = {("truck", "autopilot"): {"critical_gap": 5.2, "cells": cells[:1]},
                 ("semitrailer", "sumo"): {"critical_gap": None, "cells": cells[1:2]}}  # fmt: skip
     styles = {"autopilot": {"color": "#1f6fb4", "marker": "o"}, "sumo": {"color": "#d2691e", "marker": "s"}}
-    fig = comparison_figure(cars, measures, styles)
+    from model.traffic.gaps import adams_delay, gap_capacity, hcm_capacity
+
+    formulas = {"adams_delay": adams_delay, "gap_capacity": gap_capacity, "hcm_capacity": hcm_capacity,
+                "hcm_label": "HCM 6th ed."}  # fmt: skip
+    fig = comparison_figure(cars, measures, styles, formulas)
     assert legends_on_data(fig) == []
     assert narrowest_axes(fig) > 1.5, "a panel squeezed by its legend"
     assert smallest_print_font(fig) >= MIN_FONT_PT

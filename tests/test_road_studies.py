@@ -260,8 +260,8 @@ def test_the_energy_time_section_labels_its_rows_and_sets_the_operational_time_b
     text = tradeoff.section(load_scenario(scenario).ocp, [row, slow], Path("f.png"), 60, 0.01, "SU-30", ref)
     assert (f"max lateral acceleration 8.25 m/s^2 (above the SU-30's allowed {lim.lateral_acceleration:g} m/s^2)"
             in text) and "(within the SU-30's allowed" in text  # fmt: skip
-    assert "the same turn's minimum time is 17.5 s (N = 120; reached: max lateral acceleration 2.00 m/s^2, a in " \
-           "[-2.25, 1.30] m/s^2), against T_min = 12.5 s without them" in text
+    assert "the same turn's minimum time is 17.5 s (N = 120; reached: max lateral acceleration 2.00 m/s², a in " \
+           "[-2.25, 1.30] m/s²), against T_min = 12.5 s without them" in text
     assert tradeoff.operational_text("SU-30") in text
     failed = tradeoff.reference_lines({**ref, "valid": False, "diagnosis": "the body crosses the island"}, row)
     assert failed[0].endswith("FAILED: the body crosses the island.")

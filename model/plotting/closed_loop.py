@@ -153,16 +153,19 @@ def _scene(ax: plt.Axes, ocp: OCP | None) -> None:
     if ocp.road is not None:
         draw_roundabout(ax, ocp, label=False)
     draw_obstacles(ax, ocp.obstacles, label=False)
-    ax.plot([ocp.final.get("x", np.nan)], [ocp.final.get("y", np.nan)], "k*", ms=9, label="goal")
+    px, py = ocp.vehicle.position
+    ax.plot([ocp.final.get(px, np.nan)], [ocp.final.get(py, np.nan)], "k*", ms=9, label="goal")
 
 
 def _paths_panel(ax: plt.Axes, panel: Mapping, colors: Mapping[str, tuple]) -> None:
-    _scene(ax, panel.get("ocp"))
+    ocp = panel.get("ocp")
+    _scene(ax, ocp)
+    px, py = ocp.vehicle.position if ocp is not None else ("x", "y")  # names: the study's trucks without a scene
     optimum = panel.get("optimum")
     if optimum is not None:
-        ax.plot(optimum["x"], optimum["y"], color="k", lw=2.4, alpha=0.35, label="optimum (reference)")
+        ax.plot(optimum[px], optimum[py], color="k", lw=2.4, alpha=0.35, label="optimum (reference)")
     for controller, run in panel["runs"].items():
-        ax.plot(run["x"], run["y"], color=colors[controller], lw=1.3, label=controller)
+        ax.plot(run[px], run[py], color=colors[controller], lw=1.3, label=controller)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set(xlabel="x (m)", ylabel="y (m)", title=panel["title"])
 

@@ -10,7 +10,7 @@ titled by it, the y axis the quantity, one legend for all, chattering windows sh
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import matplotlib.pyplot as plt
@@ -128,11 +128,15 @@ def plant_gap_figure(groups: Sequence[tuple[str, str, Sequence[Mapping]]]) -> pl
 # --------------------------------------------------------------------------- the road energy-time trade-off
 
 
-def path_spread(trajectories: Mapping[str, Mapping]) -> float | None:
-    """How far the rear-axle paths lie from the time-optimal one (key ``time``): the largest Hausdorff distance, m."""
+def path_spread(trajectories: Mapping[str, Mapping], position: tuple[str, str]) -> float | None:
+    """How far the rear-axle paths lie from the time-optimal one (key ``time``): the largest Hausdorff distance, m.
+
+    ``position``: the vehicle's position columns (``vehicle.position``).
+    """
     import shapely
 
-    lines = {k: shapely.LineString(np.column_stack([c["x"], c["y"]])) for k, c in trajectories.items()}
+    px, py = position
+    lines = {k: shapely.LineString(np.column_stack([c[px], c[py]])) for k, c in trajectories.items()}
     ref = lines.pop("time", None)
     return max((ref.hausdorff_distance(line) for line in lines.values()), default=None) if ref else None
 
@@ -162,33 +166,34 @@ def _tradeoff_paths_panel(ax: plt.Axes, ocp, trajectories: Mapping[str, Mapping]
     from model.plotting.roads import draw_roundabout, draw_scale_bar, geometry_patch
 
     draw_roundabout(ax, ocp, label=False)
+    px, py = ocp.vehicle.position
     keys, color = list(trajectories), _tradeoff_colors(list(trajectories))
     for key in keys:
         cols = trajectories[key]
         if key in (keys[0], keys[-1]):
             for poly in swept_polygons(ocp, cols).values():
                 ax.add_patch(geometry_patch(poly, facecolor=color[key], alpha=0.2, lw=0, zorder=2))
-        ax.plot(cols["x"], cols["y"], color=color[key], lw=1.2, label=key, zorder=4)
+        ax.plot(cols[px], cols[py], color=color[key], lw=1.2, label=key, zorder=4)
     rb = ocp.road.roundabout
     lim = rb.outer_radius + 2 * max(g.lane_width for g in rb.legs)
-    allx = np.concatenate([c["x"] for c in trajectories.values()])
-    ally = np.concatenate([c["y"] for c in trajectories.values()])
+    allx = np.concatenate([c[px] for c in trajectories.values()])
+    ally = np.concatenate([c[py] for c in trajectories.values()])
     ax.set_xlim(min(allx.min(), -lim) - 1, max(allx.max(), lim) + 1)
     ax.set_ylim(min(ally.min(), -lim) - 1, max(ally.max(), lim) + 1)
     ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
     draw_scale_bar(ax)
-    spread = path_spread(trajectories)
+    spread = path_spread(trajectories, (px, py))
     same = f"\n(within {spread:.2g} m of the time-optimal)" if spread is not None else ""
     ax.set_title(f"(b) rear-axle paths to scale{same}")
 
 
-def _tradeoff_controls(axes: Sequence[plt.Axes], trajectories: Mapping[str, Mapping]) -> None:
+def _tradeoff_controls(axes: Sequence[plt.Axes], trajectories: Mapping[str, Mapping], roles) -> None:
     """Speed and steering rate against the normalised time t / Tf: where the solves differ."""
     color = _tradeoff_colors(list(trajectories))
     for key, cols in trajectories.items():
         tau = np.asarray(cols["t"]) / cols["t"][-1]
-        axes[0].plot(tau, cols["u1"], color=color[key], lw=1.2, label=key)
-        axes[1].plot(tau, cols["u2"], color=color[key], lw=1.2, label=key)
+        axes[0].plot(tau, cols[roles.speed], color=color[key], lw=1.2, label=key)
+        axes[1].plot(tau, cols[roles.steering_rate], color=color[key], lw=1.2, label=key)
     axes[0].set(xlabel="t / Tf (-)", ylabel="speed u1 (m/s)", title="(c) speed: what differs")
     axes[1].set(xlabel="t / Tf (-)", ylabel="steering rate u2 (rad/s)", title="(d) steering rate")
 
@@ -206,7 +211,7 @@ def tradeoff_figure(ocp, rows: Sequence[Mapping], trajectories: Mapping[str, Map
     _energy_time_panel(axes[0, 0], rows)
     if trajectories:
         _tradeoff_paths_panel(axes[0, 1], ocp, trajectories)
-    _tradeoff_controls(axes[1], trajectories)
+    _tradeoff_controls(axes[1], trajectories, ocp.vehicle.roles)
     handles = {h.get_label(): h for ax in (axes[0, 0], axes[1, 0]) for h in ax.get_legend_handles_labels()[0]}
     fig.legend(handles=list(handles.values()), loc="outside lower center", ncols=2, frameon=False)
     return fig
@@ -246,15 +251,14 @@ def _swept_turns(ax: plt.Axes, all_corners: Mapping[str, np.ndarray], per_turn: 
 
 
 def turning_figure(name: str, result: Mapping, all_corners: Mapping[str, np.ndarray], outer: float,
-                   inner: float) -> plt.Figure:  # fmt: skip
+                   inner: float, least: np.ndarray) -> plt.Figure:  # fmt: skip
     """The EU turning circle at the figure width: (a) two full turns' swept areas in the annulus between
     ``inner`` and ``outer`` (m), (b) the inner swept radius against the heading turned; one legend below.
 
     ``result``: model.studies.roads.eu_turning_circle's (phi_deg, steady inner, transient run and turns);
-    ``all_corners``: body -> corners over the run (model.studies.roads.corners).
+    ``all_corners``: body -> corners over the run (model.studies.roads.corners); ``least``: the trailer's (else the
+    vehicle's) least distance from the centre at each instant (model.studies.roads.rectangle_distance).
     """
-    from model.studies.roads import rectangle_distance
-
     apply_style()
     run = result["transient"]["run"]
     per_turn = (len(run["t"]) - 1) // len(result["transient"]["turns"])
@@ -263,8 +267,7 @@ def turning_figure(name: str, result: Mapping, all_corners: Mapping[str, np.ndar
     _swept_turns(ax, all_corners, per_turn)
     title = f"(a) two full turns at {result['phi_deg']:.2f}° steering"
     ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)", title=title)
-    theta = np.degrees(run["theta"] - run["theta"][0])
-    least = rectangle_distance(all_corners.get("trailer", all_corners["vehicle"]))
+    theta = np.degrees(run["theta"] - run["theta"][0])  # names: eu_turning_circle's run (the tractor's heading)
     ax2.plot(theta, least, color=TURNING_COLORS["trailer"], label="inner swept radius of the trailer (integrated)")
     ax2.axhline(result["steady"]["inner"], color="k", ls="--", lw=0.8,
                 label=f"steady state {result['steady']['inner']:.3f} m")  # fmt: skip
@@ -281,10 +284,9 @@ def turning_figure(name: str, result: Mapping, all_corners: Mapping[str, np.ndar
 # --------------------------------------------------------------------------- traffic: waits and capacities
 
 
-def _waits_panel(ax: plt.Axes, cars: Mapping, measures: Mapping, styles: Mapping, vc: np.ndarray) -> None:
+def _waits_panel(ax: plt.Axes, cars: Mapping, measures: Mapping, styles: Mapping, vc: np.ndarray,
+                 adams_delay: Callable[[float, float], float]) -> None:  # fmt: skip
     """Measured waits at the line against Adams' delay with each group's critical gap."""
-    from model.traffic.gaps import adams_delay
-
     rows, tc = cars["cells"], cars["critical_gap"]
     ax.plot([r["vc_pcph"] for r in rows], [r["line_wait"] for r in rows], "o", color="0.2", ms=5,
             label="cars: measured (per rate and leg)")  # fmt: skip
@@ -298,7 +300,7 @@ def _waits_panel(ax: plt.Axes, cars: Mapping, measures: Mapping, styles: Mapping
             vc, [adams_delay(v / 3600, tc) for v in vc], color="0.2", lw=1.2, label=f"cars: Adams, $t_c$ = {tc:.2f} s"
         )
     for (vehicle, driver), g in measures.items():
-        style = styles.get(driver, {"color": "0.5", "marker": "x"})
+        style = styles.get(driver, {"color": "0.5", "marker": "x"})  # names: matplotlib's x marker
         ax.plot([r["vc_pcph"] for r in g["cells"]], [r["line_wait"] for r in g["cells"]], ls="none", ms=6,
                 label=f"{vehicle} ({driver}): measured", mfc="none" if vehicle != "truck" else style["color"],
                 **style)  # fmt: skip
@@ -306,12 +308,10 @@ def _waits_panel(ax: plt.Axes, cars: Mapping, measures: Mapping, styles: Mapping
            title="(a) waits against Adams' delay")  # fmt: skip
 
 
-def _capacity_panel(ax: plt.Axes, cars: Mapping, vc: np.ndarray) -> None:
+def _capacity_panel(ax: plt.Axes, cars: Mapping, vc: np.ndarray, formulas: Mapping) -> None:
     """The HCM's entry capacity and Siegloch's with the cars' measured gaps."""
-    from model.traffic.gaps import HCM_BASE, HCM_SLOPE, gap_capacity, hcm_capacity
-
-    ax.plot(vc, [hcm_capacity(v) for v in vc], color="0.3", lw=1.5,
-            label=f"HCM 6th ed. {HCM_BASE:g} exp(-{HCM_SLOPE:.3g} $v_c$)")  # fmt: skip
+    hcm_capacity, gap_capacity = formulas["hcm_capacity"], formulas["gap_capacity"]
+    ax.plot(vc, [hcm_capacity(v) for v in vc], color="0.3", lw=1.5, label=formulas["hcm_label"])
     tc, tf = cars["critical_gap"], cars["follow_up"]
     if tc is not None and tf:
         ax.plot(vc, [3600 * gap_capacity(v / 3600, tc, tf) for v in vc], color="#1f6fb4", lw=1.2,
@@ -320,21 +320,23 @@ def _capacity_panel(ax: plt.Axes, cars: Mapping, vc: np.ndarray) -> None:
            title="(b) entry capacity")  # fmt: skip
 
 
-def comparison_figure(cars: Mapping, measures: Mapping[tuple[str, str], Mapping], styles: Mapping) -> plt.Figure:
+def comparison_figure(cars: Mapping, measures: Mapping[tuple[str, str], Mapping], styles: Mapping,
+                      formulas: Mapping) -> plt.Figure:  # fmt: skip
     """The traffic study at the figure width: (a) measured waits at the line against Adams' delay, (b) Siegloch's
     capacity with the cars' measured gaps against the HCM's; each panel's legend to its right, off the data.
 
     ``cars``: model.traffic.study.others_measures (critical_gap, follow_up, cells with vc_pcph and line_wait);
     ``measures``: (vehicle, driver) -> the group's measures (critical_gap, cells); ``styles``: driver -> colour
-    and marker.
+    and marker; ``formulas``: the traffic layer's ``adams_delay(q, t_c)``, ``gap_capacity(q, t_c, t_f)``,
+    ``hcm_capacity(v_c)`` and ``hcm_label`` (model.traffic.gaps), passed in: plotting sits below traffic.
     """
     apply_style()
     fig, (left, right) = plt.subplots(2, 1, figsize=(FIGURE_WIDTH, 5.6), layout="constrained")
     vmax = max([r["vc_pcph"] for r in cars["cells"]] + [r["vc_pcph"] for g in measures.values() for r in g["cells"]]
                + [100.0])  # fmt: skip
     vc = np.linspace(0, 1.1 * vmax, 200)
-    _waits_panel(left, cars, measures, styles, vc)
-    _capacity_panel(right, cars, vc)
+    _waits_panel(left, cars, measures, styles, vc, formulas["adams_delay"])
+    _capacity_panel(right, cars, vc, formulas)
     for ax in (left, right):
         ax.legend(loc="center left", bbox_to_anchor=(1.02, 0.5), frameon=False)
     return fig

@@ -254,7 +254,7 @@ def main() -> None:
     preset = reference_preset(args.scenario)[0]
     args.out.mkdir(parents=True, exist_ok=True)
     pd.DataFrame(rows).to_csv(args.out / "tradeoff.csv", index=False)
-    spread = path_spread(trajectories)
+    spread = path_spread(trajectories, ocp.vehicle.position)
     write_json(args.out / "tradeoff.json", {"scenario": str(args.scenario), "intervals": n, "rows": rows,
                                             "path_spread_m": spread, "operational_reference": reference})  # fmt: skip
     figure(ocp, rows, trajectories, args.out, args.formats)

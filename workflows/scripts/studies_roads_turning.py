@@ -17,7 +17,15 @@ from studies_common import parser, table, write_json, write_text
 
 from model.plotting.figures import save
 from model.plotting.studies import turning_figure
-from model.studies.roads import EU_INNER, EU_OUTER, corners, eu_turning_circle, preset_vehicle, source_citation
+from model.studies.roads import (
+    EU_INNER,
+    EU_OUTER,
+    corners,
+    eu_turning_circle,
+    preset_vehicle,
+    rectangle_distance,
+    source_citation,
+)
 from model.vehicles import PRESETS, preset
 
 SUBJECT = "EU-semitrailer"
@@ -84,7 +92,8 @@ def figure(name: str, result: dict, out: Path, formats: list[str]) -> None:
     """Two full turns in the directive's annulus and the inner swept radius (model.plotting.studies.turning_figure)."""
     v, bodies, _ = preset_vehicle(name)
     all_corners = corners(v, bodies, result["transient"]["run"])
-    save(turning_figure(name, result, all_corners, EU_OUTER, EU_INNER), out / "turning", formats)
+    least = rectangle_distance(all_corners.get("trailer", all_corners["vehicle"]))
+    save(turning_figure(name, result, all_corners, EU_OUTER, EU_INNER, least), out / "turning", formats)
 
 
 def circle_rows(r: dict, limit: str) -> list[dict]:

@@ -162,8 +162,11 @@ def figure(cars: dict, measures: dict, stem: Path) -> None:
     """Measured waits against Adams' delay; Siegloch's capacity with the measured gaps against the HCM's
     (model.plotting.studies.comparison_figure)."""
     from model.plotting.studies import comparison_figure
+    from model.traffic.gaps import HCM_BASE, HCM_SLOPE, adams_delay, gap_capacity, hcm_capacity
 
-    save(comparison_figure(cars, measures, DRIVER_STYLE), stem)
+    formulas = {"adams_delay": adams_delay, "gap_capacity": gap_capacity, "hcm_capacity": hcm_capacity,
+                "hcm_label": f"HCM 6th ed. {HCM_BASE:g} exp(-{HCM_SLOPE:.3g} $v_c$)"}  # fmt: skip
+    save(comparison_figure(cars, measures, DRIVER_STYLE, formulas), stem)
 
 
 def findings(cars: dict) -> str:
