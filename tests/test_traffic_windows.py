@@ -142,17 +142,21 @@ def test_the_cooperative_driver_arrives_keeps_its_distance_and_reports_the_other
     assert summary["others_time_loss"] >= 0.0 and "realtime_factor_cpu" in summary
 
 
-def test_a_cooperative_run_is_replayed_from_dir_sumo_with_its_poses_and_speed_commands(tmp_path, contract_replay):
-    """The contract's replay loop (conftest.py, apart from model.traffic) with commands.csv applied: traffic.csv."""
+def test_a_managed_run_is_replayed_from_dir_sumo_with_its_poses_and_speed_commands(tmp_path, contract_replay):
+    """The contract's replay loop (conftest.py, apart from model.traffic) with commands.csv applied: traffic.csv.
+
+    The reservation driver (first come, first served) on the example at 700 veh/h per leg sets speeds on the cars it
+    refuses (at 300 veh/h it refuses none, and the cooperative driver asks only when the truck would wait)."""
     import csv
 
     from model.cli import main
 
-    out = tmp_path / "coop"
-    assert main(["traffic", str(ROOT / "examples" / "traffic-roundabout.toml"), "--out", str(out), "--driver",
-                 "cooperative"]) == 0  # fmt: skip
+    out, busy = tmp_path / "managed", tmp_path / "busy.toml"
+    example = (ROOT / "examples" / "traffic-roundabout.toml").read_text()
+    busy.write_text(example.replace("vehicles_per_hour = 300.0", "vehicles_per_hour = 700.0"))  # cars to refuse
+    assert main(["traffic", str(busy), "--out", str(out), "--driver", "reservation"]) == 0
     commands: dict[float, dict[str, float]] = {}
     for r in csv.DictReader((out / "sumo" / "commands.csv").open()):
         commands.setdefault(round(float(r["t"]), 6), {})[r["id"]] = float(r["speed"])
-    assert commands  # the cars were asked to keep clear at some steps
+    assert commands  # the cars were asked to keep clear at some steps (refused reservations)
     contract_replay(out, commands)

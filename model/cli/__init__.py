@@ -111,7 +111,7 @@ def parser() -> argparse.ArgumentParser:
     f.add_argument("scenario", type=Path, help="scenario file (TOML) with [traffic] (docs/traffic-format.md)")
     f.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
     f.add_argument("--driver", default="autopilot", metavar="NAME",
-                   help="autopilot|sumo|cooperative (default autopilot)")  # fmt: skip
+                   help="autopilot|sumo|cooperative|reservation (default autopilot)")  # fmt: skip
     f.add_argument("--runs", type=int, default=1, metavar="K", help="K runs with seeds seed, seed + 1, ... (runs.csv)")
     x = sub.add_parser("export-sumo", help="write the scenario's SUMO network, routes and run.sumocfg into DIR")
     x.add_argument("scenario", type=Path, help="scenario file (TOML) with [traffic] (docs/traffic-format.md)")

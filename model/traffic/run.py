@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from model.analysis.bodies import body_corners, rectangle_gaps, road_measures
+from model.problem.costs import Energy
 from model.problem.scenario import Scenario
 from model.traffic.autopilot import plan_of
 from model.traffic.cooperative import commands_text
@@ -38,6 +39,7 @@ TRAFFIC_COLUMNS = ("t", "id", "type", "x", "y", "heading", "speed", "length", "w
 SAME_FOR_ALL = ("longitudinal_limits", "sumo_vtype")  # summary keys equal in every run: summary.json only
 DRIVERS = ("autopilot", "sumo", "cooperative", "reservation")  # the last two: the autopilot among connected vehicles
 MANAGED = ("cooperative", "reservation")  # the drivers that set the other vehicles' speeds (commands.csv)
+LIMIT_TOLERANCE = 1e-6  # relative: a driven value this far beyond its bound still keeps it (the plan's rounding)
 
 
 def other_corners(row: tuple) -> np.ndarray:
@@ -141,8 +143,8 @@ def summarise(scenario, driver, seed, sumo, driven, free, cols, scored, alone) -
         road = road_measures(ocp, {s: cols[s] for s in ocp.vehicle.states})
         out["min_clearance"] = road["min_clearance"]
         out["exit_taken"] = road["exit_taken"]
-        dt = np.diff(cols["t"])
-        out["energy"] = float(0.5 * np.sum(dt * sum(cols[c][:-1] ** 2 for c in ocp.vehicle.controls)))
+        out["energy"] = Energy().integral(cols, ocp.vehicle.controls, rule="zoh")  # each row's controls held
+        out["limits_driven"] = limits_driven(scenario, cols)
     else:
         out |= {"collisions": 0, "min_distance": None, "max_braking_caused": 0.0, "min_clearance": None, "energy": None}
     out["others_time_loss"] = float(sum(scored.time_loss.values()))
@@ -169,6 +171,29 @@ def limits_summary(scenario: Scenario, vtype: dict) -> dict:
         scenario_limits = {"acceleration": list(ocp.bounds[r.acceleration]), "speed": list(ocp.bounds[r.speed])}
     source = "the scenario's limits" if limits is not None else "SUMO's defaults of the vClass"
     return {"longitudinal_limits": scenario_limits, "sumo_vtype": {**vtype, "source": source} if vtype else None}
+
+
+def limits_driven(scenario: Scenario, cols: dict[str, np.ndarray]) -> dict:
+    """What the truck drove against its bounds, over trajectory.csv's rows: for the speed, the acceleration, the
+    jerk (where they are columns) and the lateral acceleration (``Vehicle.lateral_acceleration`` at each row's
+    state under its held controls), the least and largest value, the bound (None if unbounded) and whether the
+    values keep it within ``LIMIT_TOLERANCE`` (relative); ``within`` for all of them."""
+    ocp, v = scenario.ocp, scenario.ocp.vehicle
+    r = v.roles
+    series = {name: cols[name] for name in (r.speed, r.acceleration, r.jerk) if name and name in cols}
+    if "lateral_acceleration" in v.path_outputs():
+        evaluate = v.path_function([v.path_outputs()["lateral_acceleration"]])
+        series["lateral_acceleration"] = evaluate({k: cols[k] for k in v.states + v.controls})[0]
+    out: dict = {}
+    for name, values in series.items():
+        bound = ocp.bounds.get(name)
+        item = {"min": float(np.min(values)), "max": float(np.max(values)), "bound": list(bound) if bound else None}
+        if bound:
+            slack = LIMIT_TOLERANCE * max(abs(bound[0]), abs(bound[1]), 1.0)
+            item["within"] = bool(item["min"] >= bound[0] - slack and item["max"] <= bound[1] + slack)
+        out[name] = item
+    out["within"] = all(item.get("within", True) for item in out.values())
+    return out
 
 
 def entry_wait(scenario: Scenario, cols: dict[str, np.ndarray]) -> float:
