@@ -145,6 +145,7 @@ def summarise(scenario, driver, seed, sumo, driven, free, cols, scored, alone) -
         out["exit_taken"] = road["exit_taken"]
         out["energy"] = Energy().integral(cols, ocp.vehicle.controls, rule="zoh")  # each row's controls held
         out["limits_driven"] = limits_driven(scenario, cols)
+        out["within_limits"] = out["limits_driven"]["within"]
     else:
         out |= {"collisions": 0, "min_distance": None, "max_braking_caused": 0.0, "min_clearance": None, "energy": None}
     out["others_time_loss"] = float(sum(scored.time_loss.values()))
@@ -276,7 +277,9 @@ def run_traffic(scenario: Scenario, sumo: Sumo, stage: Path, driver: str, runs: 
         (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         results.append(summary)
     if runs > 1:
-        keys = [k for k in results[0] if k not in SAME_FOR_ALL]  # those are the summary's, once
+        # one column per number, flag or name; SAME_FOR_ALL are the summary's, once; tables such as limits_driven
+        # or decisions stay in each run's own summary.json (run-k/)
+        keys = [k for k in results[0] if k not in SAME_FOR_ALL and not isinstance(results[0][k], dict | list)]
         (stage / "runs.csv").write_text(csv_text(keys, [[r.get(k) for k in keys] for r in results]))
         summary = aggregate(results)
         (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
