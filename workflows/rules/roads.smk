@@ -14,7 +14,7 @@ ROAD_ANIMATION = config.get("road_animation", "semitrailer-left-turn")
 ROAD_ANIMATIONS = [f"results/figures/roads/{ROAD_ANIMATION}.gif"] if ROAD_ANIMATION in ROAD_FILES else []
 
 if ROADS:
-    PAPER_SECTIONS += ["results/sections/70-roads.md"]
+    PAPER_SECTIONS += ["results/sections/70-roads.md", "results/sections/S9-road-figures.md"]
     PAPER_FIGURES += expand("results/figures/roads/{road}.png", road=ROADS) + ROAD_ANIMATIONS
 
 
@@ -69,6 +69,8 @@ rule road_section:
     params:
         animation=" ".join(f"--animation {a}" for a in ROAD_ANIMATIONS),
     output:
-        "results/sections/70-roads.md",
+        main="results/sections/70-roads.md",
+        supplementary="results/sections/S9-road-figures.md",
     shell:
-        "{PYTHON} {input.script} --scenarios {input.scenarios} --results results/roads {params.animation} --out {output}"
+        "{PYTHON} {input.script} --scenarios {input.scenarios} --results results/roads {params.animation}"
+        " --out {output.main} --supplementary {output.supplementary}"

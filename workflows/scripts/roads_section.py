@@ -227,6 +227,32 @@ def panels_text(ocp) -> str:
     return ", ".join(names[:-1]) + " and " + names[-1]
 
 
+SUPPLEMENTARY_SECTION = "S9"
+SUPPLEMENTARY_TITLE = "Road figures without operational limits"
+
+
+def split_figures(scenarios: list[Path], supplementary: bool) -> tuple[list[Path], list[Path]]:
+    """(main part, supplementary): the runs at operational limits keep their figure in the main part, the others'
+    go to the supplementary material (all in the main part without one, or when no run is at the limits)."""
+    limited = [s for s in scenarios if s.stem.endswith(OPERATIONAL_SUFFIX)]
+    if not supplementary or not limited:
+        return list(scenarios), []
+    return limited, [s for s in scenarios if s not in limited]
+
+
+def road_figure(s: Path, results: Path) -> list[str]:
+    """A road's figure with its caption (its plan to scale and its time panels)."""
+    ocp = load_scenario(s).ocp
+    return [
+        f"![{s.stem}: the plan to scale (curbs, hatched truck apron, central island, centre and "
+        "give-way lines), each body's swept path outlined, the bodies along the path, the axle tracks; "
+        f"right: {panels_text(ocp)} over time, their bounds dashed; "
+        f"{driving(s, ocp, math=False)}; {note_of(s, results)}]"
+        f"(results/figures/roads/{s.stem}.png)",
+        "",
+    ]
+
+
 PAPER_DIR = "results/paper"  # the paper's folder: its links are relative to it
 
 
@@ -253,6 +279,8 @@ def main() -> None:
     ap.add_argument("--results", type=Path, required=True)
     ap.add_argument("--animation", type=Path, help="a GIF of one road (results/figures/roads/<road>.gif)")
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--supplementary", type=Path, help="the fragment that takes the figures of the runs without "
+                    "operational limits (the main part keeps those at the limits)")  # fmt: skip
     args = ap.parse_args()
     lines = [
         "## Real roundabouts and vehicle bodies",
@@ -273,15 +301,25 @@ def main() -> None:
         *comparison(args.scenarios, args.results),
         *limited(args.scenarios, args.results),
     ]
-    for s in args.scenarios:
-        lines += [
-            f"![{s.stem}: the plan to scale (curbs, hatched truck apron, central island, centre and "
-            "give-way lines), each body's swept path outlined, the bodies along the path, the axle tracks; "
-            f"right: {panels_text(load_scenario(s).ocp)} over time, their bounds dashed; "
-            f"{driving(s, load_scenario(s).ocp, math=False)}; {note_of(s, args.results)}]"
-            f"(results/figures/roads/{s.stem}.png)",
-            "",
-        ]
+    main_part, others = split_figures(args.scenarios, args.supplementary is not None)
+    for s in main_part:
+        lines += road_figure(s, args.results)
+    if others:
+        names = ", ".join(f"`{s.stem}`" for s in others)
+        lines += [f"The figures of {names} (without operational limits, or at a design speed) are in the "
+                  f"supplementary material ({SUPPLEMENTARY_SECTION}).", ""]  # fmt: skip
+        supplementary = [f"## {SUPPLEMENTARY_TITLE}", "",
+                         "The road runs of the section on real roundabouts that are not at operational limits: the "
+                         "kinematic model (the speed a control), time-optimal or at a design speed, each labelled "
+                         "with its lateral acceleration against what its preset allows.", ""]  # fmt: skip
+        for s in others:
+            supplementary += road_figure(s, args.results)
+        args.supplementary.parent.mkdir(parents=True, exist_ok=True)
+        args.supplementary.write_text("\n".join(supplementary))
+    elif args.supplementary is not None:
+        args.supplementary.parent.mkdir(parents=True, exist_ok=True)
+        args.supplementary.write_text(f"## {SUPPLEMENTARY_TITLE}\n\nEvery road run is at operational limits; "
+                                      "its figure is in the main part.\n")  # fmt: skip
     if args.animation:
         animated = {s.stem: s for s in args.scenarios}.get(args.animation.stem)
         lines += animation(args.animation, note_of(animated, args.results) if animated else "")
