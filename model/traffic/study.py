@@ -151,6 +151,9 @@ def run_record(scenario: Scenario, folder: Path) -> dict:
     """One run's metrics (summary.json), the truck's gap acceptance and the others' at their entries."""
     summary = json.loads((folder / "summary.json").read_text())
     record = {k: summary.get(k) for k in RUN_KEYS} | {"seed": summary.get("seed")}
+    lateral = (summary.get("limits_driven") or {}).get("lateral_acceleration") or {}
+    record["lateral_driven"] = max(abs(lateral["min"]), abs(lateral["max"])) if lateral else None  # m/s², every row
+    record["lateral_bound"] = max(abs(b) for b in lateral["bound"]) if lateral.get("bound") else None
     traffic, trajectory = read_columns(folder / "traffic.csv"), read_columns(folder / "trajectory.csv")
     has_traffic, has_truck = len(traffic.get("t", [])) > 0, len(trajectory.get("t", [])) > 0
     times = passages(scenario, traffic) if has_traffic else np.array([])

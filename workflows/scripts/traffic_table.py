@@ -90,6 +90,7 @@ def flat(c: dict) -> dict:
             "collided": collided, "collided_text": of(collided, n), "road_violations": violations,
             "violations_text": of(violations, n), "min_distance": min(values(runs, "min_distance"), default=None),
             "min_clearance": min(values(runs, "min_clearance"), default=None),
+            "lateral_text": lateral_text(runs),
             "max_braking": max(caused, default=None), "max_braking_without": max(alone, default=None),
             "harder": harder, "harder_text": of(harder, n),
             "delay_median": float(np.median(delay)) if delay else None, "delay_mean": d_mean, "delay_ci": d_half,
@@ -97,6 +98,14 @@ def flat(c: dict) -> dict:
             "others": o_mean, "others_ci": o_half, "others_text": pm(o_mean, o_half),
             "everyone": e_mean, "everyone_ci": e_half, "everyone_text": pm(e_mean, e_half),
             "realtime_factor": max(values(runs, "realtime_factor"), default=None)}  # fmt: skip
+
+
+def lateral_text(runs: list[dict]) -> str:
+    """The largest |lateral acceleration| any run drove (every row of its trajectory.csv) and the truck's bound."""
+    driven, bound = values(runs, "lateral_driven"), values(runs, "lateral_bound")
+    if not driven:
+        return "-"
+    return f"{max(driven):.2f}" + (f" (bound {max(bound):g})" if bound else "")
 
 
 def everyone_rows(cells: list[dict]) -> list[dict]:
@@ -115,6 +124,7 @@ SAFETY_COLUMNS = CELL | {
     "collided_text": "with a collision (runs / runs)",
     "min_distance": "least distance to another vehicle (m)",
     "violations_text": "leaving the road (runs / runs)",
+    "lateral_text": "largest lateral acceleration driven (m/s², every row)",
 }
 BRAKING_COLUMNS = CELL | {
     "max_braking": "strongest braking caused (m/s²)", "max_braking_without": "same runs without the truck (m/s²)",
@@ -214,7 +224,9 @@ committed as benchmarks/traffic-study.md (its header names the grid and the comm
 `snakemake -c2 --config traffic_study=full -- benchmarks/traffic-study.md`).
 
 Table: Safety per vehicle, flow and driver (over the runs): arrivals, collisions, the least distance between
-exact rectangles, runs in which a body left the road.
+exact rectangles, runs in which a body left the road, and the largest lateral acceleration the truck drove at any row
+of its trajectory against its bound (the autopilot's: the tracked motion, which may exceed the plan's bound; SUMO's
+driver's: reconstructed from SUMO's poses, a vType having no lateral limit).
 
 {tables["safety"]}
 
