@@ -85,10 +85,7 @@ def objective(scenario: Scenario, columns: dict[str, np.ndarray]) -> float:
     cost = scenario.ocp.cost
     if cost.objective != "energy":
         return float(columns["t"][-1])
-    weights = getattr(cost, "weights", {}) or {}
-    dt = np.diff(columns["t"])
-    terms = sum(weights.get(c, 1.0) * columns[c][:-1] ** 2 for c in scenario.ocp.vehicle.controls)
-    return float(0.5 * np.sum(dt * terms))
+    return cost.energy.integral(columns, scenario.ocp.vehicle.controls, rule="zoh")
 
 
 def run_row(i: int, seed: int, result: ClosedLoop, scenario: Scenario) -> dict:
